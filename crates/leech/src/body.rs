@@ -1,0 +1,304 @@
+//! The LEeCH body: two chains joined at the endpoint plate.
+//!
+//! Chain A is the centre tube (stiffness `k`, mass `m` per element); chain B
+//! lumps the two side tubes (`2k`, `2m`, `2d`). Chain A is clamped at `p0`,
+//! chain B at `p0 + b nu(phi_0)`, both along `phi_0`. The payload `ms` hangs at
+//! chain B's tip. The coordinates are `q = (phi^A_1..phi^A_nA, phi^B_1..phi^B_nB)`.
+//!
+//! The endpoint plate is a weld (the MODEL's equivalent, better conditioned
+//! form of the paper's parallel, distance and perpendicular constraints):
+//!
+//! ```text
+//! C_xy = p_B - p_A - c nu(phi^A_nA) = 0        (m)
+//! C_phi = phi^A_nA - phi^B_nB = 0              (rad)
+//! ```
+//!
+//! with `p_A`, `p_B` the chains' tips and `c` the tip spacing (m). It selects the
+//! branch `Delta . nu(phi^A_nA) = +c` (chain B on the right of chain A). Its
+//! Jacobian is dense in `q` but its Hessians are diagonal:
+//!
+//! ```text
+//! dC_xy/dphi^A_j = -l_j e'(phi^A_j) - [j = nA] c e(phi^A_nA)
+//! dC_xy/dphi^B_j =  l_j e'(phi^B_j)
+//! d2C_xy/dphi^A_j^2 = l_j e(phi^A_j) - [j = nA] c e'(phi^A_nA)
+//! d2C_xy/dphi^B_j^2 = -l_j e(phi^B_j)
+//! ```
+//!
+//! # Default solve path
+//!
+//! The real robot feeds its tubes from equal lengths. [`Body::solve`] does the
+//! same at `g = 0`: it starts from the body with both tubes at the shorter
+//! length (the longer chain's links scaled down), where the unloaded shape is
+//! unique (straight for `b = c`, an S for `b != c`), and follows the family as
+//! the longer tube is fed to its length; then it raises gravity from 0 to `g`
+//! (load continuation). Folds and bifurcations on both paths are reported as
+//! [`Event`](crate::statics::Event)s.
+
+use crate::chain::{right_normal, Block, Chain};
+use crate::kkt::MAX_CONSTRAINTS;
+use crate::statics::{Equilibrium, Evaluation, SolveError, Solver, State, StaticSystem, Workspace};
+
+/// Two chains welded at the endpoint plate, under gravity.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Body {
+    a: Chain,
+    b: Chain,
+    tip_spacing: f64,
+    gravity: f64,
+}
+
+impl Body {
+    /// Joins chain `a` (centre tube) and chain `b` (side pair, carrying the
+    /// payload as its tip mass) with an endpoint plate of width `tip_spacing`
+    /// (m), under `gravity` (m/s^2).
+    pub fn new(a: Chain, b: Chain, tip_spacing: f64, gravity: f64) -> Body {
+        Body { a, b, tip_spacing, gravity }
+    }
+
+    /// The centre tube.
+    pub fn chain_a(&self) -> &Chain {
+        &self.a
+    }
+
+    /// The lumped side tubes.
+    pub fn chain_b(&self) -> &Chain {
+        &self.b
+    }
+
+    /// Gravity (m/s^2).
+    pub fn gravity(&self) -> f64 {
+        self.gravity
+    }
+
+    /// Tip spacing `c` (m).
+    pub fn tip_spacing(&self) -> f64 {
+        self.tip_spacing
+    }
+
+    /// Splits `q` into chain A's and chain B's angles.
+    pub fn split<'q>(&self, q: &'q [f64]) -> (&'q [f64], &'q [f64]) {
+        q.split_at(self.a.len())
+    }
+
+    /// The endpoint: chain A's tip (m).
+    pub fn endpoint(&self, q: &[f64]) -> [f64; 2] {
+        self.a.tip(self.split(q).0)
+    }
+
+    /// The endpoint plate's angle: chain A's last link (rad).
+    pub fn endpoint_angle(&self, q: &[f64]) -> f64 {
+        q[self.a.len() - 1]
+    }
+
+    /// Constraint values `(C_x, C_y, C_phi)` (m, m, rad).
+    pub fn constraints(&self, q: &[f64]) -> [f64; 3] {
+        let (qa, qb) = self.split(q);
+        let (pa, pb) = (self.a.tip(qa), self.b.tip(qb));
+        let nu = right_normal(qa[qa.len() - 1]);
+        [
+            pb[0] - pa[0] - self.tip_spacing * nu[0],
+            pb[1] - pa[1] - self.tip_spacing * nu[1],
+            qa[qa.len() - 1] - qb[qb.len() - 1],
+        ]
+    }
+
+    /// Potential energy, springs and gravity (J).
+    pub fn energy(&self, q: &[f64]) -> f64 {
+        let (qa, qb) = self.split(q);
+        self.a.energy(qa, self.gravity) + self.b.energy(qb, self.gravity)
+    }
+
+    /// The straight configuration (both chains along the clamp).
+    pub fn straight(&self) -> Vec<f64> {
+        let mut q = self.a.straight();
+        q.extend(self.b.straight());
+        q
+    }
+
+    /// Fills `ev` at gravity `load * gravity` with link lengths scaled by
+    /// `scale` (A, B) that move along the path at rate `rate` (A, B).
+    fn evaluate_with(&self, q: &[f64], gravity: f64, load: f64, scale: [f64; 2], rate: [f64; 2], ev: &mut Evaluation) {
+        let na = self.a.len();
+        let n = q.len();
+        let (qa, qb) = self.split(q);
+        let (cos_a, cos_b) = ev.cos.split_at_mut(na);
+        let (sin_a, sin_b) = ev.sin.split_at_mut(na);
+        let (grad_a, grad_b) = ev.gradient.split_at_mut(na);
+        let (pg_a, pg_b) = ev.param_gradient.split_at_mut(na);
+        let (diag_a, diag_b) = ev.hessian_diag.split_at_mut(na);
+        let (off_a, off_b) = ev.hessian_off.split_at_mut(na);
+        let ea = self.a.evaluate_block(
+            qa,
+            gravity,
+            load,
+            scale[0],
+            Block { cos: cos_a, sin: sin_a, grad: grad_a, param_grad: pg_a, diag: diag_a, off: off_a },
+        );
+        let eb = self.b.evaluate_block(
+            qb,
+            gravity,
+            load,
+            scale[1],
+            Block { cos: cos_b, sin: sin_b, grad: grad_b, param_grad: pg_b, diag: diag_b, off: off_b },
+        );
+        // off_a's last entry couples A's last link with B's first: no spring there.
+        ev.energy = ea + eb;
+        let pa = self.a.tip_from_trig(&ev.cos[..na], &ev.sin[..na], scale[0]);
+        let pb = self.b.tip_from_trig(&ev.cos[na..], &ev.sin[na..], scale[1]);
+        let (ca, sa) = (ev.cos[na - 1], ev.sin[na - 1]);
+        let c = self.tip_spacing;
+        ev.constraints = [pb[0] - pa[0] - c * sa, pb[1] - pa[1] + c * ca, qa[na - 1] - qb[qb.len() - 1]];
+        let (jx, rest) = ev.jacobian.split_at_mut(n);
+        let (jy, jphi) = rest.split_at_mut(n);
+        let (hx, rest) = ev.curvature.split_at_mut(n);
+        let (hy, _) = rest.split_at_mut(n);
+        let (px, rest) = ev.param_jacobian.split_at_mut(n);
+        let (py, _) = rest.split_at_mut(n);
+        let mut dc = [0.0; 2];
+        for (i, (l, sign, side)) in self
+            .a
+            .lengths()
+            .iter()
+            .map(|l| (l, -1.0, 0))
+            .chain(self.b.lengths().iter().map(|l| (l, 1.0, 1)))
+            .enumerate()
+        {
+            let (co, si) = (ev.cos[i], ev.sin[i]);
+            let (ls, lr) = (sign * l * scale[side], sign * l * rate[side]);
+            jx[i] = -ls * si;
+            jy[i] = ls * co;
+            hx[i] = -ls * co;
+            hy[i] = -ls * si;
+            px[i] = -lr * si;
+            py[i] = lr * co;
+            dc[0] += lr * co;
+            dc[1] += lr * si;
+        }
+        jx[na - 1] -= c * ca;
+        jy[na - 1] -= c * sa;
+        hx[na - 1] += c * sa;
+        hy[na - 1] -= c * ca;
+        jphi[na - 1] = 1.0;
+        jphi[n - 1] = -1.0;
+        ev.param_constraints = [dc[0], dc[1], 0.0];
+    }
+
+    /// The equilibrium on the default path: tubes fed from equal lengths at
+    /// `g = 0`, then gravity raised to `g` (see the module doc).
+    ///
+    /// ```
+    /// use leech::prelude::*;
+    /// let robot = Robot::builtin();
+    /// let body = robot.body(0.20, 0.18).unwrap();
+    /// let eq = body.solve(&Solver::default()).unwrap();
+    /// assert!(eq.stable);
+    /// assert!(body.constraints(&eq.q).iter().all(|c| c.abs() < 1e-12));
+    /// ```
+    pub fn solve(&self, solver: &Solver) -> Result<Equilibrium, SolveError> {
+        let mut ws = Workspace::for_system(self);
+        self.solve_in(solver, &mut ws)
+    }
+
+    /// [`Body::solve`] with caller-provided scratch space.
+    pub fn solve_in(&self, solver: &Solver, ws: &mut Workspace) -> Result<Equilibrium, SolveError> {
+        let mut state = State::new(self.straight());
+        let (la, lb) = (self.a.tube_length(), self.b.tube_length());
+        let feed = Feeding::new(self, la, lb);
+        let mut residual = if la == lb {
+            solver.minimize(&feed, &mut state, 1.0, "feed", ws)?
+        } else {
+            solver.continuation(&feed, &mut state, 0.0, "feed", ws)?
+        };
+        if self.gravity != 0.0 {
+            residual = solver.continuation(self, &mut state, 0.0, "load", ws)?;
+        }
+        Ok(solver.finish(self, state, residual, ws))
+    }
+
+    /// The equilibrium reached from a given state (warm start) with gravity on,
+    /// as sweeps and planners that follow the actuation history use it.
+    pub fn solve_from(&self, solver: &Solver, q0: &[f64], ws: &mut Workspace) -> Result<Equilibrium, SolveError> {
+        Solver::check_start(self, q0)?;
+        let mut state = State::new(q0.to_vec());
+        let residual = solver.minimize(self, &mut state, 1.0, "warm start", ws)?;
+        Ok(solver.finish(self, state, residual, ws))
+    }
+}
+
+impl StaticSystem for Body {
+    fn dim(&self) -> usize {
+        self.a.len() + self.b.len()
+    }
+
+    fn constraint_count(&self) -> usize {
+        3
+    }
+
+    fn moment_scale(&self) -> f64 {
+        self.a.stiffness().iter().chain(self.b.stiffness()).fold(0.0, |a, k| a.max(*k))
+    }
+
+    fn constraint_scales(&self) -> [f64; MAX_CONSTRAINTS] {
+        let l = self.a.lengths()[0];
+        [l, l, 1.0]
+    }
+
+    /// `t` is the fraction of gravity applied.
+    fn evaluate(&self, q: &[f64], t: f64, ev: &mut Evaluation) {
+        self.evaluate_with(q, self.gravity, t, [1.0; 2], [0.0; 2], ev);
+    }
+
+    fn lateral_displacement(&self, q: &[f64], dq: &[f64]) -> f64 {
+        let (qa, _) = self.split(q);
+        let nu = right_normal(self.a.clamp_angle());
+        self.a.tip_jacobian(qa).iter().zip(dq).map(|(col, d)| (col[0] * nu[0] + col[1] * nu[1]) * d).sum()
+    }
+}
+
+/// The feeding homotopy at `g = 0`: the longer chain's links are scaled so
+/// that its tube length goes from the shorter tube's length (`t = 0`) to its
+/// own (`t = 1`).
+struct Feeding<'a> {
+    body: &'a Body,
+    start_a: f64,
+    start_b: f64,
+}
+
+impl<'a> Feeding<'a> {
+    fn new(body: &'a Body, la: f64, lb: f64) -> Feeding<'a> {
+        let short = la.min(lb);
+        let flexible = |chain: &Chain, length: f64| {
+            let root = length - chain.lengths().iter().sum::<f64>();
+            (short - root) / (length - root)
+        };
+        Feeding { body, start_a: flexible(&body.a, la), start_b: flexible(&body.b, lb) }
+    }
+}
+
+impl StaticSystem for Feeding<'_> {
+    fn dim(&self) -> usize {
+        self.body.dim()
+    }
+
+    fn constraint_count(&self) -> usize {
+        3
+    }
+
+    fn moment_scale(&self) -> f64 {
+        self.body.moment_scale()
+    }
+
+    fn constraint_scales(&self) -> [f64; MAX_CONSTRAINTS] {
+        self.body.constraint_scales()
+    }
+
+    fn evaluate(&self, q: &[f64], t: f64, ev: &mut Evaluation) {
+        let rate = [1.0 - self.start_a, 1.0 - self.start_b];
+        let scale = [self.start_a + t * rate[0], self.start_b + t * rate[1]];
+        self.body.evaluate_with(q, 0.0, 0.0, scale, rate, ev);
+    }
+
+    fn lateral_displacement(&self, q: &[f64], dq: &[f64]) -> f64 {
+        self.body.lateral_displacement(q, dq)
+    }
+}

@@ -1,0 +1,539 @@
+//! One clamped tube as a planar chain of rigid links.
+//!
+//! The generalized coordinates are the absolute link angles `phi_j` (rad,
+//! counter-clockwise from +x), `j = 1..n`. The clamp fixes the point `p0` (m)
+//! and the angle `phi_0` (rad). With `e(a) = (cos a, sin a)` and
+//! `e'(a) = (-sin a, cos a)`, the tip of link `i` is
+//!
+//! ```text
+//! r_i = s + sum_{j <= i} l_j e(phi_j)          (m)
+//! ```
+//!
+//! where `s = p0 + a_0 e(phi_0)` is where the first flexible joint sits (`a_0 = 0`
+//! for [`Discretization::Paper`], `l / 2` for [`Discretization::Midpoint`]).
+//!
+//! Each link carries a point mass `m_j` (kg) at distance `a_j` along it (the tip
+//! for `Paper`, the centre for `Midpoint`), and the last link carries the tip mass
+//! `P` (kg). All the chain's weight then acts on link `j` through the *lever*
+//!
+//! ```text
+//! W_j = a_j m_j + l_j (sum_{i > j} m_i + P)      (kg m)
+//! ```
+//!
+//! so that, with `g` (m/s^2) the gravity along -y,
+//!
+//! ```text
+//! V_g       = g sum_i m_i y_i + g P y_n                         (J)
+//! dV_g/dphi_j   =  g W_j cos(phi_j)                             (N m)
+//! d2V_g/dphi_j2 = -g W_j sin(phi_j)       (diagonal)            (N m / rad)
+//! V_s = sum_j k_j / 2 (phi_j - phi_{j-1})^2    (tridiagonal Hessian)
+//! ```
+//!
+//! For dynamics the mass matrix is `M_jk = C_jk cos(phi_j - phi_k) + I_j delta_jk`
+//! with `C_jk = l_j W_k` for `j < k`, `C_kk = a_k^2 m_k + l_k^2 (sum_{i>k} m_i + P)`
+//! (kg m^2), `I_j` the links' own rotational inertia (zero for `Paper`, whose
+//! masses are points; `m_j l_j^2 / 12` for `Midpoint`, whose mass is spread), and
+//! the velocity-product terms are `h_j = sum_k C_jk sin(phi_j - phi_k) dphi_k^2`.
+//! For `Paper` these are exactly the paper's `M_jk = l_j l_k mu_max(j,k) cos(...)`.
+//!
+//! A tube of length `L` gets `n` links of length `l`, the last one shorter, so that
+//! shapes are continuous in `L` (see [`Discretization`]).
+
+use serde::{Deserialize, Serialize};
+
+/// How a continuous tube is cut into rigid links.
+///
+/// With element length `l` and tube length `L`:
+///
+/// * `Paper` (the paper's scheme): `n = ceil(L / l)` links, springs at the link
+///   starts, point masses at the link tips; the last link has length
+///   `L - (n - 1) l` and mass `m` times that fraction of `l`. First-order
+///   accurate in `l` against the continuous elastica.
+/// * `Midpoint` (pseudo-rigid-body scheme): joints at `s_j = (j - 1/2) l`; the piece
+///   `[0, l/2]` is rigid with the clamp, the last piece runs from the last joint
+///   to `L` (length in `(0, l]`, exactly `l/2` when `L` is a whole number of
+///   elements); each piece carries its own mass at its centre. Second-order
+///   accurate in `l`.
+///
+/// Both keep the joint stiffness `k` for every joint, including a short last one.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Discretization {
+    /// Springs at element starts, masses at element tips (the paper's model).
+    #[default]
+    Paper,
+    /// Joints at element midpoints, half-length end pieces, masses spread.
+    Midpoint,
+}
+
+/// Guards `ceil` against a length that is a whole number of elements up to
+/// rounding (0.3 / 0.01 = 29.999999999999996).
+const WHOLE_ELEMENT_SLACK: f64 = 1e-9;
+
+impl Discretization {
+    /// Number of flexible links for a tube of length `tube_length` (m) cut into
+    /// elements of `element_length` (m). At least one for `tube_length >= element_length`.
+    ///
+    /// ```
+    /// use leech::chain::Discretization;
+    /// assert_eq!(Discretization::Paper.link_count(0.30, 0.01), 30);
+    /// assert_eq!(Discretization::Paper.link_count(0.3004, 0.01), 31);
+    /// assert_eq!(Discretization::Midpoint.link_count(0.30, 0.01), 30);
+    /// assert_eq!(Discretization::Midpoint.link_count(0.296, 0.01), 30);
+    /// ```
+    pub fn link_count(self, tube_length: f64, element_length: f64) -> usize {
+        let elements = tube_length / element_length;
+        let n = match self {
+            Discretization::Paper => (elements - WHOLE_ELEMENT_SLACK).ceil(),
+            Discretization::Midpoint => (elements - 0.5 - WHOLE_ELEMENT_SLACK).ceil(),
+        };
+        (n.max(1.0)) as usize
+    }
+
+    /// Length of the piece rigidly attached to the clamp (m).
+    pub fn root_length(self, element_length: f64) -> f64 {
+        match self {
+            Discretization::Paper => 0.0,
+            Discretization::Midpoint => 0.5 * element_length,
+        }
+    }
+
+    /// The name used in robot files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Discretization::Paper => "paper",
+            Discretization::Midpoint => "midpoint",
+        }
+    }
+}
+
+/// Unit vector `e(a) = (cos a, sin a)`.
+#[inline]
+pub fn unit(angle: f64) -> [f64; 2] {
+    let (s, c) = angle.sin_cos();
+    [c, s]
+}
+
+/// Right-hand normal `nu(a) = (sin a, -cos a)`: where chain B sits from chain A.
+#[inline]
+pub fn right_normal(angle: f64) -> [f64; 2] {
+    let (s, c) = angle.sin_cos();
+    [s, -c]
+}
+
+/// Mutable views of one chain's part of the solver's scratch.
+pub(crate) struct Block<'a> {
+    pub cos: &'a mut [f64],
+    pub sin: &'a mut [f64],
+    pub grad: &'a mut [f64],
+    pub param_grad: &'a mut [f64],
+    pub diag: &'a mut [f64],
+    pub off: &'a mut [f64],
+}
+
+/// Everything needed to cut one tube into a [`Chain`]. All SI.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ChainSpec {
+    /// Free tube length `L` (m).
+    pub tube_length: f64,
+    /// Element length `l` (m).
+    pub element_length: f64,
+    /// Mass of one whole element `m` (kg).
+    pub element_mass: f64,
+    /// Torsional stiffness of one joint `k` (N m/rad).
+    pub stiffness: f64,
+    /// Torsional damping of one joint `d` (N m s/rad).
+    pub damping: f64,
+    /// Point mass at the tip (kg).
+    pub tip_mass: f64,
+    /// Clamp position `p0` (m).
+    pub clamp_point: [f64; 2],
+    /// Clamp angle `phi_0` (rad).
+    pub clamp_angle: f64,
+    /// How the tube is cut into links.
+    pub discretization: Discretization,
+}
+
+/// A discretized tube: link lengths, masses, springs and dampers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Chain {
+    clamp_point: [f64; 2],
+    clamp_angle: f64,
+    root_length: f64,
+    lengths: Vec<f64>,
+    masses: Vec<f64>,
+    mass_offsets: Vec<f64>,
+    inertias: Vec<f64>,
+    stiffness: Vec<f64>,
+    damping: Vec<f64>,
+    tip_mass: f64,
+    levers: Vec<f64>,
+}
+
+impl Chain {
+    /// Cuts a tube into links. The spec is assumed valid (positive, finite,
+    /// `tube_length >= element_length`); [`crate::robot`] checks user input.
+    pub fn new(spec: &ChainSpec) -> Chain {
+        let l = spec.element_length;
+        let d = spec.discretization;
+        let n = d.link_count(spec.tube_length, l);
+        let root_length = d.root_length(l);
+        let last = spec.tube_length - root_length - (n - 1) as f64 * l;
+        let mut lengths = vec![l; n];
+        lengths[n - 1] = last;
+        let masses: Vec<f64> = lengths.iter().map(|li| spec.element_mass * li / l).collect();
+        let (mass_offsets, inertias): (Vec<f64>, Vec<f64>) = match d {
+            Discretization::Paper => (lengths.clone(), vec![0.0; n]),
+            Discretization::Midpoint => (
+                lengths.iter().map(|li| 0.5 * li).collect(),
+                lengths.iter().zip(&masses).map(|(li, mi)| mi * li * li / 12.0).collect(),
+            ),
+        };
+        let mut chain = Chain {
+            clamp_point: spec.clamp_point,
+            clamp_angle: spec.clamp_angle,
+            root_length,
+            lengths,
+            masses,
+            mass_offsets,
+            inertias,
+            stiffness: vec![spec.stiffness; n],
+            damping: vec![spec.damping; n],
+            tip_mass: spec.tip_mass,
+            levers: Vec::new(),
+        };
+        chain.update_levers();
+        chain
+    }
+
+    fn update_levers(&mut self) {
+        let n = self.len();
+        self.levers.resize(n, 0.0);
+        let mut beyond = self.tip_mass;
+        for j in (0..n).rev() {
+            self.levers[j] = self.mass_offsets[j] * self.masses[j] + self.lengths[j] * beyond;
+            beyond += self.masses[j];
+        }
+    }
+
+    /// Number of flexible links `n`.
+    pub fn len(&self) -> usize {
+        self.lengths.len()
+    }
+
+    /// Always false: a chain has at least one link.
+    pub fn is_empty(&self) -> bool {
+        self.lengths.is_empty()
+    }
+
+    /// Link lengths `l_j` (m).
+    pub fn lengths(&self) -> &[f64] {
+        &self.lengths
+    }
+
+    /// Link masses `m_j` (kg), not counting the tip mass.
+    pub fn masses(&self) -> &[f64] {
+        &self.masses
+    }
+
+    /// Joint stiffnesses `k_j` (N m/rad); joint `j` sits at the start of link `j`.
+    pub fn stiffness(&self) -> &[f64] {
+        &self.stiffness
+    }
+
+    /// Joint dampers `d_j` (N m s/rad).
+    pub fn damping(&self) -> &[f64] {
+        &self.damping
+    }
+
+    /// Gravity levers `W_j` (kg m): `dV_g/dphi_j = g W_j cos(phi_j)`.
+    pub fn levers(&self) -> &[f64] {
+        &self.levers
+    }
+
+    /// Point mass at the tip (kg).
+    pub fn tip_mass(&self) -> f64 {
+        self.tip_mass
+    }
+
+    /// Total mass of the flexible links plus the tip mass (kg).
+    pub fn total_mass(&self) -> f64 {
+        self.masses.iter().sum::<f64>() + self.tip_mass
+    }
+
+    /// Clamp angle `phi_0` (rad).
+    pub fn clamp_angle(&self) -> f64 {
+        self.clamp_angle
+    }
+
+    /// Clamp point `p0` (m).
+    pub fn clamp_point(&self) -> [f64; 2] {
+        self.clamp_point
+    }
+
+    /// Tube length from the clamp to the tip (m).
+    pub fn tube_length(&self) -> f64 {
+        self.root_length + self.lengths.iter().sum::<f64>()
+    }
+
+    /// Where the first flexible joint sits (m).
+    pub fn first_joint(&self) -> [f64; 2] {
+        let u = unit(self.clamp_angle);
+        [
+            self.clamp_point[0] + self.root_length * u[0],
+            self.clamp_point[1] + self.root_length * u[1],
+        ]
+    }
+
+    /// The straight, unloaded configuration: every link along the clamp.
+    pub fn straight(&self) -> Vec<f64> {
+        vec![self.clamp_angle; self.len()]
+    }
+
+    /// Tip of the last link (m).
+    pub fn tip(&self, q: &[f64]) -> [f64; 2] {
+        let mut p = self.first_joint();
+        for (l, phi) in self.lengths.iter().zip(q) {
+            let u = unit(*phi);
+            p[0] += l * u[0];
+            p[1] += l * u[1];
+        }
+        p
+    }
+
+    /// The centre line as a polyline (m): the clamp, the first joint when the
+    /// discretization has a rigid root piece, then every link tip.
+    pub fn points(&self, q: &[f64]) -> Vec<[f64; 2]> {
+        let mut out = Vec::with_capacity(self.len() + 2);
+        out.push(self.clamp_point);
+        let mut p = self.first_joint();
+        if self.root_length > 0.0 {
+            out.push(p);
+        }
+        for (l, phi) in self.lengths.iter().zip(q) {
+            let u = unit(*phi);
+            p[0] += l * u[0];
+            p[1] += l * u[1];
+            out.push(p);
+        }
+        out
+    }
+
+    /// Fused statics evaluation for the solver: fills `cos`/`sin` of every
+    /// link, adds the potential's gradient and Hessian (springs and gravity
+    /// `load * gravity`) to the block, writes the gradient's derivative with
+    /// respect to `load` to `param_grad`, and returns the potential (J). Link
+    /// lengths are multiplied by `scale` (the feeding homotopy; 1 otherwise).
+    pub(crate) fn evaluate_block(&self, q: &[f64], gravity: f64, load: f64, scale: f64, b: Block<'_>) -> f64 {
+        // One fused pass: this is the solver's hot loop, called once per Newton trial.
+        let n = self.len();
+        let (q, k) = (&q[..n], &self.stiffness[..n]);
+        let (levers, masses, offsets) = (&self.levers[..n], &self.masses[..n], &self.mass_offsets[..n]);
+        let (cos, sin, grad, param_grad, diag) =
+            (&mut b.cos[..n], &mut b.sin[..n], &mut b.grad[..n], &mut b.param_grad[..n], &mut b.diag[..n]);
+        let off = &mut b.off[..n - 1];
+        let weight_scale = gravity * scale;
+        let mut prev = self.clamp_angle;
+        let mut spring = 0.0;
+        let mut y = self.first_joint()[1];
+        let mut weight = 0.0;
+        let mut previous_torque = 0.0;
+        for j in 0..n {
+            let (s, c) = q[j].sin_cos();
+            cos[j] = c;
+            sin[j] = s;
+            let bend = q[j] - prev;
+            prev = q[j];
+            let torque = k[j] * bend;
+            spring += 0.5 * torque * bend;
+            if j > 0 {
+                grad[j - 1] += previous_torque - torque;
+                diag[j - 1] += k[j];
+                off[j - 1] -= k[j];
+            }
+            previous_torque = torque;
+            diag[j] += k[j];
+            weight += masses[j] * (y + offsets[j] * scale * s);
+            y += self.lengths[j] * scale * s;
+            let moment = weight_scale * levers[j] * c;
+            param_grad[j] = moment;
+            diag[j] -= load * weight_scale * levers[j] * s;
+            grad[j] += load * moment;
+        }
+        grad[n - 1] += previous_torque;
+        spring + load * gravity * (weight + self.tip_mass * y)
+    }
+
+    /// Tip of the last link from precomputed trigonometry, with link lengths
+    /// multiplied by `scale` (m).
+    pub(crate) fn tip_from_trig(&self, cos: &[f64], sin: &[f64], scale: f64) -> [f64; 2] {
+        let mut p = self.first_joint();
+        for j in 0..self.len() {
+            p[0] += scale * self.lengths[j] * cos[j];
+            p[1] += scale * self.lengths[j] * sin[j];
+        }
+        p
+    }
+
+    /// Jacobian of the tip, `d tip / d phi_j = l_j e'(phi_j)`, as `n` columns (m/rad).
+    pub fn tip_jacobian(&self, q: &[f64]) -> Vec<[f64; 2]> {
+        self.lengths
+            .iter()
+            .zip(q)
+            .map(|(l, phi)| {
+                let (s, c) = phi.sin_cos();
+                [-l * s, l * c]
+            })
+            .collect()
+    }
+
+    /// Spring potential `sum_j k_j/2 (phi_j - phi_{j-1})^2` (J).
+    pub fn spring_energy(&self, q: &[f64]) -> f64 {
+        let mut prev = self.clamp_angle;
+        let mut v = 0.0;
+        for (k, phi) in self.stiffness.iter().zip(q) {
+            let d = phi - prev;
+            v += 0.5 * k * d * d;
+            prev = *phi;
+        }
+        v
+    }
+
+    /// Gravity potential `g (sum_i m_i y_i + P y_tip)` (J), with heights measured
+    /// from `y = 0`. The rigid root piece's weight is a constant and left out.
+    pub fn gravity_energy(&self, q: &[f64], gravity: f64) -> f64 {
+        let mut y = self.first_joint()[1];
+        let mut v = 0.0;
+        for ((l, a), (m, phi)) in self
+            .lengths
+            .iter()
+            .zip(&self.mass_offsets)
+            .zip(self.masses.iter().zip(q))
+        {
+            let s = phi.sin();
+            v += m * (y + a * s);
+            y += l * s;
+        }
+        gravity * (v + self.tip_mass * y)
+    }
+
+    /// Total potential `V_s + V_g` (J).
+    pub fn energy(&self, q: &[f64], gravity: f64) -> f64 {
+        self.spring_energy(q) + self.gravity_energy(q, gravity)
+    }
+
+    /// Adds the gradient of the spring potential to `grad` (N m).
+    pub fn add_spring_gradient(&self, q: &[f64], grad: &mut [f64]) {
+        let n = self.len();
+        let mut prev = self.clamp_angle;
+        for j in 0..n {
+            let t = self.stiffness[j] * (q[j] - prev);
+            grad[j] += t;
+            if j > 0 {
+                grad[j - 1] -= t;
+            }
+            prev = q[j];
+        }
+    }
+
+    /// Adds the spring Hessian (tridiagonal) to `diag` and `off` (`off[j]`
+    /// couples links `j` and `j + 1`; `off` has `n - 1` entries or more).
+    pub fn add_spring_hessian(&self, diag: &mut [f64], off: &mut [f64]) {
+        let n = self.len();
+        for j in 0..n {
+            diag[j] += self.stiffness[j];
+            if j + 1 < n {
+                diag[j] += self.stiffness[j + 1];
+                off[j] -= self.stiffness[j + 1];
+            }
+        }
+    }
+
+    /// Generalized spring and damper force `-(K phi - k_1 phi_0 e_1) - D dphi`
+    /// (N m), written to `out`.
+    pub fn elastic_forces(&self, q: &[f64], dq: &[f64], out: &mut [f64]) {
+        out.iter_mut().for_each(|o| *o = 0.0);
+        self.add_spring_gradient(q, out);
+        let n = self.len();
+        let mut prev = 0.0;
+        for j in 0..n {
+            let t = self.damping[j] * (dq[j] - prev);
+            out[j] += t;
+            if j > 0 {
+                out[j - 1] -= t;
+            }
+            prev = dq[j];
+        }
+        out.iter_mut().for_each(|o| *o = -*o);
+    }
+
+    /// Generalized force of a constant planar force `f` (N) acting on link
+    /// `link` at `offset` (m) along it: `Q_j = lever_j e'(phi_j) . f` for `j <= link`.
+    /// Added to `out` (N m).
+    pub fn add_point_force(&self, q: &[f64], link: usize, offset: f64, f: [f64; 2], out: &mut [f64]) {
+        for j in 0..=link {
+            let lever = if j == link { offset } else { self.lengths[j] };
+            let (s, c) = q[j].sin_cos();
+            out[j] += lever * (-s * f[0] + c * f[1]);
+        }
+    }
+
+    /// Dense mass matrix `M` (kg m^2), row-major `n x n`, into `out`.
+    pub fn mass_matrix(&self, q: &[f64], out: &mut [f64]) {
+        let n = self.len();
+        for k in 0..n {
+            let ckk = self.diagonal_inertia_coefficient(k);
+            out[k * n + k] = ckk + self.inertias[k];
+            for j in 0..k {
+                let m = self.lengths[j] * self.levers[k] * (q[j] - q[k]).cos();
+                out[j * n + k] = m;
+                out[k * n + j] = m;
+            }
+        }
+    }
+
+    fn diagonal_inertia_coefficient(&self, k: usize) -> f64 {
+        let a = self.mass_offsets[k];
+        let beyond = if self.lengths[k] > 0.0 {
+            (self.levers[k] - a * self.masses[k]) / self.lengths[k]
+        } else {
+            0.0
+        };
+        a * a * self.masses[k] + self.lengths[k] * self.lengths[k] * beyond
+    }
+
+    /// Velocity-product terms `h_j = sum_k C_jk sin(phi_j - phi_k) dphi_k^2` (N m),
+    /// into `out`.
+    pub fn velocity_terms(&self, q: &[f64], dq: &[f64], out: &mut [f64]) {
+        let n = self.len();
+        for j in 0..n {
+            let mut h = 0.0;
+            for k in 0..n {
+                if k == j {
+                    continue;
+                }
+                let c = if j < k {
+                    self.lengths[j] * self.levers[k]
+                } else {
+                    self.lengths[k] * self.levers[j]
+                };
+                h += c * (q[j] - q[k]).sin() * dq[k] * dq[k];
+            }
+            out[j] = h;
+        }
+    }
+
+    /// Kinetic energy `dq^T M dq / 2` (J).
+    pub fn kinetic_energy(&self, q: &[f64], dq: &[f64]) -> f64 {
+        let n = self.len();
+        let mut m = vec![0.0; n * n];
+        self.mass_matrix(q, &mut m);
+        let mut t = 0.0;
+        for j in 0..n {
+            for k in 0..n {
+                t += dq[j] * m[j * n + k] * dq[k];
+            }
+        }
+        0.5 * t
+    }
+}

@@ -1,0 +1,56 @@
+//! Errors for bad input: each names the field, the value and what is allowed.
+
+/// User input that cannot describe a robot or a solve.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum InputError {
+    /// A value outside its allowed range.
+    #[error("{field}: got {value}, expected {allowed}")]
+    Invalid {
+        /// Dotted name of the field (`tube.element_length_m`, `--lengths`).
+        field: String,
+        /// The value given, as text.
+        value: String,
+        /// What is allowed.
+        allowed: String,
+    },
+    /// A robot file that is not valid TOML or has unknown or missing keys.
+    #[error("robot file: {message}")]
+    Toml {
+        /// The parser's message, folded to one line.
+        message: String,
+    },
+}
+
+impl InputError {
+    /// An [`InputError::Invalid`] for a number.
+    pub fn invalid(field: impl Into<String>, value: f64, allowed: impl Into<String>) -> InputError {
+        InputError::Invalid { field: field.into(), value: format!("{value}"), allowed: allowed.into() }
+    }
+}
+
+/// Checks `value` is finite and strictly positive.
+pub fn positive(field: &str, value: f64) -> Result<f64, InputError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(InputError::invalid(field, value, "a finite number > 0"))
+    }
+}
+
+/// Checks `value` is finite and not negative.
+pub fn non_negative(field: &str, value: f64) -> Result<f64, InputError> {
+    if value.is_finite() && value >= 0.0 {
+        Ok(value)
+    } else {
+        Err(InputError::invalid(field, value, "a finite number >= 0"))
+    }
+}
+
+/// Checks `value` is finite and within `[lo, hi]`.
+pub fn within(field: &str, value: f64, lo: f64, hi: f64) -> Result<f64, InputError> {
+    if value.is_finite() && (lo..=hi).contains(&value) {
+        Ok(value)
+    } else {
+        Err(InputError::invalid(field, value, format!("a finite number in [{lo}, {hi}]")))
+    }
+}

@@ -1,0 +1,74 @@
+//! # leech: exact statics of extensible soft climbing robots
+//!
+//! A LEeCH-type robot pushes three flexible tubes through a driving unit; their
+//! free lengths `L1, L2, L3` set the body's shape, and gravity bends it. In the
+//! plane of a climb the body is two chains of rigid links (MODEL.md): chain A,
+//! the centre tube, and chain B, the two side tubes lumped (twice the stiffness
+//! and mass), clamped `b` apart at the driving unit and welded `c` apart at the
+//! endpoint plate, which carries the payload `ms`.
+//!
+//! ## The maths in one page
+//!
+//! With absolute link angles `q = (phi^A, phi^B)` (rad) the potential is
+//!
+//! ```text
+//! V(q) = sum_j k_j/2 (phi_j - phi_{j-1})^2  +  g sum_i m_i y_i(q)        (J)
+//! ```
+//!
+//! and the endpoint plate imposes three constraints `C(q) = 0` (two position
+//! rows and one angle row). An equilibrium solves the KKT system
+//! `grad V = J^T lambda, C = 0`; it is stable when the Hessian of
+//! `V - lambda . C` is positive definite on the null space of `J = dC/dq`.
+//!
+//! Three facts make it fast: the spring Hessian is tridiagonal, gravity's
+//! Hessian is diagonal (`-g W_j sin phi_j`, [`chain`]), and each constraint's
+//! Hessian is diagonal too ([`body`]). Newton's step is then a tridiagonal
+//! factorization bordered by three dense rows: O(n) per step ([`kkt`]).
+//!
+//! Equilibria are not unique (folds, pitchforks, several unloaded shapes), so
+//! [`statics`] follows the robot's history: tubes fed from equal lengths with no
+//! gravity, then gravity raised to `g`, and it says when the body snapped or
+//! buckled on the way.
+//!
+//! ## Quick start
+//!
+//! ```
+//! use leech::prelude::*;
+//!
+//! let robot = Robot::builtin();                 // estimated LEeCH parameters
+//! let body = robot.body(0.30, 0.28).unwrap();   // LA, LB in m
+//! let eq = body.solve(&Solver::default()).unwrap();
+//! let [x, y] = body.endpoint(&eq.q);
+//! println!("endpoint at ({:.1}, {:.1}) mm, stable: {}", x * 1e3, y * 1e3, eq.stable);
+//! assert!(eq.stable && eq.residual < 1e-10);
+//! ```
+//!
+//! ## Modules
+//!
+//! * [`chain`]: one tube as a chain of links; discretizations, kinematics, energy.
+//! * [`cantilever`]: a single clamped tube under gravity.
+//! * [`body`]: the two-chain body and its endpoint weld.
+//! * [`statics`]: the Newton-KKT solver, continuation, stability.
+//! * [`kkt`]: the O(n) bordered tridiagonal solve.
+//! * [`robot`]: robot files (TOML) and the built-in robot.
+//! * [`error`]: input errors.
+
+#![warn(missing_docs)]
+
+pub mod body;
+pub mod cantilever;
+pub mod chain;
+pub mod error;
+pub mod kkt;
+pub mod robot;
+pub mod statics;
+
+/// The types most programs need.
+pub mod prelude {
+    pub use crate::body::Body;
+    pub use crate::cantilever::Cantilever;
+    pub use crate::chain::{Chain, ChainSpec, Discretization};
+    pub use crate::error::InputError;
+    pub use crate::robot::Robot;
+    pub use crate::statics::{Equilibrium, Event, SolveError, Solver, SolverOptions, StaticSystem, Workspace};
+}
