@@ -148,12 +148,7 @@ impl Body {
         let (ca, sa) = (ev.cos[na - 1], ev.sin[na - 1]);
         let c = self.tip_spacing;
         ev.constraints = [pb[0] - pa[0] - c * sa, pb[1] - pa[1] + c * ca, qa[na - 1] - qb[qb.len() - 1]];
-        let (jx, rest) = ev.jacobian.split_at_mut(n);
-        let (jy, jphi) = rest.split_at_mut(n);
-        let (hx, rest) = ev.curvature.split_at_mut(n);
-        let (hy, _) = rest.split_at_mut(n);
-        let (px, rest) = ev.param_jacobian.split_at_mut(n);
-        let (py, _) = rest.split_at_mut(n);
+        const M: usize = MAX_CONSTRAINTS;
         let mut dc = [0.0; 2];
         for (i, (l, sign, side)) in self
             .a
@@ -165,21 +160,22 @@ impl Body {
         {
             let (co, si) = (ev.cos[i], ev.sin[i]);
             let (ls, lr) = (sign * l * scale[side], sign * l * rate[side]);
-            jx[i] = -ls * si;
-            jy[i] = ls * co;
-            hx[i] = -ls * co;
-            hy[i] = -ls * si;
-            px[i] = -lr * si;
-            py[i] = lr * co;
+            ev.jacobian[i * M] = -ls * si;
+            ev.jacobian[i * M + 1] = ls * co;
+            ev.curvature[i * M] = -ls * co;
+            ev.curvature[i * M + 1] = -ls * si;
+            ev.param_jacobian[i * M] = -lr * si;
+            ev.param_jacobian[i * M + 1] = lr * co;
             dc[0] += lr * co;
             dc[1] += lr * si;
         }
-        jx[na - 1] -= c * ca;
-        jy[na - 1] -= c * sa;
-        hx[na - 1] += c * sa;
-        hy[na - 1] -= c * ca;
-        jphi[na - 1] = 1.0;
-        jphi[n - 1] = -1.0;
+        let last_a = (na - 1) * M;
+        ev.jacobian[last_a] -= c * ca;
+        ev.jacobian[last_a + 1] -= c * sa;
+        ev.curvature[last_a] += c * sa;
+        ev.curvature[last_a + 1] -= c * ca;
+        ev.jacobian[last_a + 2] = 1.0;
+        ev.jacobian[(n - 1) * M + 2] = -1.0;
         ev.param_constraints = [dc[0], dc[1], 0.0];
     }
 

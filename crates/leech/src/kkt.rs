@@ -7,6 +7,9 @@
 //! [ J             0   ] [ y ] = [ c ]
 //! ```
 //!
+//! `J` is stored interleaved by coordinate (`dC_r/dq_i` at `i * 3 + r`), so
+//! that one pass over the coordinates touches every border column.
+//!
 //! where `H` (n x n) is tridiagonal (springs, plus the diagonal gravity and
 //! constraint-curvature terms), `J` has `m <= 3` dense rows and `delta >= 0` is
 //! an inertia-correcting shift. With the LDL^T factorization of the tridiagonal
@@ -74,21 +77,24 @@ impl Kkt {
     }
 
     /// Factors `H + shift I` (diagonal `diag`, off-diagonal `off`, `n - 1`
-    /// entries) bordered by the rows `jac` (`m` rows of length `n`, row-major)
-    /// and reports the inertia. `tiny` is the pivot size under which the
-    /// matrix counts as singular.
+    /// entries) bordered by the constraint Jacobian `jac` (interleaved:
+    /// `dC_r/dq_i` at `i * MAX_CONSTRAINTS + r`, rows `r >= m` zero) and reports
+    /// the inertia. `tiny` is the pivot size under which the matrix counts as
+    /// singular.
     pub fn factor(&mut self, diag: &[f64], off: &[f64], shift: f64, jac: &[f64], tiny: f64) -> Inertia {
+        const M: usize = MAX_CONSTRAINTS;
         let (n, m) = (self.n, self.m);
         let mut negative = 0;
         let mut singular = false;
-        // The factorization and the forward substitution of the m border
-        // columns share one pass; the columns are interleaved (`z[i * M + r]`)
-        // so their independent recurrences overlap in the pipeline.
-        let z = &mut self.hinv_jt[..n * MAX_CONSTRAINTS];
-        let mut prev = [0.0; MAX_CONSTRAINTS];
+        // The factorization and the forward substitution of the border
+        // columns share one pass; the columns are interleaved so that their
+        // independent recurrences overlap in the pipeline.
+        let z = &mut self.hinv_jt[..n * M];
+        let (pivots, multipliers) = (&mut self.pivots[..n], &mut self.multipliers[..n]);
+        let mut prev = [0.0; M];
         let mut mult_prev = 0.0;
         let mut off_prev = 0.0;
-        for i in 0..n {
+        for (i, (zi, ji)) in z.chunks_exact_mut(M).zip(jac.chunks_exact(M)).enumerate() {
             let d0 = diag[i] + shift - mult_prev * off_prev;
             let d = if d0.abs() > tiny {
                 d0
@@ -103,18 +109,14 @@ impl Kkt {
             };
             negative += usize::from(d < 0.0);
             let inv = 1.0 / d;
-            self.pivots[i] = inv;
-            for r in 0..MAX_CONSTRAINTS {
-                let v = if r < m { jac[r * n + i] } else { 0.0 };
-                let w = v - mult_prev * prev[r];
-                z[i * MAX_CONSTRAINTS + r] = w;
-                prev[r] = w;
+            pivots[i] = inv;
+            for r in 0..M {
+                prev[r] = ji[r] - mult_prev * prev[r];
+                zi[r] = prev[r];
             }
-            if i + 1 < n {
-                mult_prev = off[i] * inv;
-                off_prev = off[i];
-                self.multipliers[i] = mult_prev;
-            }
+            off_prev = if i + 1 < n { off[i] } else { 0.0 };
+            mult_prev = off_prev * inv;
+            multipliers[i] = mult_prev;
         }
         self.negative_pivots = negative;
         if singular {
@@ -123,21 +125,18 @@ impl Kkt {
         if m == 0 {
             return if negative == 0 { Inertia::Minimum } else { Inertia::Indefinite { negative } };
         }
-        let mut next = [0.0; MAX_CONSTRAINTS];
+        // Back substitution, accumulating S = J H^-1 J^T on the way.
+        let mut next = [0.0; M];
+        let mut s = [[0.0; M]; M];
         for i in (0..n).rev() {
-            let mult = if i + 1 < n { self.multipliers[i] } else { 0.0 };
-            for r in 0..MAX_CONSTRAINTS {
-                let w = z[i * MAX_CONSTRAINTS + r] * self.pivots[i] - mult * next[r];
-                z[i * MAX_CONSTRAINTS + r] = w;
-                next[r] = w;
+            let (zi, ji) = (&mut z[i * M..i * M + M], &jac[i * M..i * M + M]);
+            for r in 0..M {
+                next[r] = zi[r] * pivots[i] - multipliers[i] * next[r];
+                zi[r] = next[r];
             }
-        }
-        let mut s = [[0.0; MAX_CONSTRAINTS]; MAX_CONSTRAINTS];
-        for i in 0..n {
-            for a in 0..m {
-                let ja = jac[a * n + i];
-                for b in 0..MAX_CONSTRAINTS {
-                    s[a][b] += ja * z[i * MAX_CONSTRAINTS + b];
+            for a in 0..M {
+                for b in 0..M {
+                    s[a][b] += ji[a] * next[b];
                 }
             }
         }
@@ -169,20 +168,26 @@ impl Kkt {
     }
 
     /// Solves the factored system for right-hand sides `r` (n) and `c` (m),
-    /// writing `x` (n) and `y` (m). `x` may alias nothing; `r` is consumed.
+    /// writing `x` (n) and `y` (m).
     pub fn solve(&self, jac: &[f64], r: &[f64], c: &[f64], x: &mut [f64], y: &mut [f64]) {
-        let (n, m) = (self.n, self.m);
+        const M: usize = MAX_CONSTRAINTS;
+        let m = self.m;
         x.copy_from_slice(r);
         tridiagonal_solve_in_place(&self.pivots, &self.multipliers, x);
         if m == 0 {
             return;
         }
-        let mut rhs = [0.0; MAX_CONSTRAINTS];
+        let mut rhs = [0.0; M];
+        for (xi, ji) in x.iter().zip(jac.chunks_exact(M)) {
+            for row in 0..M {
+                rhs[row] += ji[row] * xi;
+            }
+        }
         for row in 0..m {
-            rhs[row] = dot(&jac[row * n..(row + 1) * n], x) - c[row];
+            rhs[row] -= c[row];
         }
         // y = V diag(1/w) V^T rhs
-        let mut t = [0.0; MAX_CONSTRAINTS];
+        let mut t = [0.0; M];
         for k in 0..m {
             let mut acc = 0.0;
             for row in 0..m {
@@ -190,22 +195,17 @@ impl Kkt {
             }
             t[k] = acc / self.schur_values[k];
         }
+        let mut yy = [0.0; M];
         for row in 0..m {
-            let mut acc = 0.0;
             for k in 0..m {
-                acc += self.schur_vectors[row][k] * t[k];
+                yy[row] += self.schur_vectors[row][k] * t[k];
             }
-            y[row] = acc;
         }
-        for (i, xi) in x.iter_mut().enumerate() {
-            let z = &self.hinv_jt[i * MAX_CONSTRAINTS..(i + 1) * MAX_CONSTRAINTS];
-            *xi -= z[0] * y[0] + z[1] * if m > 1 { y[1] } else { 0.0 } + z[2] * if m > 2 { y[2] } else { 0.0 };
+        y[..m].copy_from_slice(&yy[..m]);
+        for (xi, zi) in x.iter_mut().zip(self.hinv_jt.chunks_exact(M)) {
+            *xi -= zi[0] * yy[0] + zi[1] * yy[1] + zi[2] * yy[2];
         }
     }
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 /// Solves `L D L^T x = b` in place for the tridiagonal factors (reciprocal pivots).
@@ -299,8 +299,8 @@ mod tests {
         }
         for row in 0..m {
             for i in 0..n {
-                a[n + row][i] = jac[row * n + i];
-                a[i][n + row] = jac[row * n + i];
+                a[n + row][i] = jac[i * MAX_CONSTRAINTS + row];
+                a[i][n + row] = jac[i * MAX_CONSTRAINTS + row];
             }
             a[n + row][size] = c[row];
         }
@@ -326,6 +326,7 @@ mod tests {
         let off: Vec<f64> = (0..n - 1).map(|i| -1.0 + 0.3 * (i as f64).cos()).collect();
         let m = 3;
         let jac: Vec<f64> = (0..n * m).map(|i| ((i * 7 % 11) as f64 - 5.0) / 3.0).collect();
+        assert_eq!(m, MAX_CONSTRAINTS);
         let r: Vec<f64> = (0..n).map(|i| (i as f64).cos()).collect();
         let c = [0.3, -0.2, 0.9];
         let mut kkt = Kkt::new(n, m);
@@ -348,16 +349,17 @@ mod tests {
         // the null space {x1 = 0} still contains the negative direction.
         let diag = [1.0, -1.0, 1.0];
         let off = [0.0, 0.0];
-        let jac = [1.0, 0.0, 0.0];
+        let jac = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
         let mut kkt = Kkt::new(3, 1);
         assert_eq!(kkt.factor(&diag, &off, 0.0, &jac, 1e-300), Inertia::Indefinite { negative: 1 });
         // Constraining the negative coordinate instead leaves a minimum.
-        let jac = [0.0, 1.0, 0.0];
+        let jac = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0];
         assert_eq!(kkt.factor(&diag, &off, 0.0, &jac, 1e-300), Inertia::Minimum);
         // Without constraints the shift restores positive definiteness.
         let mut free = Kkt::new(3, 0);
-        assert_eq!(free.factor(&diag, &off, 0.0, &[], 1e-300), Inertia::Indefinite { negative: 1 });
-        assert_eq!(free.factor(&diag, &off, 2.0, &[], 1e-300), Inertia::Minimum);
+        let none = [0.0; 9];
+        assert_eq!(free.factor(&diag, &off, 0.0, &none, 1e-300), Inertia::Indefinite { negative: 1 });
+        assert_eq!(free.factor(&diag, &off, 2.0, &none, 1e-300), Inertia::Minimum);
     }
 
     #[test]

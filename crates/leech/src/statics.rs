@@ -64,13 +64,14 @@ pub struct Evaluation {
     pub hessian_off: Vec<f64>,
     /// Constraint values `C` (m for positions, rad for angles).
     pub constraints: [f64; MAX_CONSTRAINTS],
-    /// Constraint Jacobian, `m` rows of length `n`, row-major.
+    /// Constraint Jacobian, interleaved by coordinate: `dC_r/dq_i` at
+    /// `i * MAX_CONSTRAINTS + r` (rows `r >= m` stay zero).
     pub jacobian: Vec<f64>,
-    /// Diagonals of the constraint Hessians `d2C_i/dq2`, `m` rows of length `n`.
+    /// Diagonals of the constraint Hessians `d2C_r/dq_i2`, laid out as `jacobian`.
     pub curvature: Vec<f64>,
     /// `d(dV/dq)/dt` at fixed `q`: how the gradient moves along the path (N m).
     pub param_gradient: Vec<f64>,
-    /// `d(dC/dq)/dt` at fixed `q`, `m` rows of length `n`.
+    /// `d(dC/dq)/dt` at fixed `q`, laid out as `jacobian`.
     pub param_jacobian: Vec<f64>,
     /// `dC/dt` at fixed `q`.
     pub param_constraints: [f64; MAX_CONSTRAINTS],
@@ -82,17 +83,17 @@ pub struct Evaluation {
 
 impl Evaluation {
     /// Zeroed storage for `n` coordinates and `m` constraints.
-    pub fn new(n: usize, m: usize) -> Evaluation {
+    pub fn new(n: usize, _m: usize) -> Evaluation {
         Evaluation {
             energy: 0.0,
             gradient: vec![0.0; n],
             hessian_diag: vec![0.0; n],
             hessian_off: vec![0.0; n.saturating_sub(1)],
             constraints: [0.0; MAX_CONSTRAINTS],
-            jacobian: vec![0.0; n * m],
-            curvature: vec![0.0; n * m],
+            jacobian: vec![0.0; n * MAX_CONSTRAINTS],
+            curvature: vec![0.0; n * MAX_CONSTRAINTS],
             param_gradient: vec![0.0; n],
-            param_jacobian: vec![0.0; n * m],
+            param_jacobian: vec![0.0; n * MAX_CONSTRAINTS],
             param_constraints: [0.0; MAX_CONSTRAINTS],
             cos: vec![0.0; n],
             sin: vec![0.0; n],
@@ -158,6 +159,8 @@ pub struct SolverOptions {
     /// Largest distance (rad, sup norm) between predictor and corrector
     /// that still counts as following the same branch.
     pub jump_tolerance: f64,
+    /// Longest step (rad, sup norm) taken where the curvature is corrected.
+    pub trust_radius: f64,
     /// Optional wall-clock limit for one solve.
     pub time_limit: Option<Duration>,
 }
@@ -167,12 +170,13 @@ impl Default for SolverOptions {
         SolverOptions {
             tolerance: 1e-11,
             path_tolerance: 1e-7,
-            max_iterations: 4000,
+            max_iterations: 20000,
             max_corrector_iterations: 8,
-            max_minimization_iterations: 300,
+            max_minimization_iterations: 5000,
             max_steps: 500,
-            min_step: 1e-6,
+            min_step: 1e-4,
             jump_tolerance: 0.5,
+            trust_radius: 0.1,
             time_limit: None,
         }
     }
@@ -198,6 +202,9 @@ pub enum Event {
         at: f64,
         /// The side chosen: `"right"` of the clamp direction (towards chain B).
         side: &'static str,
+        /// Largest angle change from the last stable state (rad): small for a
+        /// supercritical pitchfork, large when the body falls far.
+        jump_rad: f64,
     },
 }
 
@@ -359,6 +366,13 @@ fn sup_norm(v: &[f64]) -> f64 {
     v.iter().fold(0.0f64, |a, x| a.max(x.abs()))
 }
 
+/// `out = base - J^T lambda` for an interleaved Jacobian (unused rows are zero).
+fn transposed_product(base: &[f64], jac: &[f64], lambda: &[f64; MAX_CONSTRAINTS], out: &mut [f64]) {
+    for ((o, b), j) in out.iter_mut().zip(base).zip(jac.chunks_exact(MAX_CONSTRAINTS)) {
+        *o = b - j[0] * lambda[0] - j[1] * lambda[1] - j[2] * lambda[2];
+    }
+}
+
 fn distance(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).fold(0.0f64, |acc, (x, y)| acc.max((x - y).abs()))
 }
@@ -381,13 +395,8 @@ impl Solver {
     /// scaled sup norm of `(r, C)` for the evaluation in `ws.current`.
     fn residual<S: StaticSystem + ?Sized>(&self, sys: &S, lambda: &[f64; 3], ev: &Evaluation, r: &mut [f64]) -> f64 {
         let (n, m) = (sys.dim(), sys.constraint_count());
-        r.copy_from_slice(&ev.gradient);
-        for row in 0..m {
-            let l = lambda[row];
-            for (ri, ji) in r.iter_mut().zip(&ev.jacobian[row * n..(row + 1) * n]) {
-                *ri -= ji * l;
-            }
-        }
+        transposed_product(&ev.gradient, &ev.jacobian, lambda, r);
+        let _ = n;
         let scales = sys.constraint_scales();
         let mut norm = sup_norm(r) / sys.moment_scale();
         for row in 0..m {
@@ -419,13 +428,8 @@ impl Solver {
     /// inertia and the shift used.
     fn factor<S: StaticSystem + ?Sized>(&self, sys: &S, lambda: &[f64; 3], ws: &mut Workspace) -> (Inertia, f64) {
         let (n, m) = (ws.n, ws.m);
-        ws.lagrangian_diag.copy_from_slice(&ws.current.hessian_diag);
-        for row in 0..m {
-            let l = lambda[row];
-            for (d, c) in ws.lagrangian_diag.iter_mut().zip(&ws.current.curvature[row * n..(row + 1) * n]) {
-                *d -= l * c;
-            }
-        }
+        transposed_product(&ws.current.hessian_diag, &ws.current.curvature, lambda, &mut ws.lagrangian_diag);
+        let _ = (n, m);
         let k = sys.moment_scale();
         let tiny = 1e-13 * k;
         let first = ws.kkt.factor(&ws.lagrangian_diag, &ws.current.hessian_off, 0.0, &ws.current.jacobian, tiny);
@@ -465,6 +469,7 @@ impl Solver {
         ws.current.clear();
         sys.evaluate(&state.q, t, &mut ws.current);
         let mut rho: f64 = 0.0;
+        let mut damping: f64 = 0.0;
         let mut iter = 0;
         // After a tiny unshifted step from a minimum, the last factors still
         // give the stability verdict and a tangent good enough for a predictor.
@@ -486,53 +491,63 @@ impl Solver {
             }
             iter += 1;
             state.iterations += 1;
-            let (inertia, shift) = self.factor(sys, &state.lambda, ws);
-            if !shift.is_finite() {
+            let (inertia, min_shift) = self.factor(sys, &state.lambda, ws);
+            if !min_shift.is_finite() {
                 return Newton { converged: false, residual: res, stable: false, reason: "singular constraint Jacobian" };
             }
-            // Right-hand side -r, -C; the step solves H dq + J^T y = -r, J dq = -C.
-            ws.residual.iter_mut().for_each(|x| *x = -*x);
-            let mut neg_c = [0.0; MAX_CONSTRAINTS];
-            for row in 0..m {
-                neg_c[row] = -ws.current.constraints[row];
-            }
-            ws.kkt.solve(&ws.current.jacobian, &ws.residual, &neg_c[..m], &mut ws.step, &mut ws.dual_step[..m]);
-            ws.residual.iter_mut().for_each(|x| *x = -*x);
-            let scales = sys.constraint_scales();
+            // Levenberg-style damping on top of the inertia correction: a
+            // rejected full step raises the shift (shorter steps turning towards
+            // steepest descent), an accepted one lets it relax. In negative
+            // curvature this walks downhill much faster than backtracking along
+            // a fixed direction.
             let k = sys.moment_scale();
-            let mut new_lambda = state.lambda;
-            for row in 0..m {
-                new_lambda[row] -= ws.dual_step[row];
-                rho = rho.max(2.0 * (new_lambda[row] * scales[row] / k).abs() + 1e-3);
-            }
-            let phi0 = Self::merit(sys, &ws.current, rho);
-            let slope = {
-                let g: f64 = ws.current.gradient.iter().zip(&ws.step).map(|(g, d)| g * d).sum::<f64>() / k;
-                let p: f64 = (0..m).map(|i| (ws.current.constraints[i] / scales[i]).abs()).sum();
-                g - rho * p
-            };
+            let scales = sys.constraint_scales();
             let r0 = Self::residual_l2(sys, &ws.residual, &ws.current);
-            let mut alpha = 1.0;
+            let mut shift = min_shift.max(damping);
             let mut accepted = false;
-            for _ in 0..40 {
-                for i in 0..n {
-                    ws.q_trial[i] = state.q[i] + alpha * ws.step[i];
+            for attempt in 0..80 {
+                if attempt > 0 || shift != min_shift {
+                    let tiny = 1e-13 * k;
+                    let diag = &ws.lagrangian_diag;
+                    ws.kkt.factor(diag, &ws.current.hessian_off, shift, &ws.current.jacobian, tiny);
+                }
+                // The step solves (H + shift I) dq + J^T y = -r, J dq = -C.
+                ws.residual.iter_mut().for_each(|x| *x = -*x);
+                let mut neg_c = [0.0; MAX_CONSTRAINTS];
+                for row in 0..m {
+                    neg_c[row] = -ws.current.constraints[row];
+                }
+                ws.kkt.solve(&ws.current.jacobian, &ws.residual, &neg_c[..m], &mut ws.step, &mut ws.dual_step[..m]);
+                ws.residual.iter_mut().for_each(|x| *x = -*x);
+                // Where the curvature is corrected the quadratic model is not
+                // the energy: keep such steps short, so that the descent follows
+                // the valley a damped motion would and cannot hop into a
+                // distant basin.
+                if shift > 0.0 && sup_norm(&ws.step) > self.options.trust_radius {
+                    shift = (4.0 * shift).max(1e-8 * k);
+                    continue;
                 }
                 let mut lam_trial = state.lambda;
                 for row in 0..m {
-                    lam_trial[row] += alpha * (new_lambda[row] - state.lambda[row]);
+                    lam_trial[row] -= ws.dual_step[row];
+                    rho = rho.max(2.0 * (lam_trial[row] * scales[row] / k).abs() + 1e-3);
+                }
+                let phi0 = Self::merit(sys, &ws.current, rho);
+                let slope = {
+                    let g: f64 = ws.current.gradient.iter().zip(&ws.step).map(|(g, d)| g * d).sum::<f64>() / k;
+                    let p: f64 = (0..m).map(|i| (ws.current.constraints[i] / scales[i]).abs()).sum();
+                    g - rho * p
+                };
+                for i in 0..n {
+                    ws.q_trial[i] = state.q[i] + ws.step[i];
                 }
                 ws.trial.clear();
                 sys.evaluate(&ws.q_trial, t, &mut ws.trial);
                 let phi = Self::merit(sys, &ws.trial, rho);
-                // The residual at the trial point, reusing the step buffer's neighbour.
                 let r_trial = {
                     let mut s = 0.0;
-                    for i in 0..n {
-                        let mut ri = ws.trial.gradient[i];
-                        for row in 0..m {
-                            ri -= ws.trial.jacobian[row * n + i] * lam_trial[row];
-                        }
+                    for (g, j) in ws.trial.gradient.iter().zip(ws.trial.jacobian.chunks_exact(MAX_CONSTRAINTS)) {
+                        let ri = g - j[0] * lam_trial[0] - j[1] * lam_trial[1] - j[2] * lam_trial[2];
                         s += (ri / k) * (ri / k);
                     }
                     for row in 0..m {
@@ -540,20 +555,23 @@ impl Solver {
                     }
                     s.sqrt()
                 };
-                let armijo = slope < 0.0 && phi <= phi0 + 1e-4 * alpha * slope;
-                let decrease = r_trial <= (1.0 - 1e-4 * alpha) * r0;
+                let armijo = slope < 0.0 && phi <= phi0 + 1e-4 * slope;
+                // Where the curvature needed correcting, only energy descent
+                // counts: a falling residual may be heading for a saddle.
+                let decrease = shift == 0.0 && r_trial <= (1.0 - 1e-4) * r0;
                 if phi.is_finite() && (armijo || decrease) {
-                    factors_fresh = inertia == Inertia::Minimum && alpha == 1.0 && sup_norm(&ws.step) < 1e-5;
+                    factors_fresh = inertia == Inertia::Minimum && shift == 0.0 && sup_norm(&ws.step) < 1e-5;
+                    damping = if shift > min_shift { 0.25 * shift } else { 0.0 };
                     state.q.copy_from_slice(&ws.q_trial);
                     state.lambda = lam_trial;
                     std::mem::swap(&mut ws.current, &mut ws.trial);
                     accepted = true;
                     break;
                 }
-                alpha *= 0.5;
+                shift = (4.0 * shift).max(1e-8 * k);
             }
             if !accepted {
-                return Newton { converged: false, residual: res, stable: false, reason: "line search failed" };
+                return Newton { converged: false, residual: res, stable: false, reason: "no descent step found" };
             }
             if leash.is_finite() && distance(&state.q, &ws.q_predicted) > leash {
                 return Newton { converged: false, residual: res, stable: false, reason: "left the branch" };
@@ -566,13 +584,9 @@ impl Solver {
     fn tangent(&self, state: &State, ws: &mut Workspace) {
         let (n, m) = (ws.n, ws.m);
         let ev = &ws.current;
-        for i in 0..n {
-            let mut ri = ev.param_gradient[i];
-            for row in 0..m {
-                ri -= ev.param_jacobian[row * n + i] * state.lambda[row];
-            }
-            ws.tangent[i] = -ri;
-        }
+        transposed_product(&ev.param_gradient, &ev.param_jacobian, &state.lambda, &mut ws.tangent);
+        ws.tangent.iter_mut().for_each(|x| *x = -*x);
+        let _ = n;
         let mut dc = [0.0; MAX_CONSTRAINTS];
         for row in 0..m {
             dc[row] = -ev.param_constraints[row];
@@ -611,14 +625,31 @@ impl Solver {
         ws: &mut Workspace,
     ) -> Result<f64, SolveError> {
         assert!(ws.fits(sys), "workspace sized for another system");
+        let (residual, escaped) = self.settle(sys, state, t, stage, ws)?;
+        if escaped {
+            state.events.push(Event::Bifurcation { stage, at: t, side: "right", jump_rad: 0.0 });
+        }
+        Ok(residual)
+    }
+
+    /// Newton's method to a stable equilibrium at `t`, leaving an unstable one
+    /// if it lands there. Returns the residual and whether it had to leave one.
+    fn settle<S: StaticSystem + ?Sized>(
+        &self,
+        sys: &S,
+        state: &mut State,
+        t: f64,
+        stage: &'static str,
+        ws: &mut Workspace,
+    ) -> Result<(f64, bool), SolveError> {
         let out = self.newton(sys, state, t, self.free_budget(), ws);
         if !out.converged {
             return Err(self.fail(stage, state, out));
         }
         if out.stable {
-            return Ok(out.residual);
+            return Ok((out.residual, false));
         }
-        self.escape(sys, state, t, stage, ws)
+        Ok((self.escape(sys, state, t, stage, ws)?, true))
     }
 
     /// Leaves an unstable equilibrium along the most negative curvature of the
@@ -660,8 +691,7 @@ impl Solver {
         if sys.lateral_displacement(&state.q, &v) < 0.0 {
             v.iter_mut().for_each(|x| *x = -*x);
         }
-        state.events.push(Event::Bifurcation { stage, at: t, side: "right" });
-        let kick = 0.05;
+        let kick = 0.01;
         for i in 0..n {
             state.q[i] += kick * v[i];
         }
@@ -729,13 +759,12 @@ impl Solver {
                 leash: self.options.jump_tolerance,
             };
             let out = self.newton(sys, state, t + dt, budget, ws);
-            if out.converged && distance(&state.q, &ws.q_predicted) <= self.options.jump_tolerance {
+            // An unstable landing counts as a failure too: halving the step
+            // then brackets the fold or bifurcation to within `min_step`.
+            if out.converged && out.stable && distance(&state.q, &ws.q_predicted) <= self.options.jump_tolerance {
                 t = if dt >= 1.0 - t { 1.0 } else { t + dt };
                 state.steps += 1;
                 residual = out.residual;
-                if !out.stable {
-                    residual = self.escape(sys, state, t, stage, ws)?;
-                }
                 if t < 1.0 {
                     self.tangent(state, ws);
                 }
@@ -760,13 +789,20 @@ impl Solver {
                 self.tangent(state, ws);
                 continue;
             }
-            // A jump that persists at the smallest step: a fold. Snap through by
-            // minimizing from the last stable state at the new parameter.
+            // Still failing at the smallest step: the stable branch ends or turns
+            // unstable here. Settle from the last stable state at the new
+            // parameter, as damped dynamics would: a far landing is a snap
+            // through a fold, a near one past an unstable point is a pitchfork.
             let at = t;
             t = (t + dt).min(1.0);
-            residual = self.minimize(sys, state, t, stage, ws)?;
+            let (settled, escaped) = self.settle(sys, state, t, stage, ws)?;
+            residual = settled;
             let jump_rad = distance(&state.q, &ws.q_saved);
-            state.events.push(Event::Snap { stage, at, jump_rad });
+            if escaped {
+                state.events.push(Event::Bifurcation { stage, at, side: "right", jump_rad });
+            } else if jump_rad > self.options.jump_tolerance {
+                state.events.push(Event::Snap { stage, at, jump_rad });
+            }
             state.steps += 1;
             dt = 1e-3;
             if t < 1.0 {
