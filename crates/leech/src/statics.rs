@@ -523,7 +523,7 @@ impl Solver {
                 // the energy: keep such steps short, so that the descent follows
                 // the valley a damped motion would and cannot hop into a
                 // distant basin.
-                if shift > 0.0 && sup_norm(&ws.step) > self.options.trust_radius {
+                if min_shift > 0.0 && sup_norm(&ws.step) > self.options.trust_radius {
                     shift = (4.0 * shift).max(1e-8 * k);
                     continue;
                 }

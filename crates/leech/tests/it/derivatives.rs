@@ -1,0 +1,245 @@
+//! Every analytic derivative against central finite differences, on random
+//! configurations (property tests).
+
+use leech::chain::{ChainSpec, Discretization};
+use leech::kkt::MAX_CONSTRAINTS;
+use leech::prelude::*;
+use leech::statics::Evaluation;
+use proptest::prelude::*;
+
+const H: f64 = 1e-6;
+
+fn evaluate<S: StaticSystem>(sys: &S, q: &[f64], t: f64) -> Evaluation {
+    let mut ev = Evaluation::new(sys.dim(), sys.constraint_count());
+    sys.evaluate(q, t, &mut ev);
+    ev
+}
+
+fn shifted(q: &[f64], i: usize, h: f64) -> Vec<f64> {
+    let mut p = q.to_vec();
+    p[i] += h;
+    p
+}
+
+fn close(analytic: f64, numeric: f64, scale: f64, what: &str) -> Result<(), TestCaseError> {
+    prop_assert!(
+        (analytic - numeric).abs() <= 1e-6 * scale.max(1e-3),
+        "{what}: analytic {analytic:e} vs finite difference {numeric:e}"
+    );
+    Ok(())
+}
+
+/// Checks gradient, Hessian (tridiagonal), constraint Jacobian and constraint
+/// curvature (diagonal), and the path derivatives, of any static system.
+fn check_system<S: StaticSystem>(sys: &S, q: &[f64], t: f64) -> Result<(), TestCaseError> {
+    let n = sys.dim();
+    let m = sys.constraint_count();
+    let ev = evaluate(sys, q, t);
+    let k = sys.moment_scale();
+    for i in 0..n {
+        let (plus, minus) = (evaluate(sys, &shifted(q, i, H), t), evaluate(sys, &shifted(q, i, -H), t));
+        close(ev.gradient[i], (plus.energy - minus.energy) / (2.0 * H), k, "dV/dq")?;
+        for j in 0..n {
+            let fd = (plus.gradient[j] - minus.gradient[j]) / (2.0 * H);
+            let analytic = if j == i {
+                ev.hessian_diag[i]
+            } else if j + 1 == i {
+                ev.hessian_off[j]
+            } else if i + 1 == j {
+                ev.hessian_off[i]
+            } else {
+                0.0
+            };
+            close(analytic, fd, k, "d2V/dq2")?;
+        }
+        for r in 0..m {
+            let fd = (plus.constraints[r] - minus.constraints[r]) / (2.0 * H);
+            close(ev.jacobian[i * MAX_CONSTRAINTS + r], fd, 1.0, "dC/dq")?;
+            for j in 0..n {
+                let fd = (plus.jacobian[j * MAX_CONSTRAINTS + r] - minus.jacobian[j * MAX_CONSTRAINTS + r]) / (2.0 * H);
+                let analytic = if i == j { ev.curvature[i * MAX_CONSTRAINTS + r] } else { 0.0 };
+                close(analytic, fd, 1.0, "d2C/dq2")?;
+            }
+        }
+    }
+    let (ahead, behind) = (evaluate(sys, q, t + H), evaluate(sys, q, t - H));
+    for i in 0..n {
+        close(ev.param_gradient[i], (ahead.gradient[i] - behind.gradient[i]) / (2.0 * H), k, "d(dV/dq)/dt")?;
+        for r in 0..m {
+            let idx = i * MAX_CONSTRAINTS + r;
+            close(ev.param_jacobian[idx], (ahead.jacobian[idx] - behind.jacobian[idx]) / (2.0 * H), 1.0, "d(dC/dq)/dt")?;
+        }
+    }
+    for r in 0..m {
+        close(ev.param_constraints[r], (ahead.constraints[r] - behind.constraints[r]) / (2.0 * H), 1.0, "dC/dt")?;
+    }
+    Ok(())
+}
+
+fn discretization() -> impl Strategy<Value = Discretization> {
+    prop_oneof![Just(Discretization::Paper), Just(Discretization::Midpoint)]
+}
+
+fn spec(length: f64, tip_mass: f64, clamp: f64, d: Discretization) -> ChainSpec {
+    ChainSpec {
+        tube_length: length,
+        element_length: 0.01,
+        element_mass: 0.0013,
+        stiffness: 0.07,
+        damping: 0.003,
+        tip_mass,
+        clamp_point: [0.003, -0.002],
+        clamp_angle: clamp,
+        discretization: d,
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    #[test]
+    fn cantilever_derivatives(
+        length in 0.01f64..0.095,
+        tip_mass in 0.0f64..0.03,
+        clamp in -3.0f64..3.0,
+        d in discretization(),
+        seed in prop::collection::vec(-4.0f64..7.0, 12),
+        t in 0.1f64..1.0,
+    ) {
+        let tube = Cantilever::new(Chain::new(&spec(length, tip_mass, clamp, d)), 9.81);
+        let q: Vec<f64> = seed[..tube.dim()].to_vec();
+        check_system(&tube, &q, t)?;
+    }
+
+    #[test]
+    fn body_derivatives(
+        la in 0.01f64..0.075,
+        lb in 0.01f64..0.075,
+        clamp_deg in -180.0f64..180.0,
+        d in discretization(),
+        seed in prop::collection::vec(-4.0f64..7.0, 20),
+        t in 0.1f64..1.0,
+    ) {
+        let mut robot = Robot::builtin();
+        robot.world.base_angle_deg = clamp_deg;
+        robot.model.discretization = d;
+        let body = robot.body(la, lb).unwrap();
+        let q: Vec<f64> = seed[..body.dim()].to_vec();
+        check_system(&body, &q, t)?;
+        // The trait's constraint values are the body's own.
+        let ev = evaluate(&body, &q, t);
+        let c = body.constraints(&q);
+        for r in 0..3 {
+            prop_assert!((ev.constraints[r] - c[r]).abs() < 1e-15);
+        }
+    }
+
+    /// The mass matrix is the Hessian of the kinetic energy of the point
+    /// masses (positions differentiated numerically) plus the links' own
+    /// rotational inertia, and the velocity terms satisfy Lagrange's equation
+    /// `h = dM/dt dq - dT/dq`.
+    #[test]
+    fn mass_matrix_and_velocity_terms(
+        length in 0.01f64..0.075,
+        tip_mass in 0.0f64..0.03,
+        d in discretization(),
+        seed in prop::collection::vec(-3.0f64..3.0, 16),
+    ) {
+        let chain = Chain::new(&spec(length, tip_mass, 0.4, d));
+        let n = chain.len();
+        let (q, dq) = (&seed[..n], &seed[8..8 + n]);
+        let mut mm = vec![0.0; n * n];
+        chain.mass_matrix(q, &mut mm);
+        // Kinetic energy from mass-point velocities, by differencing positions in time.
+        let kinetic = |q: &[f64], dq: &[f64]| -> f64 {
+            let at = |s: f64| -> Vec<[f64; 2]> {
+                let p: Vec<f64> = q.iter().zip(dq).map(|(a, b)| a + s * b).collect();
+                mass_points(&chain, &p, d)
+            };
+            let (a, b) = (at(H), at(-H));
+            let masses = point_masses(&chain);
+            let rotational: f64 = rotational_inertias(&chain, d).iter().zip(dq).map(|(i, w)| 0.5 * i * w * w).sum();
+            a.iter().zip(&b).zip(&masses).map(|((pa, pb), m)| {
+                let v = [(pa[0] - pb[0]) / (2.0 * H), (pa[1] - pb[1]) / (2.0 * H)];
+                0.5 * m * (v[0] * v[0] + v[1] * v[1])
+            }).sum::<f64>() + rotational
+        };
+        let t_direct = kinetic(q, dq);
+        prop_assert!((chain.kinetic_energy(q, dq) - t_direct).abs() < 1e-7 * (1.0 + t_direct));
+        // Lagrange: h_j = sum_k dM_jk/dt dq_k - dT/dq_j.
+        let mut h = vec![0.0; n];
+        chain.velocity_terms(q, dq, &mut h);
+        for j in 0..n {
+            let mut mp = vec![0.0; n * n];
+            let mut mn = vec![0.0; n * n];
+            let qp: Vec<f64> = q.iter().zip(dq).map(|(a, b)| a + H * b).collect();
+            let qn: Vec<f64> = q.iter().zip(dq).map(|(a, b)| a - H * b).collect();
+            chain.mass_matrix(&qp, &mut mp);
+            chain.mass_matrix(&qn, &mut mn);
+            let dm_dt: f64 = (0..n).map(|k| (mp[j * n + k] - mn[j * n + k]) / (2.0 * H) * dq[k]).sum();
+            let dt_dq = (chain.kinetic_energy(&shifted(q, j, H), dq) - chain.kinetic_energy(&shifted(q, j, -H), dq)) / (2.0 * H);
+            prop_assert!((h[j] - (dm_dt - dt_dq)).abs() < 1e-7, "h[{j}] = {} vs {}", h[j], dm_dt - dt_dq);
+        }
+    }
+
+    /// A point force does virtual work `Q . dq = f . dr`.
+    #[test]
+    fn point_force_is_virtual_work(
+        length in 0.02f64..0.075,
+        seed in prop::collection::vec(-3.0f64..3.0, 8),
+        f in prop::array::uniform2(-2.0f64..2.0),
+        link_frac in 0.0f64..1.0,
+        offset_frac in 0.0f64..1.0,
+    ) {
+        let chain = Chain::new(&spec(length, 0.0, 0.2, Discretization::Paper));
+        let n = chain.len();
+        let q = &seed[..n];
+        let link = ((link_frac * n as f64) as usize).min(n - 1);
+        let offset = offset_frac * chain.lengths()[link];
+        let mut qf = vec![0.0; n];
+        chain.add_point_force(q, link, offset, f, &mut qf);
+        let point = |q: &[f64]| {
+            let pts = chain.points(q);
+            let (a, b) = (pts[link], pts[link + 1]);
+            let u = [(b[0] - a[0]) / chain.lengths()[link], (b[1] - a[1]) / chain.lengths()[link]];
+            [a[0] + offset * u[0], a[1] + offset * u[1]]
+        };
+        for j in 0..n {
+            let (p, m) = (point(&shifted(q, j, H)), point(&shifted(q, j, -H)));
+            let work = (f[0] * (p[0] - m[0]) + f[1] * (p[1] - m[1])) / (2.0 * H);
+            prop_assert!((qf[j] - work).abs() < 1e-8);
+        }
+    }
+}
+
+/// Where each link's mass sits, from the public polyline.
+fn mass_points(chain: &Chain, q: &[f64], d: Discretization) -> Vec<[f64; 2]> {
+    let pts = chain.points(q);
+    let skip = usize::from(d == Discretization::Midpoint);
+    let mut out: Vec<[f64; 2]> = (0..chain.len())
+        .map(|j| {
+            let (a, b) = (pts[skip + j], pts[skip + j + 1]);
+            match d {
+                Discretization::Paper => b,
+                Discretization::Midpoint => [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])],
+            }
+        })
+        .collect();
+    out.push(*pts.last().unwrap());
+    out
+}
+
+fn point_masses(chain: &Chain) -> Vec<f64> {
+    let mut m = chain.masses().to_vec();
+    m.push(chain.tip_mass());
+    m
+}
+
+fn rotational_inertias(chain: &Chain, d: Discretization) -> Vec<f64> {
+    chain
+        .lengths()
+        .iter()
+        .zip(chain.masses())
+        .map(|(l, m)| if d == Discretization::Midpoint { m * l * l / 12.0 } else { 0.0 })
+        .collect()
+}
