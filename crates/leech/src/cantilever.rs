@@ -114,3 +114,58 @@ impl StaticSystem for Cantilever {
         self.chain.tip_jacobian(q).iter().zip(dq).map(|(col, d)| (col[0] * nu[0] + col[1] * nu[1]) * d).sum()
     }
 }
+
+/// A single tube described element by element, as on `leech chain`'s
+/// command line. [`CantileverSpec::build`] checks every value.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CantileverSpec {
+    /// Number of elements `n` (1 to [`crate::robot::MAX_LINKS`]).
+    pub elements: usize,
+    /// Element length `l` (m).
+    pub element_length_m: f64,
+    /// Element mass `m` (kg).
+    pub element_mass_kg: f64,
+    /// Joint stiffness `k` (N m/rad).
+    pub joint_stiffness_nm_per_rad: f64,
+    /// Point mass at the tip (kg).
+    pub tip_mass_kg: f64,
+    /// Clamp direction (deg from +x).
+    pub base_angle_deg: f64,
+    /// Gravity (m/s^2).
+    pub gravity_m_per_s2: f64,
+    /// How the tube is cut into links.
+    pub discretization: crate::chain::Discretization,
+}
+
+impl CantileverSpec {
+    /// Validates the values and builds the tube (length `n l`).
+    pub fn build(&self) -> Result<Cantilever, crate::error::InputError> {
+        use crate::error::{non_negative, positive, within, InputError};
+        if self.elements == 0 || self.elements > crate::robot::MAX_LINKS {
+            return Err(InputError::invalid(
+                "elements",
+                self.elements as f64,
+                format!("a whole number from 1 to {}", crate::robot::MAX_LINKS),
+            ));
+        }
+        let l = positive("element_length_m", self.element_length_m)?;
+        let spec = crate::chain::ChainSpec {
+            tube_length: self.elements as f64 * l,
+            element_length: l,
+            element_mass: positive("element_mass_kg", self.element_mass_kg)?,
+            stiffness: positive("joint_stiffness_nm_per_rad", self.joint_stiffness_nm_per_rad)?,
+            damping: 0.0,
+            tip_mass: non_negative("tip_mass_kg", self.tip_mass_kg)?,
+            clamp_point: [0.0, 0.0],
+            clamp_angle: within("base_angle_deg", self.base_angle_deg, -360.0, 360.0)?.to_radians(),
+            discretization: self.discretization,
+        };
+        let gravity = within("gravity_m_per_s2", self.gravity_m_per_s2, 0.0, 1e3)?;
+        Ok(Cantilever::new(Chain::new(&spec), gravity))
+    }
+
+    /// Shape parameter `Pi = k / (m g l)`.
+    pub fn shape_parameter(&self) -> f64 {
+        self.joint_stiffness_nm_per_rad / (self.element_mass_kg * self.gravity_m_per_s2 * self.element_length_m)
+    }
+}

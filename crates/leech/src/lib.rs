@@ -51,6 +51,7 @@
 //! * [`statics`]: the Newton-KKT solver, continuation, stability.
 //! * [`kkt`]: the O(n) bordered tridiagonal solve.
 //! * [`robot`]: robot files (TOML) and the built-in robot.
+//! * [`report`]: serializable results (what the command line prints).
 //! * [`error`]: input errors.
 
 #![warn(missing_docs)]
@@ -60,13 +61,14 @@ pub mod cantilever;
 pub mod chain;
 pub mod error;
 pub mod kkt;
+pub mod report;
 pub mod robot;
 pub mod statics;
 
 /// The types most programs need.
 pub mod prelude {
     pub use crate::body::Body;
-    pub use crate::cantilever::Cantilever;
+    pub use crate::cantilever::{Cantilever, CantileverSpec};
     pub use crate::chain::{Chain, ChainSpec, Discretization};
     pub use crate::error::InputError;
     pub use crate::robot::Robot;

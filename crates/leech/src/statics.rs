@@ -183,13 +183,15 @@ impl Default for SolverOptions {
 }
 
 /// Something that happened on the way to an equilibrium.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Event {
     /// The path met a fold and the body snapped through to another branch.
     Snap {
         /// Which path (`"load"` or `"feed"`).
         stage: &'static str,
         /// Path parameter at the fold (0..1; the fraction of g on the load path).
+        #[serde(rename = "at_path_fraction")]
         at: f64,
         /// Largest angle change across the snap (rad).
         jump_rad: f64,
@@ -199,6 +201,7 @@ pub enum Event {
         /// Which path (`"load"` or `"feed"`).
         stage: &'static str,
         /// Path parameter where the branch was found unstable.
+        #[serde(rename = "at_path_fraction")]
         at: f64,
         /// The side chosen: `"right"` of the clamp direction (towards chain B).
         side: &'static str,

@@ -1,0 +1,256 @@
+//! Figures in physical units: data in metres, axes in millimetres.
+
+use std::path::Path;
+use std::sync::Once;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+/// Errors while drawing or writing a picture.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// The drawing backend failed.
+    #[error("drawing failed: {0}")]
+    Draw(String),
+    /// The picture could not be written.
+    #[error("cannot write {path}: {message}")]
+    Write {
+        /// The file.
+        path: String,
+        /// What went wrong.
+        message: String,
+    },
+    /// Nothing to draw, or a non-finite coordinate.
+    #[error("nothing finite to draw")]
+    Empty,
+}
+
+/// How a series is drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SeriesStyle {
+    /// A line with a dot at every point (a chain and its joints).
+    LineAndDots,
+    /// A plain line.
+    Line,
+    /// A thick line (a plate, the driving unit).
+    Thick,
+    /// Dots only.
+    Dots,
+}
+
+/// One labelled polyline, in metres.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Series {
+    /// Legend text; empty for none.
+    pub label: String,
+    /// Points (m).
+    pub points: Vec<[f64; 2]>,
+    /// Drawing style.
+    pub style: SeriesStyle,
+    /// Colour as RGB.
+    pub color: (u8, u8, u8),
+}
+
+/// A picture: title, series, axes in mm with equal scales.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Figure {
+    /// Title at the top.
+    pub title: String,
+    /// The series, drawn in order.
+    pub series: Vec<Series>,
+    /// Draw an arrow showing gravity (-y) in a corner.
+    pub gravity_arrow: bool,
+    /// Size in pixels (width, height).
+    pub size: (u32, u32),
+}
+
+/// Colours that stay distinguishable in print and for common colour blindness.
+pub const PALETTE: [(u8, u8, u8); 6] =
+    [(0, 114, 178), (213, 94, 0), (0, 158, 115), (204, 121, 167), (86, 180, 233), (230, 159, 0)];
+
+const FONT: &str = "sans-serif";
+
+fn register_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        // The embedded font is valid; a failure here would be a packaging bug.
+        let _ = plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular());
+    });
+}
+
+impl Figure {
+    /// An empty figure with a title.
+    pub fn new(title: impl Into<String>) -> Figure {
+        Figure { title: title.into(), series: Vec::new(), gravity_arrow: false, size: (760, 760) }
+    }
+
+    /// Adds a series.
+    pub fn push(&mut self, label: impl Into<String>, points: Vec<[f64; 2]>, style: SeriesStyle, color: (u8, u8, u8)) {
+        self.series.push(Series { label: label.into(), points, style, color });
+    }
+
+    /// Data bounds in mm, padded, with the aspect ratio `width / height`
+    /// of the plotting area so that a millimetre is as long across as up.
+    fn bounds_mm(&self, aspect: f64) -> Result<((f64, f64), (f64, f64)), PlotError> {
+        let mut lo = [f64::INFINITY; 2];
+        let mut hi = [f64::NEG_INFINITY; 2];
+        for p in self.series.iter().flat_map(|s| s.points.iter()) {
+            if !(p[0].is_finite() && p[1].is_finite()) {
+                return Err(PlotError::Empty);
+            }
+            for k in 0..2 {
+                lo[k] = lo[k].min(p[k] * 1e3);
+                hi[k] = hi[k].max(p[k] * 1e3);
+            }
+        }
+        if !lo[0].is_finite() {
+            return Err(PlotError::Empty);
+        }
+        let mut span = [(hi[0] - lo[0]).max(1.0) * 1.2, (hi[1] - lo[1]).max(1.0) * 1.2];
+        if span[0] / span[1] < aspect {
+            span[0] = span[1] * aspect;
+        } else {
+            span[1] = span[0] / aspect;
+        }
+        let centre = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
+        Ok((
+            (centre[0] - span[0] / 2.0, centre[0] + span[0] / 2.0),
+            (centre[1] - span[1] / 2.0, centre[1] + span[1] / 2.0),
+        ))
+    }
+
+    /// Corners of the plotting area ranked from the emptiest: the legend and
+    /// the gravity arrow go where they hide no data.
+    fn corners_by_emptiness(&self, x: (f64, f64), y: (f64, f64)) -> Vec<usize> {
+        let corner = |i: usize| {
+            let cx = if i % 2 == 0 { x.0 + 0.2 * (x.1 - x.0) } else { x.1 - 0.2 * (x.1 - x.0) };
+            let cy = if i < 2 { y.1 - 0.12 * (y.1 - y.0) } else { y.0 + 0.12 * (y.1 - y.0) };
+            (cx, cy)
+        };
+        let clearance = |i: usize| {
+            let (cx, cy) = corner(i);
+            self.series
+                .iter()
+                .flat_map(|s| s.points.iter())
+                .map(|p| ((p[0] * 1e3 - cx) / (x.1 - x.0)).powi(2) + ((p[1] * 1e3 - cy) / (y.1 - y.0)).powi(2))
+                .fold(f64::INFINITY, f64::min)
+        };
+        let mut order: Vec<usize> = (0..4).collect();
+        order.sort_by(|a, b| clearance(*b).total_cmp(&clearance(*a)));
+        order
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<(), PlotError>
+    where
+        DB::ErrorType: 'static,
+    {
+        const MARGIN: u32 = 12;
+        const X_LABELS: u32 = 45;
+        const Y_LABELS: u32 = 60;
+        const CAPTION: u32 = 34;
+        register_font();
+        let err = |e: DrawingAreaErrorKind<DB::ErrorType>| PlotError::Draw(e.to_string());
+        root.fill(&WHITE).map_err(err)?;
+        let (w, h) = self.size;
+        let plot_w = w.saturating_sub(2 * MARGIN + Y_LABELS).max(1) as f64;
+        let plot_h = h.saturating_sub(2 * MARGIN + X_LABELS + CAPTION).max(1) as f64;
+        let ((x0, x1), (y0, y1)) = self.bounds_mm(plot_w / plot_h)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(&self.title, (FONT, 20))
+            .margin(MARGIN)
+            .x_label_area_size(X_LABELS)
+            .y_label_area_size(Y_LABELS)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(err)?;
+        chart
+            .configure_mesh()
+            .x_desc("x (mm)")
+            .y_desc("y (mm)")
+            .label_style((FONT, 14))
+            .axis_desc_style((FONT, 15))
+            .light_line_style(RGBColor(235, 235, 235))
+            .draw()
+            .map_err(err)?;
+        for s in &self.series {
+            let color = RGBColor(s.color.0, s.color.1, s.color.2);
+            let mm: Vec<(f64, f64)> = s.points.iter().map(|p| (p[0] * 1e3, p[1] * 1e3)).collect();
+            let width = match s.style {
+                SeriesStyle::Thick => 4,
+                _ => 2,
+            };
+            let drawn = match s.style {
+                SeriesStyle::Dots => chart
+                    .draw_series(mm.iter().map(|p| Circle::new(*p, 3, color.filled())))
+                    .map_err(err)?,
+                _ => chart.draw_series(LineSeries::new(mm.clone(), color.stroke_width(width))).map_err(err)?,
+            };
+            if !s.label.is_empty() {
+                drawn.label(s.label.clone()).legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(width))
+                });
+            }
+            if s.style == SeriesStyle::LineAndDots {
+                chart.draw_series(mm.iter().map(|p| Circle::new(*p, 2, color.filled()))).map_err(err)?;
+            }
+        }
+        let corners = self.corners_by_emptiness((x0, x1), (y0, y1));
+        if self.gravity_arrow {
+            let c = corners[1];
+            let len = (y1 - y0) * 0.08;
+            let x = if c % 2 == 0 { x0 + (x1 - x0) * 0.06 } else { x1 - (x1 - x0) * 0.06 };
+            let y = if c < 2 { y1 - (y1 - y0) * 0.04 } else { y0 + (y1 - y0) * 0.04 + len };
+            let black = BLACK.stroke_width(2);
+            chart.draw_series(std::iter::once(PathElement::new(vec![(x, y), (x, y - len)], black))).map_err(err)?;
+            let head = len * 0.3;
+            chart
+                .draw_series(std::iter::once(Polygon::new(
+                    vec![(x, y - len), (x - head * 0.4, y - len + head), (x + head * 0.4, y - len + head)],
+                    BLACK.filled(),
+                )))
+                .map_err(err)?;
+            chart
+                .draw_series(std::iter::once(Text::new("g", (x + (x1 - x0) * 0.012, y - len * 0.3), (FONT, 16))))
+                .map_err(err)?;
+        }
+        let position = match corners[0] {
+            0 => SeriesLabelPosition::UpperLeft,
+            1 => SeriesLabelPosition::UpperRight,
+            2 => SeriesLabelPosition::LowerLeft,
+            _ => SeriesLabelPosition::LowerRight,
+        };
+        chart
+            .configure_series_labels()
+            .label_font((FONT, 14))
+            .background_style(WHITE.mix(0.85))
+            .border_style(RGBColor(180, 180, 180))
+            .position(position)
+            .draw()
+            .map_err(err)?;
+        root.present().map_err(err)?;
+        Ok(())
+    }
+
+    /// The figure as an SVG document.
+    pub fn to_svg_string(&self) -> Result<String, PlotError> {
+        let mut out = String::new();
+        {
+            let root = SVGBackend::with_string(&mut out, self.size).into_drawing_area();
+            self.draw(root)?;
+        }
+        Ok(out)
+    }
+
+    /// Writes the figure as SVG.
+    pub fn write_svg(&self, path: &Path) -> Result<(), PlotError> {
+        let svg = self.to_svg_string()?;
+        std::fs::write(path, svg)
+            .map_err(|e| PlotError::Write { path: path.display().to_string(), message: e.to_string() })
+    }
+
+    /// Writes the figure as PNG.
+    pub fn write_png(&self, path: &Path) -> Result<(), PlotError> {
+        let root = BitMapBackend::new(path, self.size).into_drawing_area();
+        self.draw(root).map_err(|e| PlotError::Write { path: path.display().to_string(), message: e.to_string() })
+    }
+}

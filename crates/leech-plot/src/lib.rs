@@ -1,0 +1,26 @@
+//! # leech-plot: pictures of leech results
+//!
+//! A [`Figure`] is a list of [`Series`] (polylines and markers in metres)
+//! drawn with axes in millimetres, an equal aspect ratio (a shape must not be
+//! distorted), a legend and, optionally, an arrow showing gravity's direction.
+//! It renders to SVG or PNG with an embedded font, so it works on a machine
+//! without system fonts.
+//!
+//! [`shape`] builds the standard pictures of a body and of a single tube.
+//!
+//! ```
+//! use leech::prelude::*;
+//! let robot = Robot::builtin();
+//! let body = robot.body(0.25, 0.22).unwrap();
+//! let eq = body.solve(&Solver::default()).unwrap();
+//! let figure = leech_plot::shape::body_figure(&robot.name, &body, &eq.q);
+//! let svg = figure.to_svg_string().unwrap();
+//! assert!(svg.starts_with("<svg") && svg.contains("chain A"));
+//! ```
+
+#![warn(missing_docs)]
+
+pub mod figure;
+pub mod shape;
+
+pub use figure::{Figure, PlotError, Series, SeriesStyle};

@@ -1,0 +1,39 @@
+//! The standard pictures of an equilibrium: both chains with their joints,
+//! the endpoint plate, the driving unit and gravity's direction.
+
+use leech::body::Body;
+use leech::cantilever::Cantilever;
+
+use crate::figure::{Figure, SeriesStyle, PALETTE};
+
+const GREY: (u8, u8, u8) = (90, 90, 90);
+
+/// The body at configuration `q`: chain A, chain B, the endpoint plate
+/// (from chain A's tip to chain B's) and the driving unit (between the clamps).
+pub fn body_figure(robot: &str, body: &Body, q: &[f64]) -> Figure {
+    let (qa, qb) = body.split(q);
+    let (a, b) = (body.chain_a(), body.chain_b());
+    let (la, lb) = (a.tube_length(), b.tube_length());
+    let mut fig = Figure::new(format!("{robot}: LA = {:.1} mm, LB = {:.1} mm", la * 1e3, lb * 1e3));
+    let pa = a.points(qa);
+    let pb = b.points(qb);
+    fig.push("driving unit", vec![a.clamp_point(), b.clamp_point()], SeriesStyle::Thick, GREY);
+    fig.push("chain A (centre tube)", pa.clone(), SeriesStyle::LineAndDots, PALETTE[0]);
+    fig.push("chain B (side tubes)", pb.clone(), SeriesStyle::LineAndDots, PALETTE[1]);
+    fig.push("endpoint plate", vec![*pa.last().unwrap(), *pb.last().unwrap()], SeriesStyle::Thick, PALETTE[2]);
+    fig.gravity_arrow = body.gravity() > 0.0;
+    fig
+}
+
+/// A single tube at configuration `q`, with its clamp.
+pub fn cantilever_figure(title: &str, tube: &Cantilever, q: &[f64]) -> Figure {
+    let chain = tube.chain();
+    let mut fig = Figure::new(title);
+    let clamp = chain.clamp_point();
+    let back = leech::chain::unit(chain.clamp_angle() + std::f64::consts::PI);
+    let stub = 0.05 * chain.tube_length();
+    fig.push("clamp", vec![[clamp[0] + stub * back[0], clamp[1] + stub * back[1]], clamp], SeriesStyle::Thick, GREY);
+    fig.push("tube", chain.points(q), SeriesStyle::LineAndDots, PALETTE[0]);
+    fig.gravity_arrow = tube.gravity() > 0.0;
+    fig
+}
