@@ -264,8 +264,9 @@ impl<'a> Feeding<'a> {
     fn new(body: &'a Body, la: f64, lb: f64) -> Feeding<'a> {
         let short = la.min(lb);
         let flexible = |chain: &Chain, length: f64| {
-            let root = length - chain.lengths().iter().sum::<f64>();
-            (short - root) / (length - root)
+            let links = chain.lengths().iter().sum::<f64>();
+            let root = length - links;
+            (short - root) / links
         };
         Feeding { body, start_a: flexible(&body.a, la), start_b: flexible(&body.b, lb) }
     }

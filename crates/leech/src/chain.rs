@@ -160,6 +160,7 @@ pub struct Chain {
     clamp_point: [f64; 2],
     clamp_angle: f64,
     root_length: f64,
+    tube_length: f64,
     lengths: Vec<f64>,
     masses: Vec<f64>,
     mass_offsets: Vec<f64>,
@@ -193,6 +194,7 @@ impl Chain {
             clamp_point: spec.clamp_point,
             clamp_angle: spec.clamp_angle,
             root_length,
+            tube_length: spec.tube_length,
             lengths,
             masses,
             mass_offsets,
@@ -271,9 +273,9 @@ impl Chain {
         self.clamp_point
     }
 
-    /// Tube length from the clamp to the tip (m).
+    /// Tube length from the clamp to the tip (m), as given.
     pub fn tube_length(&self) -> f64 {
-        self.root_length + self.lengths.iter().sum::<f64>()
+        self.tube_length
     }
 
     /// Where the first flexible joint sits (m).

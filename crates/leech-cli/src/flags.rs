@@ -1,0 +1,130 @@
+//! Command-line flags. Parsing only: checks of values live in the library,
+//! which names the offending field.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// Exact statics of LEeCH-type soft climbing robots.
+#[derive(Debug, Parser)]
+#[command(name = "leech", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Print a robot description (the built-in robot unless --robot is given).
+    Robot {
+        /// Robot file (TOML).
+        #[arg(long, value_name = "FILE")]
+        robot: Option<PathBuf>,
+        /// Print JSON instead of TOML.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Shape of a single clamped tube under gravity.
+    Chain(ChainArgs),
+    /// Shape of the two-chain body for given tube lengths.
+    Shape(ShapeArgs),
+}
+
+/// Where results go.
+#[derive(Debug, Args)]
+pub struct Output {
+    /// Print the result as JSON on standard output.
+    #[arg(long)]
+    pub json: bool,
+    /// Write a picture as SVG.
+    #[arg(long, value_name = "FILE")]
+    pub svg: Option<PathBuf>,
+    /// Write a picture as PNG.
+    #[arg(long, value_name = "FILE")]
+    pub png: Option<PathBuf>,
+}
+
+/// Discretization choices.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum DiscretizationArg {
+    /// Springs at element starts, masses at element tips (the paper's).
+    Paper,
+    /// Joints at element midpoints (second order in the element length).
+    Midpoint,
+}
+
+impl From<DiscretizationArg> for leech::chain::Discretization {
+    fn from(d: DiscretizationArg) -> Self {
+        match d {
+            DiscretizationArg::Paper => leech::chain::Discretization::Paper,
+            DiscretizationArg::Midpoint => leech::chain::Discretization::Midpoint,
+        }
+    }
+}
+
+/// `leech chain`.
+#[derive(Debug, Args)]
+#[command(allow_negative_numbers = true)]
+pub struct ChainArgs {
+    /// Number of elements.
+    #[arg(long, value_name = "N")]
+    pub elements: usize,
+    /// Element length (m).
+    #[arg(long, value_name = "M")]
+    pub element_length: f64,
+    /// Element mass (kg).
+    #[arg(long, value_name = "KG")]
+    pub element_mass: f64,
+    /// Joint stiffness (N m/rad).
+    #[arg(long, value_name = "NM_PER_RAD")]
+    pub stiffness: f64,
+    /// Point mass at the tip (kg).
+    #[arg(long, value_name = "KG", default_value_t = 0.0)]
+    pub tip_mass: f64,
+    /// Clamp direction (deg from +x; 90 points up).
+    #[arg(long, value_name = "DEG", default_value_t = 0.0)]
+    pub base_angle: f64,
+    /// Gravity (m/s^2).
+    #[arg(long, value_name = "M_PER_S2", default_value_t = 9.81)]
+    pub gravity: f64,
+    /// How the tube is cut into links.
+    #[arg(long, value_enum, default_value_t = DiscretizationArg::Paper)]
+    pub discretization: DiscretizationArg,
+    #[command(flatten)]
+    pub output: Output,
+}
+
+/// `leech shape`.
+#[derive(Debug, Args)]
+#[command(allow_negative_numbers = true)]
+pub struct ShapeArgs {
+    /// Robot file (TOML); the built-in LEeCH robot if absent.
+    #[arg(long, value_name = "FILE")]
+    pub robot: Option<PathBuf>,
+    /// Tube lengths LA (centre tube) and LB (side pair), in m.
+    #[arg(long, value_name = "LA,LB", value_parser = parse_pair, allow_hyphen_values = true)]
+    pub lengths: [f64; 2],
+    /// Clamp direction (deg), overriding the robot file.
+    #[arg(long, value_name = "DEG")]
+    pub base_angle: Option<f64>,
+    /// Gravity (m/s^2), overriding the robot file.
+    #[arg(long, value_name = "M_PER_S2")]
+    pub gravity: Option<f64>,
+    /// Discretization, overriding the robot file.
+    #[arg(long, value_enum)]
+    pub discretization: Option<DiscretizationArg>,
+    #[command(flatten)]
+    pub output: Output,
+}
+
+/// Parses `LA,LB` into two numbers.
+fn parse_pair(text: &str) -> Result<[f64; 2], String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let [a, b] = parts.as_slice() else {
+        return Err(format!("got '{text}', expected two numbers separated by a comma (LA,LB in m)"));
+    };
+    let num = |s: &str| s.parse::<f64>().map_err(|_| format!("got '{s}' in '{text}', expected a number in m"));
+    Ok([num(a)?, num(b)?])
+}

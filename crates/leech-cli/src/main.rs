@@ -1,0 +1,237 @@
+//! The `leech` command: parse, call the library, print. Exit codes: 0 done,
+//! 1 an unexpected failure (for example an unwritable picture), 2 bad input,
+//! 3 a solve that did not converge.
+
+mod flags;
+
+use std::fmt::Write as _;
+use std::path::Path;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::Parser;
+use leech::prelude::*;
+use leech::report::{BodyReport, CantileverReport};
+use leech_plot::Figure;
+
+use flags::{ChainArgs, Cli, Command, Output, ShapeArgs};
+
+/// Why the command stopped.
+enum Failure {
+    /// Bad input: one line naming the field, the value and what is allowed.
+    Input(String),
+    /// A solve that did not converge (with its status for --json).
+    Solve(SolveError, bool),
+    /// Anything else.
+    Other(anyhow::Error),
+}
+
+impl From<InputError> for Failure {
+    fn from(e: InputError) -> Self {
+        Failure::Input(e.to_string())
+    }
+}
+
+impl From<anyhow::Error> for Failure {
+    fn from(e: anyhow::Error) -> Self {
+        Failure::Other(e)
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            use clap::error::ErrorKind;
+            if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
+                print!("{e}");
+                return ExitCode::SUCCESS;
+            }
+            // One line: clap's first, which names the flag and the value.
+            let rendered = e.to_string();
+            eprintln!("leech: {}", rendered.lines().next().unwrap_or("bad arguments").trim_start_matches("error: "));
+            return ExitCode::from(2);
+        }
+    };
+    let mut out = String::new();
+    let result = run(cli, &mut out);
+    emit(&out);
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(Failure::Input(message)) => {
+            eprintln!("leech: {message}");
+            ExitCode::from(2)
+        }
+        Err(Failure::Solve(e, json)) => {
+            if json {
+                emit(&format!("{}\n", solve_failure_json(&e)));
+            }
+            eprintln!("leech: solve failed: {e}");
+            ExitCode::from(3)
+        }
+        Err(Failure::Other(e)) => {
+            eprintln!("leech: {e:#}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+/// Writes to standard output; a closed pipe (`leech ... | head`) is not an error.
+fn emit(text: &str) {
+    use std::io::Write;
+    let mut stdout = std::io::stdout().lock();
+    let _ = stdout.write_all(text.as_bytes()).and_then(|()| stdout.flush());
+}
+
+/// Runs a command, appending what it prints to `out`.
+fn run(cli: Cli, out: &mut String) -> Result<(), Failure> {
+    match cli.command {
+        Command::Robot { robot, json } => {
+            match (&robot, json) {
+                (None, false) => out.push_str(leech::robot::BUILTIN_TOML),
+                (_, false) => out.push_str(&load_robot(robot.as_deref())?.to_toml_string()),
+                (_, true) => writeln!(out, "{}", to_json(&load_robot(robot.as_deref())?)?).unwrap(),
+            }
+            Ok(())
+        }
+        Command::Chain(args) => chain(args, out),
+        Command::Shape(args) => shape(args, out),
+    }
+}
+
+fn load_robot(path: Option<&Path>) -> Result<Robot, Failure> {
+    let Some(path) = path else { return Ok(Robot::builtin()) };
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Failure::Input(format!("--robot: cannot read '{}': {e}", path.display())))?;
+    Robot::from_toml_str(&text).map_err(|e| Failure::Input(format!("{}: {e}", path.display())))
+}
+
+fn to_json<T: serde::Serialize>(value: &T) -> anyhow::Result<String> {
+    serde_json::to_string_pretty(value).context("serializing the result")
+}
+
+fn solve_failure_json(e: &SolveError) -> String {
+    let value = match e {
+        SolveError::NotConverged { stage, iterations, residual, reason } => serde_json::json!({
+            "status": "not_converged", "stage": stage, "iterations": iterations,
+            "residual": residual, "reason": reason,
+        }),
+        SolveError::TimeLimit { iterations, residual, .. } => serde_json::json!({
+            "status": "time_limit", "iterations": iterations, "residual": residual,
+        }),
+        SolveError::BadStart { .. } => serde_json::json!({ "status": "bad_start", "reason": e.to_string() }),
+    };
+    value.to_string()
+}
+
+fn pictures(output: &Output, figure: impl Fn() -> Figure) -> Result<(), Failure> {
+    if let Some(path) = &output.svg {
+        figure().write_svg(path).map_err(|e| Failure::Other(e.into()))?;
+    }
+    if let Some(path) = &output.png {
+        figure().write_png(path).map_err(|e| Failure::Other(e.into()))?;
+    }
+    Ok(())
+}
+
+fn describe_events(events: &[Event], out: &mut String) {
+    for event in events {
+        match event {
+            Event::Snap { stage, at, jump_rad } => writeln!(
+                out,
+                "note: the body snapped through a fold on the {stage} path at {:.1} % (largest angle change {jump_rad:.2} rad)",
+                at * 100.0
+            ),
+            Event::Bifurcation { stage, at, side, jump_rad } => writeln!(
+                out,
+                "note: the {stage} path crossed a symmetric bifurcation at {:.1} %; the body went to the {side} of the clamp direction (largest angle change {jump_rad:.2} rad)",
+                at * 100.0
+            ),
+        }
+        .expect("writing to a String");
+    }
+}
+
+fn chain(args: ChainArgs, out: &mut String) -> Result<(), Failure> {
+    let spec = CantileverSpec {
+        elements: args.elements,
+        element_length_m: args.element_length,
+        element_mass_kg: args.element_mass,
+        joint_stiffness_nm_per_rad: args.stiffness,
+        tip_mass_kg: args.tip_mass,
+        base_angle_deg: args.base_angle,
+        gravity_m_per_s2: args.gravity,
+        discretization: args.discretization.into(),
+    };
+    let tube = spec.build()?;
+    let eq = tube.solve(&Solver::default()).map_err(|e| Failure::Solve(e, args.output.json))?;
+    let report = CantileverReport::new(spec.shape_parameter(), &tube, &eq);
+    if args.output.json {
+        writeln!(out, "{}", to_json(&report)?).expect("writing to a String");
+    } else {
+        writeln!(
+            out,
+            "tube of {} elements, {:.4} m, shape parameter Pi = {:.4}",
+            spec.elements, report.length_m, report.shape_parameter
+        )
+        .expect("writing to a String");
+        writeln!(
+            out,
+            "converged in {} iterations (residual {:.1e}), {}",
+            eq.iterations,
+            eq.residual,
+            if eq.stable { "stable" } else { "UNSTABLE" }
+        )
+        .expect("writing to a String");
+        writeln!(out, "tip at ({:.3}, {:.3}) mm", report.tip_m[0] * 1e3, report.tip_m[1] * 1e3)
+            .expect("writing to a String");
+        describe_events(&eq.events, out);
+    }
+    let title = format!("single tube: {} elements, Pi = {:.3}", spec.elements, report.shape_parameter);
+    pictures(&args.output, || leech_plot::shape::cantilever_figure(&title, &tube, &eq.q))
+}
+
+fn shape(args: ShapeArgs, out: &mut String) -> Result<(), Failure> {
+    let mut robot = load_robot(args.robot.as_deref())?;
+    if let Some(angle) = args.base_angle {
+        robot.world.base_angle_deg = angle;
+    }
+    if let Some(g) = args.gravity {
+        robot.world.gravity_m_per_s2 = g;
+    }
+    if let Some(d) = args.discretization {
+        robot.model.discretization = d.into();
+    }
+    let [la, lb] = args.lengths;
+    let body = robot.body(la, lb)?;
+    let eq = body.solve(&Solver::default()).map_err(|e| Failure::Solve(e, args.output.json))?;
+    let report = BodyReport::new(&robot.name, robot.shape_parameter(), &body, &eq);
+    if args.output.json {
+        writeln!(out, "{}", to_json(&report)?).expect("writing to a String");
+    } else {
+        writeln!(
+            out,
+            "{}: LA = {:.4} m, LB = {:.4} m ({} + {} links, Pi = {:.0})",
+            robot.name, la, lb, report.links[0], report.links[1], report.shape_parameter
+        )
+        .expect("writing to a String");
+        writeln!(
+            out,
+            "converged in {} iterations (residual {:.1e}), {}",
+            eq.iterations,
+            eq.residual,
+            if eq.stable { "stable" } else { "UNSTABLE" }
+        )
+        .expect("writing to a String");
+        writeln!(
+            out,
+            "endpoint at ({:.3}, {:.3}) mm, plate angle {:.3} deg",
+            report.endpoint_m[0] * 1e3,
+            report.endpoint_m[1] * 1e3,
+            report.endpoint_angle_rad.to_degrees()
+        )
+        .expect("writing to a String");
+        describe_events(&eq.events, out);
+    }
+    pictures(&args.output, || leech_plot::shape::body_figure(&robot.name, &body, &eq.q))
+}

@@ -1,0 +1,141 @@
+//! The `leech` binary as a user meets it: exit codes, JSON keys, pictures,
+//! one-line errors.
+
+use assert_cmd::Command;
+use serde_json::Value;
+
+fn leech() -> Command {
+    Command::cargo_bin("leech").expect("binary built")
+}
+
+fn json_of(args: &[&str]) -> Value {
+    let out = leech().args(args).arg("--json").output().unwrap();
+    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    serde_json::from_slice(&out.stdout).expect("stdout is JSON")
+}
+
+/// Runs with bad input and returns stderr, checking exit code 2 and one line.
+fn rejected(args: &[&str]) -> String {
+    let out = leech().args(args).output().unwrap();
+    assert_eq!(out.status.code(), Some(2), "{args:?} should exit 2");
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    assert!(!err.contains("panicked"));
+    err
+}
+
+#[test]
+fn shape_json_has_the_documented_keys() {
+    let v = json_of(&["shape", "--lengths", "0.25,0.20"]);
+    for key in ["status", "stable", "iterations", "residual", "lengths_m", "endpoint_m", "endpoint_angle_rad", "chains"] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    assert_eq!(v["status"], "converged");
+    assert_eq!(v["stable"], true);
+    assert_eq!(v["lengths_m"][0].as_f64().unwrap(), 0.25);
+    for chain in ["a", "b"] {
+        let c = &v["chains"][chain];
+        let points = c["points_m"].as_array().unwrap();
+        let angles = c["angles_rad"].as_array().unwrap();
+        assert_eq!(points.len(), angles.len() + 1, "base then every link tip");
+    }
+    assert_eq!(v["endpoint_m"], v["chains"]["a"]["points_m"].as_array().unwrap().last().unwrap().clone());
+}
+
+#[test]
+fn chain_json_has_the_documented_keys() {
+    let v = json_of(&[
+        "chain", "--elements", "12", "--element-length", "0.01", "--element-mass", "0.001", "--stiffness", "0.05",
+        "--tip-mass", "0.002", "--base-angle", "45", "--discretization", "midpoint",
+    ]);
+    for key in ["status", "angles_rad", "points_m", "tip_m"] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    assert_eq!(v["angles_rad"].as_array().unwrap().len(), 12);
+    // Midpoint: clamp, first joint, then 12 link tips.
+    assert_eq!(v["points_m"].as_array().unwrap().len(), 14);
+}
+
+#[test]
+fn svg_and_png_are_written() {
+    let dir = std::env::temp_dir().join(format!("leech-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (svg, png) = (dir.join("shape.svg"), dir.join("shape.png"));
+    leech()
+        .args(["shape", "--lengths", "0.3,0.28", "--svg"])
+        .arg(&svg)
+        .arg("--png")
+        .arg(&png)
+        .assert()
+        .success();
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.starts_with("<svg") && text.contains("x (mm)"));
+    assert_eq!(&std::fs::read(&png).unwrap()[1..4], b"PNG");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn robot_prints_the_builtin_description() {
+    let out = leech().arg("robot").output().unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("ESTIMATE") && text.contains("payload_kg = 0.021"));
+    let v = json_of(&["robot"]);
+    assert_eq!(v["body"]["payload_kg"], 0.021);
+}
+
+#[test]
+fn bad_input_exits_2_with_one_line() {
+    let e = rejected(&["shape", "--lengths", "0.25,-0.2"]);
+    assert!(e.contains("LB") && e.contains("-0.2"), "{e}");
+    let e = rejected(&["shape", "--lengths", "0.005,0.2"]);
+    assert!(e.contains("LA") && e.contains("one element"), "{e}");
+    let e = rejected(&["shape", "--lengths", "0.25"]);
+    assert!(e.contains("--lengths"), "{e}");
+    rejected(&["shape", "--lengths", "abc,0.2"]);
+    rejected(&["shape", "--lengths", "0.3,nan"]);
+    rejected(&["shape", "--lengths", "0.3,inf"]);
+    rejected(&["shape", "--lengths", "0.3,0.2", "--gravity", "-1"]);
+    rejected(&["shape", "--lengths", "0.3,0.2", "--base-angle", "1e9"]);
+    let e = rejected(&["shape", "--lengths", "0.3,0.2", "--robot", "/no/such/robot.toml"]);
+    assert!(e.contains("--robot"), "{e}");
+    let e = rejected(&["chain", "--elements", "0", "--element-length", "0.01", "--element-mass", "0.001", "--stiffness", "1"]);
+    assert!(e.contains("elements"), "{e}");
+    let e = rejected(&["chain", "--elements", "5", "--element-length", "0.01", "--element-mass", "-1", "--stiffness", "1"]);
+    assert!(e.contains("element_mass_kg") && e.contains("-1"), "{e}");
+    rejected(&["chain", "--elements", "5", "--element-length", "0.01", "--element-mass", "0.001", "--stiffness", "0"]);
+    rejected(&["frobnicate"]);
+}
+
+#[test]
+fn malformed_robot_files_exit_2() {
+    let dir = std::env::temp_dir().join(format!("leech-cli-robot-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let builtin = String::from_utf8(leech().arg("robot").output().unwrap().stdout).unwrap();
+    for (name, text) in [
+        ("unknown.toml", builtin.replace("payload_kg = 0.021", "payload_kg = 0.021\nwings = 2")),
+        ("broken.toml", builtin.replace("[body]", "[body")),
+        ("negative.toml", builtin.replace("element_length_m = 0.01", "element_length_m = -0.01")),
+    ] {
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        let e = rejected(&["shape", "--lengths", "0.2,0.2", "--robot", path.to_str().unwrap()]);
+        assert!(e.contains(name), "names the file: {e}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn snap_through_is_reported() {
+    let dir = std::env::temp_dir().join(format!("leech-cli-snap-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let builtin = String::from_utf8(leech().arg("robot").output().unwrap().stdout).unwrap();
+    let soft = builtin.replace("joint_stiffness_nm_per_rad = 0.5 ", "joint_stiffness_nm_per_rad = 0.004905 ");
+    assert_ne!(soft, builtin);
+    let path = dir.join("soft.toml");
+    std::fs::write(&path, soft).unwrap();
+    let v = json_of(&["shape", "--lengths", "0.15,0.15", "--robot", path.to_str().unwrap()]);
+    assert_eq!(v["events"][0]["kind"], "snap");
+    assert!(v["events"][0]["at_path_fraction"].as_f64().unwrap() > 0.0);
+    std::fs::remove_dir_all(&dir).ok();
+}
