@@ -1,1 +1,47 @@
-fn main(){}
+//! Benchmarks of the static solver (divan). Run with `cargo bench -p leech`.
+
+use leech::prelude::*;
+use leech::statics::Workspace;
+
+fn main() {
+    divan::main();
+}
+
+/// `leech shape --lengths 0.30,0.28` on the built-in robot (30 + 28 links),
+/// from a cold start: feeding at g = 0, then load continuation.
+#[divan::bench]
+fn shape_cold_30_28(bencher: divan::Bencher) {
+    let body = Robot::builtin().body(0.30, 0.28).unwrap();
+    let solver = Solver::default();
+    bencher.bench_local(|| body.solve(divan::black_box(&solver)).unwrap());
+}
+
+/// The same body warm-started from the equilibrium of a neighbouring grid
+/// point (LB 1 mm shorter), as a sweep or planner does.
+#[divan::bench]
+fn shape_warm_30_28(bencher: divan::Bencher) {
+    let robot = Robot::builtin();
+    let solver = Solver::default();
+    let neighbour = robot.body(0.30, 0.279).unwrap().solve(&solver).unwrap();
+    let body = robot.body(0.30, 0.28).unwrap();
+    let mut ws = Workspace::for_system(&body);
+    bencher.bench_local(|| body.solve_from(&solver, divan::black_box(&neighbour.q), &mut ws).unwrap());
+}
+
+/// Cold solves across the paper's length range.
+#[divan::bench(args = [(0.05, 0.05), (0.15, 0.10), (0.30, 0.20), (0.10, 0.30)])]
+fn shape_cold(bencher: divan::Bencher, lengths: (f64, f64)) {
+    let body = Robot::builtin().body(lengths.0, lengths.1).unwrap();
+    let solver = Solver::default();
+    bencher.bench_local(|| body.solve(&solver).unwrap());
+}
+
+/// A single 30-element tube held horizontally.
+#[divan::bench]
+fn chain_cold_30(bencher: divan::Bencher) {
+    let mut robot = Robot::builtin();
+    robot.world.base_angle_deg = 0.0;
+    let tube = robot.cantilever(0.30, 0.0).unwrap();
+    let solver = Solver::default();
+    bencher.bench_local(|| tube.solve(&solver).unwrap());
+}
