@@ -45,6 +45,7 @@ pub struct Body {
     b: Chain,
     tip_spacing: f64,
     gravity: f64,
+    moment_scale: f64,
 }
 
 impl Body {
@@ -52,7 +53,8 @@ impl Body {
     /// payload as its tip mass) with an endpoint plate of width `tip_spacing`
     /// (m), under `gravity` (m/s^2).
     pub fn new(a: Chain, b: Chain, tip_spacing: f64, gravity: f64) -> Body {
-        Body { a, b, tip_spacing, gravity }
+        let moment_scale = a.stiffness().iter().chain(b.stiffness()).fold(0.0f64, |m, k| m.max(*k));
+        Body { a, b, tip_spacing, gravity, moment_scale }
     }
 
     /// The centre tube.
@@ -231,7 +233,7 @@ impl StaticSystem for Body {
     }
 
     fn moment_scale(&self) -> f64 {
-        self.a.stiffness().iter().chain(self.b.stiffness()).fold(0.0, |a, k| a.max(*k))
+        self.moment_scale
     }
 
     fn constraint_scales(&self) -> [f64; MAX_CONSTRAINTS] {
@@ -258,6 +260,7 @@ struct Feeding<'a> {
     body: &'a Body,
     start_a: f64,
     start_b: f64,
+    first_step: f64,
 }
 
 impl<'a> Feeding<'a> {
@@ -268,7 +271,17 @@ impl<'a> Feeding<'a> {
             let root = length - links;
             (short - root) / links
         };
-        Feeding { body, start_a: flexible(&body.a, la), start_b: flexible(&body.b, lb) }
+        // The constant-curvature bend (LB - LA)/w estimates how far the path
+        // turns; about 0.7 rad per step keeps the predictor in Newton's basin.
+        let [pa, pb] = [body.a.clamp_point(), body.b.clamp_point()];
+        let width = 0.5 * ((pb[0] - pa[0]).hypot(pb[1] - pa[1]) + body.tip_spacing);
+        let bend = (la - lb).abs() / width;
+        Feeding {
+            body,
+            start_a: flexible(&body.a, la),
+            start_b: flexible(&body.b, lb),
+            first_step: (0.7 / bend).min(1.0),
+        }
     }
 }
 
@@ -297,5 +310,9 @@ impl StaticSystem for Feeding<'_> {
 
     fn lateral_displacement(&self, q: &[f64], dq: &[f64]) -> f64 {
         self.body.lateral_displacement(q, dq)
+    }
+
+    fn first_step(&self) -> f64 {
+        self.first_step
     }
 }

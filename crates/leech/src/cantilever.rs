@@ -84,7 +84,8 @@ impl StaticSystem for Cantilever {
     }
 
     fn moment_scale(&self) -> f64 {
-        self.chain.stiffness().iter().fold(0.0, |a, k| a.max(*k))
+        // Every joint of a tube has the same k (the last one included).
+        self.chain.stiffness()[0]
     }
 
     fn constraint_scales(&self) -> [f64; MAX_CONSTRAINTS] {

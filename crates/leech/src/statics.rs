@@ -136,6 +136,10 @@ pub trait StaticSystem {
     /// First-order displacement (m) of the endpoint along the right normal of
     /// the clamp direction for a change `dq`: decides the side of a bifurcation.
     fn lateral_displacement(&self, q: &[f64], dq: &[f64]) -> f64;
+    /// The first continuation step to try along `t` (the whole path by default).
+    fn first_step(&self) -> f64 {
+        1.0
+    }
 }
 
 /// Bounds and tolerances of the static solver.
@@ -169,7 +173,7 @@ impl Default for SolverOptions {
     fn default() -> Self {
         SolverOptions {
             tolerance: 1e-11,
-            path_tolerance: 1e-7,
+            path_tolerance: 1e-6,
             max_iterations: 20000,
             max_corrector_iterations: 8,
             max_minimization_iterations: 5000,
@@ -730,7 +734,7 @@ impl Solver {
         // Converge at the start and get factors for the first tangent.
         let mut residual = self.minimize(sys, state, from, stage, ws)?;
         let mut t = from;
-        let mut dt = 1.0 - from;
+        let mut dt = sys.first_step().min(1.0 - from);
         let mut steps = 0;
         self.tangent(state, ws);
         let mut lambda_saved = state.lambda;
