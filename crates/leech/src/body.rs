@@ -246,6 +246,10 @@ impl StaticSystem for Body {
         self.evaluate_with(q, self.gravity, t, [1.0; 2], [0.0; 2], ev);
     }
 
+    fn block_split(&self) -> usize {
+        self.a.len()
+    }
+
     fn lateral_displacement(&self, q: &[f64], dq: &[f64]) -> f64 {
         let (qa, _) = self.split(q);
         let nu = right_normal(self.a.clamp_angle());
@@ -310,6 +314,10 @@ impl StaticSystem for Feeding<'_> {
 
     fn lateral_displacement(&self, q: &[f64], dq: &[f64]) -> f64 {
         self.body.lateral_displacement(q, dq)
+    }
+
+    fn block_split(&self) -> usize {
+        self.body.block_split()
     }
 
     fn first_step(&self) -> f64 {

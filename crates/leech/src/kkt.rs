@@ -51,13 +51,31 @@ pub struct Kkt {
     multipliers: Vec<f64>,
     /// `H^-1 J^T`, interleaved: entry `(i, r)` at `i * MAX_CONSTRAINTS + r`.
     hinv_jt: Vec<f64>,
-    /// Eigen-decomposition of the Schur complement `S = V diag(w) V^T`.
-    schur_values: [f64; MAX_CONSTRAINTS],
-    schur_vectors: [[f64; MAX_CONSTRAINTS]; MAX_CONSTRAINTS],
+    /// Factors of the Schur complement `S = J H^-1 J^T`.
+    schur: Schur,
     negative_pivots: usize,
+    /// Where the second independent block starts (`n` for one block).
+    split: usize,
 }
 
 impl Kkt {
+    /// Scratch for `n` unknowns and `m` constraints whose tridiagonal block
+    /// splits into two independent blocks at `split` (the off-diagonal entry
+    /// `split - 1` is zero); with `split = n` (or 0) it is one block. A split
+    /// whose coupling entry is not zero at factor time is ignored.
+    pub fn with_blocks(n: usize, m: usize, split: usize) -> Kkt {
+        let mut kkt = Kkt::new(n, m);
+        kkt.split = if split == 0 { n } else { split.min(n) };
+        kkt
+    }
+
+    fn split_for(&mut self, off: &[f64]) -> usize {
+        if self.split < self.n && off[self.split - 1] != 0.0 {
+            self.split = self.n;
+        }
+        self.split
+    }
+
     /// Scratch for `n` unknowns and `m` constraints.
     pub fn new(n: usize, m: usize) -> Kkt {
         assert!(m <= MAX_CONSTRAINTS, "at most {MAX_CONSTRAINTS} constraints");
@@ -67,6 +85,7 @@ impl Kkt {
             pivots: vec![0.0; n],
             multipliers: vec![0.0; n],
             hinv_jt: vec![0.0; n * MAX_CONSTRAINTS],
+            split: n,
             ..Kkt::default()
         }
     }
@@ -84,40 +103,31 @@ impl Kkt {
     pub fn factor(&mut self, diag: &[f64], off: &[f64], shift: f64, jac: &[f64], tiny: f64) -> Inertia {
         const M: usize = MAX_CONSTRAINTS;
         let (n, m) = (self.n, self.m);
-        let mut negative = 0;
+        let split = self.split_for(off);
         let mut singular = false;
         // The factorization and the forward substitution of the border
-        // columns share one pass; the columns are interleaved so that their
-        // independent recurrences overlap in the pipeline.
+        // columns share one pass. The columns are interleaved and the two
+        // independent blocks walked side by side, so that their serial
+        // recurrences overlap in the pipeline.
         let z = &mut self.hinv_jt[..n * M];
         let (pivots, multipliers) = (&mut self.pivots[..n], &mut self.multipliers[..n]);
-        let mut prev = [0.0; M];
-        let mut mult_prev = 0.0;
-        let mut off_prev = 0.0;
-        for (i, (zi, ji)) in z.chunks_exact_mut(M).zip(jac.chunks_exact(M)).enumerate() {
-            let d0 = diag[i] + shift - mult_prev * off_prev;
-            let d = if d0.abs() > tiny {
-                d0
-            } else {
-                // Keep the factors finite; the caller does not step with them.
-                singular = true;
-                if d0 < 0.0 {
-                    -tiny
-                } else {
-                    tiny
-                }
-            };
-            negative += usize::from(d < 0.0);
-            let inv = 1.0 / d;
-            pivots[i] = inv;
-            for r in 0..M {
-                prev[r] = ji[r] - mult_prev * prev[r];
-                zi[r] = prev[r];
+        let mut lanes = [Forward::default(), Forward::default()];
+        let (first, second) = (split, n - split);
+        for i in 0..first.max(second) {
+            // Two separately named lanes stay in registers; indexing one array
+            // by lane would serialize them through memory.
+            let [lane0, lane1] = &mut lanes;
+            if i < first {
+                let ok = lane0.step(i, diag[i] + shift, off, &jac[i * M..i * M + M], tiny, pivots, multipliers, z);
+                singular |= !ok;
             }
-            off_prev = if i + 1 < n { off[i] } else { 0.0 };
-            mult_prev = off_prev * inv;
-            multipliers[i] = mult_prev;
+            if i < second {
+                let j = split + i;
+                let ok = lane1.step(j, diag[j] + shift, off, &jac[j * M..j * M + M], tiny, pivots, multipliers, z);
+                singular |= !ok;
+            }
         }
+        let negative = lanes[0].negative + lanes[1].negative;
         self.negative_pivots = negative;
         if singular {
             return Inertia::Singular;
@@ -126,18 +136,22 @@ impl Kkt {
             return if negative == 0 { Inertia::Minimum } else { Inertia::Indefinite { negative } };
         }
         // Back substitution, accumulating S = J H^-1 J^T on the way.
-        let mut next = [0.0; M];
-        let mut s = [[0.0; M]; M];
-        for i in (0..n).rev() {
-            let (zi, ji) = (&mut z[i * M..i * M + M], &jac[i * M..i * M + M]);
-            for r in 0..M {
-                next[r] = zi[r] * pivots[i] - multipliers[i] * next[r];
-                zi[r] = next[r];
+        let (mut back0, mut back1) = (Backward::default(), Backward::default());
+        let (first, second) = (split, n - split);
+        for i in 0..first.max(second) {
+            if i < first {
+                let j = split - 1 - i;
+                back0.step(pivots[j], multipliers[j], &jac[j * M..j * M + M], &mut z[j * M..j * M + M]);
             }
-            for a in 0..M {
-                for b in 0..M {
-                    s[a][b] += ji[a] * next[b];
-                }
+            if i < second {
+                let j = n - 1 - i;
+                back1.step(pivots[j], multipliers[j], &jac[j * M..j * M + M], &mut z[j * M..j * M + M]);
+            }
+        }
+        let mut s = back0.schur;
+        for a in 0..M {
+            for b in 0..M {
+                s[a][b] += back1.schur[a][b];
             }
         }
         for a in 0..m {
@@ -147,14 +161,10 @@ impl Kkt {
                 s[b][a] = v;
             }
         }
-        let (w, v) = symmetric_eigen(s, m);
-        self.schur_values = w;
-        self.schur_vectors = v;
-        let scale = w[..m].iter().fold(0.0f64, |acc, x| acc.max(x.abs()));
-        if scale == 0.0 || w[..m].iter().any(|x| x.abs() <= 1e-13 * scale) {
+        self.schur = Schur::factor(s, m);
+        let Some(positive) = self.schur.positive(m) else {
             return Inertia::Singular;
-        }
-        let positive = w[..m].iter().filter(|x| **x > 0.0).count();
+        };
         let total_negative = negative + positive;
         if total_negative == m {
             Inertia::Minimum
@@ -173,7 +183,8 @@ impl Kkt {
         const M: usize = MAX_CONSTRAINTS;
         let m = self.m;
         x.copy_from_slice(r);
-        tridiagonal_solve_in_place(&self.pivots, &self.multipliers, x);
+        let split = self.split.min(self.n);
+        tridiagonal_solve_in_place(&self.pivots, &self.multipliers, split, x);
         if m == 0 {
             return;
         }
@@ -186,21 +197,7 @@ impl Kkt {
         for row in 0..m {
             rhs[row] -= c[row];
         }
-        // y = V diag(1/w) V^T rhs
-        let mut t = [0.0; M];
-        for k in 0..m {
-            let mut acc = 0.0;
-            for row in 0..m {
-                acc += self.schur_vectors[row][k] * rhs[row];
-            }
-            t[k] = acc / self.schur_values[k];
-        }
-        let mut yy = [0.0; M];
-        for row in 0..m {
-            for k in 0..m {
-                yy[row] += self.schur_vectors[row][k] * t[k];
-            }
-        }
+        let yy = self.schur.solve(rhs, m);
         y[..m].copy_from_slice(&yy[..m]);
         for (xi, zi) in x.iter_mut().zip(self.hinv_jt.chunks_exact(M)) {
             *xi -= zi[0] * yy[0] + zi[1] * yy[1] + zi[2] * yy[2];
@@ -208,17 +205,187 @@ impl Kkt {
     }
 }
 
-/// Solves `L D L^T x = b` in place for the tridiagonal factors (reciprocal pivots).
-fn tridiagonal_solve_in_place(inv_pivots: &[f64], multipliers: &[f64], x: &mut [f64]) {
+/// Solves `L D L^T x = b` in place for the tridiagonal factors (reciprocal
+/// pivots), walking the blocks `[0, split)` and `[split, n)` side by side.
+fn tridiagonal_solve_in_place(inv_pivots: &[f64], multipliers: &[f64], split: usize, x: &mut [f64]) {
     let n = x.len();
-    for i in 1..n {
-        x[i] -= multipliers[i - 1] * x[i - 1];
+    let (first, second) = (split, n - split);
+    let (mut carry0, mut carry1) = (0.0, 0.0);
+    for i in 0..first.max(second) {
+        if i < first {
+            x[i] -= carry0;
+            carry0 = multipliers[i] * x[i];
+        }
+        if i < second {
+            let j = split + i;
+            x[j] -= carry1;
+            carry1 = multipliers[j] * x[j];
+        }
     }
-    for i in 0..n {
-        x[i] *= inv_pivots[i];
+    let (mut next0, mut next1) = (0.0, 0.0);
+    for i in 0..first.max(second) {
+        if i < first {
+            let j = split - 1 - i;
+            x[j] = x[j] * inv_pivots[j] - multipliers[j] * next0;
+            next0 = x[j];
+        }
+        if i < second {
+            let j = n - 1 - i;
+            x[j] = x[j] * inv_pivots[j] - multipliers[j] * next1;
+            next1 = x[j];
+        }
     }
-    for i in (0..n.saturating_sub(1)).rev() {
-        x[i] -= multipliers[i] * x[i + 1];
+}
+
+/// One lane of the forward pass: the LDL^T recurrence and the forward
+/// substitution of the border columns.
+#[derive(Clone, Copy, Default)]
+struct Forward {
+    prev: [f64; MAX_CONSTRAINTS],
+    mult: f64,
+    off: f64,
+    negative: usize,
+}
+
+impl Forward {
+    /// Processes row `i` with shifted diagonal `a`; false on a tiny pivot.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn step(
+        &mut self,
+        i: usize,
+        a: f64,
+        off: &[f64],
+        jac: &[f64],
+        tiny: f64,
+        pivots: &mut [f64],
+        multipliers: &mut [f64],
+        z: &mut [f64],
+    ) -> bool {
+        const M: usize = MAX_CONSTRAINTS;
+        let d0 = a - self.mult * self.off;
+        let ok = d0.abs() > tiny;
+        // Keep the factors finite on a tiny pivot; the caller does not step with them.
+        let d = if ok { d0 } else if d0 < 0.0 { -tiny } else { tiny };
+        self.negative += usize::from(d < 0.0);
+        let inv = 1.0 / d;
+        pivots[i] = inv;
+        for r in 0..M {
+            self.prev[r] = jac[r] - self.mult * self.prev[r];
+            z[i * M + r] = self.prev[r];
+        }
+        self.off = if i < off.len() { off[i] } else { 0.0 };
+        self.mult = self.off * inv;
+        multipliers[i] = self.mult;
+        ok
+    }
+}
+
+/// One lane of the back substitution, accumulating its share of `J H^-1 J^T`.
+#[derive(Clone, Copy, Default)]
+struct Backward {
+    next: [f64; MAX_CONSTRAINTS],
+    schur: [[f64; MAX_CONSTRAINTS]; MAX_CONSTRAINTS],
+}
+
+impl Backward {
+    #[inline(always)]
+    fn step(&mut self, inv_pivot: f64, multiplier: f64, jac: &[f64], z: &mut [f64]) {
+        for r in 0..MAX_CONSTRAINTS {
+            self.next[r] = z[r] * inv_pivot - multiplier * self.next[r];
+            z[r] = self.next[r];
+        }
+        for a in 0..MAX_CONSTRAINTS {
+            for b in 0..MAX_CONSTRAINTS {
+                self.schur[a][b] += jac[a] * self.next[b];
+            }
+        }
+    }
+}
+
+/// Factors of the small Schur complement: `L D L^T` without pivoting when
+/// its pivots are safely away from zero (the usual case, a few flops), an
+/// eigen-decomposition otherwise (robust when `S` is indefinite or nearly
+/// singular). Both give the inertia by Sylvester's law.
+#[derive(Clone, Copy, Debug)]
+enum Schur {
+    Ldl { l: [[f64; MAX_CONSTRAINTS]; MAX_CONSTRAINTS], d: [f64; MAX_CONSTRAINTS] },
+    Eigen { w: [f64; MAX_CONSTRAINTS], v: [[f64; MAX_CONSTRAINTS]; MAX_CONSTRAINTS] },
+}
+
+impl Default for Schur {
+    fn default() -> Self {
+        Schur::Eigen { w: [1.0; MAX_CONSTRAINTS], v: [[0.0; MAX_CONSTRAINTS]; MAX_CONSTRAINTS] }
+    }
+}
+
+impl Schur {
+    fn factor(s: [[f64; MAX_CONSTRAINTS]; MAX_CONSTRAINTS], m: usize) -> Schur {
+        let mut l = [[0.0; MAX_CONSTRAINTS]; MAX_CONSTRAINTS];
+        let mut d = [0.0; MAX_CONSTRAINTS];
+        let mut safe = true;
+        for j in 0..m {
+            let mut dj = s[j][j];
+            for k in 0..j {
+                dj -= l[j][k] * l[j][k] * d[k];
+            }
+            // A pivot that lost most of its diagonal to cancellation is not trusted.
+            safe &= dj.abs() > 1e-8 * s[j][j].abs() && dj != 0.0;
+            d[j] = dj;
+            for i in j + 1..m {
+                let mut v = s[i][j];
+                for k in 0..j {
+                    v -= l[i][k] * l[j][k] * d[k];
+                }
+                l[i][j] = v / dj;
+            }
+        }
+        if safe {
+            Schur::Ldl { l, d }
+        } else {
+            let (w, v) = symmetric_eigen(s, m);
+            Schur::Eigen { w, v }
+        }
+    }
+
+    /// Number of positive eigenvalues, or `None` when `S` is numerically singular.
+    fn positive(&self, m: usize) -> Option<usize> {
+        let values = match self {
+            Schur::Ldl { d, .. } => d,
+            Schur::Eigen { w, .. } => w,
+        };
+        let scale = values[..m].iter().fold(0.0f64, |acc, x| acc.max(x.abs()));
+        if scale == 0.0 || values[..m].iter().any(|x| x.abs() <= 1e-13 * scale) {
+            return None;
+        }
+        Some(values[..m].iter().filter(|x| **x > 0.0).count())
+    }
+
+    fn solve(&self, rhs: [f64; MAX_CONSTRAINTS], m: usize) -> [f64; MAX_CONSTRAINTS] {
+        let mut y = [0.0; MAX_CONSTRAINTS];
+        match self {
+            Schur::Ldl { l, d } => {
+                for i in 0..m {
+                    y[i] = rhs[i] - (0..i).map(|k| l[i][k] * y[k]).sum::<f64>();
+                }
+                for i in 0..m {
+                    y[i] /= d[i];
+                }
+                for i in (0..m).rev() {
+                    y[i] -= (i + 1..m).map(|k| l[k][i] * y[k]).sum::<f64>();
+                }
+            }
+            Schur::Eigen { w, v } => {
+                // y = V diag(1/w) V^T rhs
+                for k in 0..m {
+                    let t = (0..m).map(|row| v[row][k] * rhs[row]).sum::<f64>() / w[k];
+                    for row in 0..m {
+                        y[row] += v[row][k] * t;
+                    }
+                }
+            }
+        }
+        y
     }
 }
 
@@ -340,6 +507,31 @@ mod tests {
         }
         for row in 0..m {
             assert!((y[row] - reference[n + row]).abs() < 1e-12, "y[{row}]");
+        }
+    }
+
+    #[test]
+    fn two_block_solve_matches_dense_elimination() {
+        let n = 9;
+        let diag: Vec<f64> = (0..n).map(|i| 2.5 + (i as f64 * 1.3).cos()).collect();
+        let mut off: Vec<f64> = (0..n - 1).map(|i| -0.8 + 0.2 * (i as f64).sin()).collect();
+        for split in [4, 5, 1, 8] {
+            off[split - 1] = 0.0;
+            let jac: Vec<f64> = (0..n * 3).map(|i| ((i * 5 % 13) as f64 - 6.0) / 4.0).collect();
+            let r: Vec<f64> = (0..n).map(|i| (i as f64 * 0.4).sin()).collect();
+            let c = [0.1, 0.7, -0.4];
+            let mut kkt = Kkt::with_blocks(n, 3, split);
+            kkt.factor(&diag, &off, 0.0, &jac, 1e-300);
+            let (mut x, mut y) = (vec![0.0; n], [0.0; 3]);
+            kkt.solve(&jac, &r, &c, &mut x, &mut y);
+            let reference = dense_solve(&diag, &off, &jac, 3, &r, &c);
+            for i in 0..n {
+                assert!((x[i] - reference[i]).abs() < 1e-12, "split {split}, x[{i}]");
+            }
+            for row in 0..3 {
+                assert!((y[row] - reference[n + row]).abs() < 1e-12, "split {split}, y[{row}]");
+            }
+            off[split - 1] = -0.5;
         }
     }
 

@@ -136,6 +136,11 @@ pub trait StaticSystem {
     /// First-order displacement (m) of the endpoint along the right normal of
     /// the clamp direction for a change `dq`: decides the side of a bifurcation.
     fn lateral_displacement(&self, q: &[f64], dq: &[f64]) -> f64;
+    /// Where the Hessian splits into two independent tridiagonal blocks (the
+    /// first coordinate of the second block); `dim()` for one block.
+    fn block_split(&self) -> usize {
+        self.dim()
+    }
     /// The first continuation step to try along `t` (the whole path by default).
     fn first_step(&self) -> f64 {
         1.0
@@ -293,12 +298,17 @@ pub struct Workspace {
 impl Workspace {
     /// Scratch for a system of `n` coordinates and `m` constraints.
     pub fn new(n: usize, m: usize) -> Workspace {
+        Workspace::with_blocks(n, m, n)
+    }
+
+    /// Scratch for a system whose Hessian splits into two blocks at `split`.
+    pub fn with_blocks(n: usize, m: usize, split: usize) -> Workspace {
         Workspace {
             n,
             m,
             current: Evaluation::new(n, m),
             trial: Evaluation::new(n, m),
-            kkt: Kkt::new(n, m),
+            kkt: Kkt::with_blocks(n, m, split),
             residual: vec![0.0; n],
             lagrangian_diag: vec![0.0; n],
             step: vec![0.0; n],
@@ -313,7 +323,7 @@ impl Workspace {
 
     /// Scratch sized for `system`.
     pub fn for_system<S: StaticSystem + ?Sized>(system: &S) -> Workspace {
-        Workspace::new(system.dim(), system.constraint_count())
+        Workspace::with_blocks(system.dim(), system.constraint_count(), system.block_split())
     }
 
     fn fits<S: StaticSystem + ?Sized>(&self, system: &S) -> bool {
