@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use leech::statics::SolverOptions;
 
 /// Exact statics of LEeCH-type soft climbing robots.
 #[derive(Debug, Parser)]
@@ -92,6 +93,9 @@ pub struct ChainArgs {
     /// How the tube is cut into links.
     #[arg(long, value_enum, default_value_t = DiscretizationArg::Paper)]
     pub discretization: DiscretizationArg,
+    /// Newton iterations allowed for the whole solve.
+    #[arg(long, value_name = "N", default_value_t = SolverOptions::default().max_iterations)]
+    pub max_iterations: usize,
     #[command(flatten)]
     pub output: Output,
 }
@@ -115,6 +119,9 @@ pub struct ShapeArgs {
     /// Discretization, overriding the robot file.
     #[arg(long, value_enum)]
     pub discretization: Option<DiscretizationArg>,
+    /// Newton iterations allowed for the whole solve.
+    #[arg(long, value_name = "N", default_value_t = SolverOptions::default().max_iterations)]
+    pub max_iterations: usize,
     #[command(flatten)]
     pub output: Output,
 }

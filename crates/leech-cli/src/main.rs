@@ -134,8 +134,17 @@ fn pictures(output: &Output, figure: impl Fn() -> Figure) -> Result<(), Failure>
     Ok(())
 }
 
-fn describe_events(events: &[Event], out: &mut String) {
-    for event in events {
+/// The human-readable status lines of a solve.
+fn describe_solution(eq: &Equilibrium, out: &mut String) {
+    writeln!(
+        out,
+        "converged in {} iterations (residual {:.1e}), {}",
+        eq.iterations,
+        eq.residual,
+        if eq.stable { "stable" } else { "UNSTABLE" }
+    )
+    .expect("writing to a String");
+    for event in &eq.events {
         match event {
             Event::Snap { stage, at, jump_rad } => writeln!(
                 out,
@@ -152,6 +161,11 @@ fn describe_events(events: &[Event], out: &mut String) {
     }
 }
 
+/// The solver with the command line's iteration bound.
+fn solver(max_iterations: usize) -> Solver {
+    Solver::new(SolverOptions { max_iterations, ..SolverOptions::default() })
+}
+
 fn chain(args: ChainArgs, out: &mut String) -> Result<(), Failure> {
     let spec = CantileverSpec {
         elements: args.elements,
@@ -164,7 +178,7 @@ fn chain(args: ChainArgs, out: &mut String) -> Result<(), Failure> {
         discretization: args.discretization.into(),
     };
     let tube = spec.build()?;
-    let eq = tube.solve(&Solver::default()).map_err(|e| Failure::Solve(e, args.output.json))?;
+    let eq = tube.solve(&solver(args.max_iterations)).map_err(|e| Failure::Solve(e, args.output.json))?;
     let report = CantileverReport::new(spec.shape_parameter(), &tube, &eq);
     if args.output.json {
         writeln!(out, "{}", to_json(&report)?).expect("writing to a String");
@@ -175,17 +189,9 @@ fn chain(args: ChainArgs, out: &mut String) -> Result<(), Failure> {
             spec.elements, report.length_m, report.shape_parameter
         )
         .expect("writing to a String");
-        writeln!(
-            out,
-            "converged in {} iterations (residual {:.1e}), {}",
-            eq.iterations,
-            eq.residual,
-            if eq.stable { "stable" } else { "UNSTABLE" }
-        )
-        .expect("writing to a String");
         writeln!(out, "tip at ({:.3}, {:.3}) mm", report.tip_m[0] * 1e3, report.tip_m[1] * 1e3)
             .expect("writing to a String");
-        describe_events(&eq.events, out);
+        describe_solution(&eq, out);
     }
     let title = format!("single tube: {} elements, Pi = {:.3}", spec.elements, report.shape_parameter);
     pictures(&args.output, || leech_plot::shape::cantilever_figure(&title, &tube, &eq.q))
@@ -204,7 +210,7 @@ fn shape(args: ShapeArgs, out: &mut String) -> Result<(), Failure> {
     }
     let [la, lb] = args.lengths;
     let body = robot.body(la, lb)?;
-    let eq = body.solve(&Solver::default()).map_err(|e| Failure::Solve(e, args.output.json))?;
+    let eq = body.solve(&solver(args.max_iterations)).map_err(|e| Failure::Solve(e, args.output.json))?;
     let report = BodyReport::new(&robot.name, robot.shape_parameter(), &body, &eq);
     if args.output.json {
         writeln!(out, "{}", to_json(&report)?).expect("writing to a String");
@@ -217,21 +223,13 @@ fn shape(args: ShapeArgs, out: &mut String) -> Result<(), Failure> {
         .expect("writing to a String");
         writeln!(
             out,
-            "converged in {} iterations (residual {:.1e}), {}",
-            eq.iterations,
-            eq.residual,
-            if eq.stable { "stable" } else { "UNSTABLE" }
-        )
-        .expect("writing to a String");
-        writeln!(
-            out,
             "endpoint at ({:.3}, {:.3}) mm, plate angle {:.3} deg",
             report.endpoint_m[0] * 1e3,
             report.endpoint_m[1] * 1e3,
             report.endpoint_angle_rad.to_degrees()
         )
         .expect("writing to a String");
-        describe_events(&eq.events, out);
+        describe_solution(&eq, out);
     }
     pictures(&args.output, || leech_plot::shape::body_figure(&robot.name, &body, &eq.q))
 }

@@ -216,10 +216,7 @@ impl Body {
     /// The equilibrium reached from a given state (warm start) with gravity on,
     /// as sweeps and planners that follow the actuation history use it.
     pub fn solve_from(&self, solver: &Solver, q0: &[f64], ws: &mut Workspace) -> Result<Equilibrium, SolveError> {
-        Solver::check_start(self, q0)?;
-        let mut state = State::new(q0.to_vec());
-        let residual = solver.minimize(self, &mut state, 1.0, "warm start", ws)?;
-        Ok(solver.finish(self, state, residual, ws))
+        solver.warm_start(self, q0, ws)
     }
 }
 

@@ -67,10 +67,7 @@ impl Cantilever {
 
     /// The equilibrium reached from `q0` with gravity on (warm start).
     pub fn solve_from(&self, solver: &Solver, q0: &[f64], ws: &mut Workspace) -> Result<Equilibrium, SolveError> {
-        Solver::check_start(self, q0)?;
-        let mut state = State::new(q0.to_vec());
-        let residual = solver.minimize(self, &mut state, 1.0, "warm start", ws)?;
-        Ok(solver.finish(self, state, residual, ws))
+        solver.warm_start(self, q0, ws)
     }
 }
 

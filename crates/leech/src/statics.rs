@@ -27,7 +27,7 @@
 //! null space of `J`; the factorization reports it for free (Sylvester's law of
 //! inertia).
 //!
-//! *Continuation.* [`Continuation::run`] follows a one-parameter family of
+//! *Continuation.* [`Solver::continuation`] follows a one-parameter family of
 //! problems `t in [0, 1]` (gravity raised from 0 to g; tubes fed from equal
 //! lengths) with a tangent predictor (`dF/dt` from the system, one extra
 //! solve with the converged factors) and a Newton corrector, doubling the
@@ -851,6 +851,20 @@ impl Solver {
             steps: state.steps,
             events: state.events,
         }
+    }
+
+    /// The equilibrium reached from `q0` at `t = 1` without continuation (a
+    /// warm start), with the same stability handling as every other stage.
+    pub fn warm_start<S: StaticSystem + ?Sized>(
+        &self,
+        sys: &S,
+        q0: &[f64],
+        ws: &mut Workspace,
+    ) -> Result<Equilibrium, SolveError> {
+        Solver::check_start(sys, q0)?;
+        let mut state = State::new(q0.to_vec());
+        let residual = self.minimize(sys, &mut state, 1.0, "warm start", ws)?;
+        Ok(self.finish(sys, state, residual, ws))
     }
 
     /// Checks a warm start's size and finiteness.

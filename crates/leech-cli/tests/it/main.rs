@@ -139,3 +139,18 @@ fn snap_through_is_reported() {
     assert!(v["events"][0]["at_path_fraction"].as_f64().unwrap() > 0.0);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn failed_solve_exits_3_with_status() {
+    let out = leech().args(["shape", "--lengths", "0.3,0.2", "--max-iterations", "2", "--json"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(3));
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["status"], "not_converged");
+    assert!(v["iterations"].as_u64().unwrap() <= 2);
+    assert!(v["residual"].as_f64().unwrap() > 0.0);
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(err.contains("not converged") && err.contains("residual"), "{err}");
+    let out = leech().args(["chain", "--elements", "30", "--element-length", "0.01", "--element-mass", "0.001",
+        "--stiffness", "0.01", "--max-iterations", "1"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(3));
+}

@@ -182,6 +182,33 @@ proptest! {
         }
     }
 
+    /// Springs and dampers: `Q = -dV_s/dq - dR/d(dq)` with the Rayleigh
+    /// function `R = sum_j d_j/2 (dphi_j - dphi_{j-1})^2` (clamp rate 0).
+    #[test]
+    fn spring_and_damper_forces(
+        length in 0.01f64..0.075,
+        seed in prop::collection::vec(-3.0f64..3.0, 16),
+    ) {
+        let chain = Chain::new(&spec(length, 0.0, 0.3, Discretization::Paper));
+        let n = chain.len();
+        let (q, dq) = (&seed[..n], &seed[8..8 + n]);
+        let mut forces = vec![0.0; n];
+        chain.elastic_forces(q, dq, &mut forces);
+        let rayleigh = |dq: &[f64]| -> f64 {
+            let mut prev = 0.0;
+            dq.iter().zip(chain.damping()).map(|(w, d)| {
+                let r = 0.5 * d * (w - prev) * (w - prev);
+                prev = *w;
+                r
+            }).sum()
+        };
+        for j in 0..n {
+            let dv = (chain.spring_energy(&shifted(q, j, H)) - chain.spring_energy(&shifted(q, j, -H))) / (2.0 * H);
+            let dr = (rayleigh(&shifted(dq, j, H)) - rayleigh(&shifted(dq, j, -H))) / (2.0 * H);
+            prop_assert!((forces[j] + dv + dr).abs() < 1e-8, "link {j}");
+        }
+    }
+
     /// A point force does virtual work `Q . dq = f . dr`.
     #[test]
     fn point_force_is_virtual_work(
