@@ -48,6 +48,7 @@
 //! * [`chain`]: one tube as a chain of links; discretizations, kinematics, energy.
 //! * [`cantilever`]: a single clamped tube under gravity.
 //! * [`body`]: the two-chain body and its endpoint weld.
+//! * [`constant_curvature`]: the kinematic constant-curvature model, planar and tri-tube.
 //! * [`statics`]: the Newton-KKT solver, continuation, stability.
 //! * [`kkt`]: the O(n) bordered tridiagonal solve.
 //! * [`robot`]: robot files (TOML) and the built-in robot.
@@ -59,6 +60,7 @@
 pub mod body;
 pub mod cantilever;
 pub mod chain;
+pub mod constant_curvature;
 pub mod error;
 pub mod kkt;
 pub mod report;
@@ -70,6 +72,7 @@ pub mod prelude {
     pub use crate::body::Body;
     pub use crate::cantilever::{Cantilever, CantileverSpec};
     pub use crate::chain::{Chain, ChainSpec, Discretization};
+    pub use crate::constant_curvature::{PlanarBody, TriTube};
     pub use crate::error::InputError;
     pub use crate::robot::Robot;
     pub use crate::statics::{Equilibrium, Event, SolveError, Solver, SolverOptions, StaticSystem, Workspace};

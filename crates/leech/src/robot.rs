@@ -209,6 +209,37 @@ impl Robot {
             / (self.tube.element_mass_kg * self.world.gravity_m_per_s2 * self.tube.element_length_m)
     }
 
+    /// The same robot with shape parameter `pi`, set by scaling the joint
+    /// stiffness: `k = Pi m g l` (masses and geometry unchanged).
+    pub fn with_shape_parameter(&self, pi: f64) -> Result<Robot, InputError> {
+        let pi = positive("shape parameter", pi)?;
+        let g = positive("world.gravity_m_per_s2 (the shape parameter needs gravity)", self.world.gravity_m_per_s2)?;
+        let mut robot = self.clone();
+        robot.tube.joint_stiffness_nm_per_rad = pi * self.tube.element_mass_kg * g * self.tube.element_length_m;
+        robot.validate()?;
+        Ok(robot)
+    }
+
+    /// The robot scaled in size by `factor` with the same shape parameter and
+    /// payload ratio (MODEL.md section 7): lengths `l, b, c` times `s`, the
+    /// tube's mass per length kept (`m` and `ms` times `s`), so `k` times `s^2`
+    /// keeps `Pi = k/(m g l)`; damping times `s^2.5` keeps the damping ratio.
+    /// Tube lengths must be scaled by `s` too for the same shape: the angles
+    /// are then unchanged and every position is multiplied by `s`.
+    pub fn scaled(&self, factor: f64) -> Result<Robot, InputError> {
+        let s = positive("scale factor", factor)?;
+        let mut robot = self.clone();
+        robot.tube.element_length_m *= s;
+        robot.tube.element_mass_kg *= s;
+        robot.tube.joint_stiffness_nm_per_rad *= s * s;
+        robot.tube.joint_damping_nms_per_rad *= s * s * s.sqrt();
+        robot.body.base_spacing_m *= s;
+        robot.body.tip_spacing_m *= s;
+        robot.body.payload_kg *= s;
+        robot.validate()?;
+        Ok(robot)
+    }
+
     /// Bending stiffness `EI = k l` (N m^2).
     pub fn bending_stiffness(&self) -> f64 {
         self.tube.joint_stiffness_nm_per_rad * self.tube.element_length_m

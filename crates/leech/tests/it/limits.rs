@@ -125,23 +125,41 @@ fn weak_s_shaped_body_snaps_through() {
     }
 }
 
-/// Scaling l, b, c by s with Pi and ms/m fixed gives the same angles (MODEL.md section 7).
+/// Scaling l, b, c by s with Pi and ms/m fixed gives the same angles
+/// (MODEL.md section 7, paper Fig. 9), for one tube and for the body.
 #[test]
 fn shape_parameter_scaling_keeps_angles() {
     let base = Robot::builtin();
     let reference = solve(&base.body(0.24, 0.21).unwrap());
-    for s in [0.1, 3.0, 10.0] {
-        let mut r = base.clone();
-        r.tube.element_length_m *= s;
-        r.body.base_spacing_m *= s;
-        r.body.tip_spacing_m *= s;
-        // Keep Pi = k/(m g l) and ms/m: scale m by s^2 and k by s^3.
-        r.tube.element_mass_kg *= s * s;
-        r.body.payload_kg *= s * s;
-        r.tube.joint_stiffness_nm_per_rad *= s * s * s;
-        let eq = solve(&r.body(0.24 * s, 0.21 * s).unwrap());
+    let tube = base.cantilever(0.27, 0.004).unwrap();
+    let tube_reference = tube.solve(&Solver::default()).unwrap();
+    for s in [0.1, 0.37, 3.0, 10.0] {
+        let r = base.scaled(s).unwrap();
+        assert!((r.shape_parameter() - base.shape_parameter()).abs() < 1e-9 * base.shape_parameter());
+        let body = r.body(0.24 * s, 0.21 * s).unwrap();
+        let eq = solve(&body);
         for (a, b) in reference.q.iter().zip(&eq.q) {
             assert!((a - b).abs() < 1e-9, "scale {s}: {a} vs {b}");
         }
+        let p = body.endpoint(&eq.q);
+        let p0 = base.body(0.24, 0.21).unwrap().endpoint(&reference.q);
+        assert!((p[0] - s * p0[0]).abs() < 1e-9 * s && (p[1] - s * p0[1]).abs() < 1e-9 * s);
+        let scaled_tube = r.cantilever(0.27 * s, 0.004 * s).unwrap();
+        let teq = scaled_tube.solve(&Solver::default()).unwrap();
+        for (a, b) in tube_reference.q.iter().zip(&teq.q) {
+            assert!((a - b).abs() < 1e-9, "tube, scale {s}: {a} vs {b}");
+        }
     }
+}
+
+/// Setting the shape parameter scales the stiffness only.
+#[test]
+fn shape_parameter_sets_the_stiffness() {
+    let robot = Robot::builtin().with_shape_parameter(250.0).unwrap();
+    assert!((robot.shape_parameter() - 250.0).abs() < 1e-9);
+    assert_eq!(robot.tube.element_mass_kg, Robot::builtin().tube.element_mass_kg);
+    assert!(Robot::builtin().with_shape_parameter(-1.0).is_err());
+    let mut weightless = Robot::builtin();
+    weightless.world.gravity_m_per_s2 = 0.0;
+    assert!(weightless.with_shape_parameter(100.0).is_err());
 }
