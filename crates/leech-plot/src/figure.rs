@@ -37,6 +37,27 @@ pub enum SeriesStyle {
     Thick,
     /// Dots only.
     Dots,
+    /// A dashed line (a kinematic model beside a physical one).
+    Dashed,
+    /// A closed polygon, filled lightly (a reachable region).
+    Area,
+}
+
+/// How data in metres is shown on the axes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Axes {
+    /// Multiplier from data to axis units (1000 for mm).
+    pub scale: f64,
+    /// Horizontal axis title.
+    pub x_label: String,
+    /// Vertical axis title.
+    pub y_label: String,
+}
+
+impl Default for Axes {
+    fn default() -> Self {
+        Axes { scale: 1e3, x_label: "x (mm)".into(), y_label: "y (mm)".into() }
+    }
 }
 
 /// One labelled polyline, in metres.
@@ -63,6 +84,8 @@ pub struct Figure {
     pub gravity_arrow: bool,
     /// Size in pixels (width, height).
     pub size: (u32, u32),
+    /// Axis units and titles (mm by default).
+    pub axes: Axes,
 }
 
 /// Colours that stay distinguishable in print and for common colour blindness.
@@ -82,7 +105,13 @@ fn register_font() {
 impl Figure {
     /// An empty figure with a title.
     pub fn new(title: impl Into<String>) -> Figure {
-        Figure { title: title.into(), series: Vec::new(), gravity_arrow: false, size: (760, 760) }
+        Figure {
+            title: title.into(),
+            series: Vec::new(),
+            gravity_arrow: false,
+            size: (760, 760),
+            axes: Axes::default(),
+        }
     }
 
     /// Adds a series.
@@ -90,7 +119,7 @@ impl Figure {
         self.series.push(Series { label: label.into(), points, style, color });
     }
 
-    /// Data bounds in mm, padded, with the aspect ratio `width / height`
+    /// Data bounds in axis units, padded, with the aspect ratio `width / height`
     /// of the plotting area so that a millimetre is as long across as up.
     fn bounds_mm(&self, aspect: f64) -> Result<((f64, f64), (f64, f64)), PlotError> {
         let mut lo = [f64::INFINITY; 2];
@@ -100,14 +129,15 @@ impl Figure {
                 return Err(PlotError::Empty);
             }
             for k in 0..2 {
-                lo[k] = lo[k].min(p[k] * 1e3);
-                hi[k] = hi[k].max(p[k] * 1e3);
+                lo[k] = lo[k].min(p[k] * self.axes.scale);
+                hi[k] = hi[k].max(p[k] * self.axes.scale);
             }
         }
         if !lo[0].is_finite() {
             return Err(PlotError::Empty);
         }
-        let mut span = [(hi[0] - lo[0]).max(1.0) * 1.2, (hi[1] - lo[1]).max(1.0) * 1.2];
+        let least = 1e-3 * self.axes.scale;
+        let mut span = [(hi[0] - lo[0]).max(least) * 1.2, (hi[1] - lo[1]).max(least) * 1.2];
         if span[0] / span[1] < aspect {
             span[0] = span[1] * aspect;
         } else {
@@ -133,7 +163,10 @@ impl Figure {
             self.series
                 .iter()
                 .flat_map(|s| s.points.iter())
-                .map(|p| ((p[0] * 1e3 - cx) / (x.1 - x.0)).powi(2) + ((p[1] * 1e3 - cy) / (y.1 - y.0)).powi(2))
+                .map(|p| {
+                    let (px, py) = (p[0] * self.axes.scale, p[1] * self.axes.scale);
+                    ((px - cx) / (x.1 - x.0)).powi(2) + ((py - cy) / (y.1 - y.0)).powi(2)
+                })
                 .fold(f64::INFINITY, f64::min)
         };
         let mut order: Vec<usize> = (0..4).collect();
@@ -165,8 +198,8 @@ impl Figure {
             .map_err(err)?;
         chart
             .configure_mesh()
-            .x_desc("x (mm)")
-            .y_desc("y (mm)")
+            .x_desc(self.axes.x_label.as_str())
+            .y_desc(self.axes.y_label.as_str())
             .label_style((FONT, 14))
             .axis_desc_style((FONT, 15))
             .light_line_style(RGBColor(235, 235, 235))
@@ -174,7 +207,8 @@ impl Figure {
             .map_err(err)?;
         for s in &self.series {
             let color = RGBColor(s.color.0, s.color.1, s.color.2);
-            let mm: Vec<(f64, f64)> = s.points.iter().map(|p| (p[0] * 1e3, p[1] * 1e3)).collect();
+            let scale = self.axes.scale;
+            let mm: Vec<(f64, f64)> = s.points.iter().map(|p| (p[0] * scale, p[1] * scale)).collect();
             let width = match s.style {
                 SeriesStyle::Thick => 4,
                 _ => 2,
@@ -182,6 +216,12 @@ impl Figure {
             let drawn = match s.style {
                 SeriesStyle::Dots => chart
                     .draw_series(mm.iter().map(|p| Circle::new(*p, 3, color.filled())))
+                    .map_err(err)?,
+                SeriesStyle::Dashed => chart
+                    .draw_series(DashedLineSeries::new(mm.clone(), 6, 4, color.stroke_width(width)))
+                    .map_err(err)?,
+                SeriesStyle::Area => chart
+                    .draw_series(std::iter::once(Polygon::new(mm.clone(), color.mix(0.25).filled())))
                     .map_err(err)?,
                 _ => chart.draw_series(LineSeries::new(mm.clone(), color.stroke_width(width))).map_err(err)?,
             };

@@ -6,7 +6,8 @@
 //! It renders to SVG or PNG with an embedded font, so it works on a machine
 //! without system fonts.
 //!
-//! [`shape`] builds the standard pictures of a body and of a single tube.
+//! [`shape`] builds the standard pictures of a body and of a single tube;
+//! [`figures`] regenerates the paper's figures with their data.
 //!
 //! ```
 //! use leech::prelude::*;
@@ -21,6 +22,7 @@
 #![warn(missing_docs)]
 
 pub mod figure;
+pub mod figures;
 pub mod shape;
 
-pub use figure::{Figure, PlotError, Series, SeriesStyle};
+pub use figure::{Axes, Figure, PlotError, Series, SeriesStyle};

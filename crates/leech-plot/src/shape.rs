@@ -3,6 +3,7 @@
 
 use leech::body::Body;
 use leech::cantilever::Cantilever;
+use leech::constant_curvature::PlanarBody;
 
 use crate::figure::{Figure, SeriesStyle, PALETTE};
 
@@ -35,5 +36,27 @@ pub fn cantilever_figure(title: &str, tube: &Cantilever, q: &[f64]) -> Figure {
     fig.push("clamp", vec![[clamp[0] + stub * back[0], clamp[1] + stub * back[1]], clamp], SeriesStyle::Thick, GREY);
     fig.push("tube", chain.points(q), SeriesStyle::LineAndDots, PALETTE[0]);
     fig.gravity_arrow = tube.gravity() > 0.0;
+    fig
+}
+
+/// The two-chain body at `q` with the constant-curvature body of the same
+/// tube lengths drawn dashed over it.
+pub fn comparison_figure(robot: &str, body: &Body, q: &[f64], cc: &PlanarBody) -> Figure {
+    let mut fig = body_figure(robot, body, q);
+    let (la, lb) = (body.chain_a().tube_length(), body.chain_b().tube_length());
+    let (a, b) = cc.chain_points(la, lb, 60);
+    fig.push("constant curvature A", a, SeriesStyle::Dashed, PALETTE[4]);
+    fig.push("constant curvature B", b, SeriesStyle::Dashed, PALETTE[5]);
+    fig
+}
+
+/// The constant-curvature body alone.
+pub fn constant_curvature_figure(robot: &str, cc: &PlanarBody, la: f64, lb: f64) -> Figure {
+    let mut fig = Figure::new(format!("{robot}, constant curvature: LA = {:.1} mm, LB = {:.1} mm", la * 1e3, lb * 1e3));
+    let (a, b) = cc.chain_points(la, lb, 60);
+    fig.push("driving unit", vec![cc.clamp_point, cc.clamp_point_b()], SeriesStyle::Thick, GREY);
+    fig.push("chain A (arc)", a.clone(), SeriesStyle::Line, PALETTE[0]);
+    fig.push("chain B (arc)", b.clone(), SeriesStyle::Line, PALETTE[1]);
+    fig.push("endpoint plate", vec![*a.last().unwrap(), *b.last().unwrap()], SeriesStyle::Thick, PALETTE[2]);
     fig
 }

@@ -55,9 +55,11 @@ pub struct Chains {
     pub b: ChainShape,
 }
 
-/// The result of `leech shape`.
+/// The result of `leech shape` for the two-chain model.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct BodyReport {
+    /// Always `"two-chain"`.
+    pub model: &'static str,
     /// How the solve went.
     #[serde(flatten)]
     pub solution: Solution,
@@ -84,6 +86,7 @@ impl BodyReport {
     pub fn new(robot: &str, shape_parameter: f64, body: &Body, eq: &Equilibrium) -> BodyReport {
         let (qa, qb) = body.split(&eq.q);
         BodyReport {
+            model: "two-chain",
             solution: eq.into(),
             robot: robot.to_string(),
             lengths_m: [body.chain_a().tube_length(), body.chain_b().tube_length()],
@@ -131,6 +134,54 @@ impl CantileverReport {
             points_m: tube.chain().points(&eq.q),
             angles_rad: eq.q.clone(),
             energy_j: eq.energy,
+        }
+    }
+}
+
+/// Points along each chain of the constant-curvature model.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ArcChains {
+    /// Chain A's arc, sampled (m).
+    pub a: Vec<[f64; 2]>,
+    /// Chain B's arc, sampled (m).
+    pub b: Vec<[f64; 2]>,
+}
+
+/// The result of `leech shape --model constant-curvature`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ConstantCurvatureReport {
+    /// Always `"constant-curvature"`.
+    pub model: &'static str,
+    /// Always `"converged"`: the model is closed-form.
+    pub status: &'static str,
+    /// Tube lengths LA, LB (m).
+    pub lengths_m: [f64; 2],
+    /// Bending angle `(LB - LA)/w` (rad).
+    pub bend_rad: f64,
+    /// Chain A's curvature (1/m).
+    pub curvature_a_per_m: f64,
+    /// Endpoint: chain A's tip (m).
+    pub endpoint_m: [f64; 2],
+    /// Endpoint plate angle (rad).
+    pub endpoint_angle_rad: f64,
+    /// Sampled arcs (`points_m` of each chain).
+    pub chains: ArcChains,
+}
+
+impl ConstantCurvatureReport {
+    /// The constant-curvature body for lengths `la`, `lb` (m), arcs sampled at `samples` points.
+    pub fn new(cc: &crate::constant_curvature::PlanarBody, la: f64, lb: f64, samples: usize) -> Self {
+        let pose = cc.pose(la, lb);
+        let (a, b) = cc.chain_points(la, lb, samples);
+        ConstantCurvatureReport {
+            model: "constant-curvature",
+            status: "converged",
+            lengths_m: [la, lb],
+            bend_rad: pose.bend,
+            curvature_a_per_m: pose.curvature_a,
+            endpoint_m: pose.endpoint,
+            endpoint_angle_rad: pose.endpoint_angle,
+            chains: ArcChains { a, b },
         }
     }
 }

@@ -363,6 +363,10 @@ struct Newton {
     reason: &'static str,
 }
 
+/// How far above the tolerance a residual that no step can reduce (rounding
+/// noise) still counts as converged.
+const ROUNDOFF_SLACK: f64 = 1e3;
+
 /// Limits of one Newton run: iterations, tolerance, and how far (rad, sup
 /// norm) the iterates may wander from the starting point.
 #[derive(Clone, Copy, Debug)]
@@ -588,6 +592,12 @@ impl Solver {
                 shift = (4.0 * shift).max(1e-8 * k);
             }
             if !accepted {
+                // Within a few orders of the tolerance no step can improve on
+                // rounding: that is convergence, with the residual reported as is.
+                if res <= ROUNDOFF_SLACK * tolerance {
+                    let stable = self.factor(sys, &state.lambda, ws).0 == Inertia::Minimum;
+                    return Newton { converged: true, residual: res, stable, reason: "" };
+                }
                 return Newton { converged: false, residual: res, stable: false, reason: "no descent step found" };
             }
             if leash.is_finite() && distance(&state.q, &ws.q_predicted) > leash {
