@@ -31,6 +31,37 @@ pub enum Command {
     Chain(ChainArgs),
     /// Shape of the two-chain body for given tube lengths.
     Shape(ShapeArgs),
+    /// Regenerate one of the paper's figures (SVG and CSV) for a robot.
+    Figure(FigureArgs),
+}
+
+/// Which model `leech shape` evaluates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ModelArg {
+    /// The two-chain multibody model with gravity (exact statics).
+    TwoChain,
+    /// The kinematic constant-curvature model.
+    ConstantCurvature,
+    /// Both, one JSON object per model in a `models` list.
+    Both,
+}
+
+/// `leech figure`.
+#[derive(Debug, Args)]
+#[command(allow_negative_numbers = true)]
+pub struct FigureArgs {
+    /// tube-sag, model-comparison, scaling, pi-sweep, workspace, or all.
+    #[arg(value_name = "NAME")]
+    pub name: String,
+    /// Robot file (TOML); the built-in LEeCH robot if absent.
+    #[arg(long, value_name = "FILE")]
+    pub robot: Option<PathBuf>,
+    /// Shape parameter Pi = k/(m g l), set by scaling the joint stiffness.
+    #[arg(long, value_name = "P")]
+    pub shape_parameter: Option<f64>,
+    /// Directory for NAME.svg and NAME.csv (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "figures")]
+    pub out: PathBuf,
 }
 
 /// Where results go.
@@ -78,9 +109,12 @@ pub struct ChainArgs {
     /// Element mass (kg).
     #[arg(long, value_name = "KG")]
     pub element_mass: f64,
-    /// Joint stiffness (N m/rad).
-    #[arg(long, value_name = "NM_PER_RAD")]
-    pub stiffness: f64,
+    /// Joint stiffness (N m/rad); or give --shape-parameter.
+    #[arg(long, value_name = "NM_PER_RAD", required_unless_present = "shape_parameter")]
+    pub stiffness: Option<f64>,
+    /// Shape parameter Pi = k/(m g l): sets the stiffness to Pi m g l.
+    #[arg(long, value_name = "P", conflicts_with = "stiffness")]
+    pub shape_parameter: Option<f64>,
     /// Point mass at the tip (kg).
     #[arg(long, value_name = "KG", default_value_t = 0.0)]
     pub tip_mass: f64,
@@ -119,6 +153,12 @@ pub struct ShapeArgs {
     /// Discretization, overriding the robot file.
     #[arg(long, value_enum)]
     pub discretization: Option<DiscretizationArg>,
+    /// Shape parameter Pi = k/(m g l), set by scaling the joint stiffness.
+    #[arg(long, value_name = "P")]
+    pub shape_parameter: Option<f64>,
+    /// Which model to evaluate.
+    #[arg(long, value_enum, default_value_t = ModelArg::TwoChain)]
+    pub model: ModelArg,
     /// Newton iterations allowed for the whole solve.
     #[arg(long, value_name = "N", default_value_t = SolverOptions::default().max_iterations)]
     pub max_iterations: usize,

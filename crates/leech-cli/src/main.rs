@@ -11,10 +11,11 @@ use std::process::ExitCode;
 use anyhow::Context;
 use clap::Parser;
 use leech::prelude::*;
-use leech::report::{BodyReport, CantileverReport};
+use leech::constant_curvature::PlanarBody;
+use leech::report::{BodyReport, CantileverReport, ConstantCurvatureReport};
 use leech_plot::Figure;
 
-use flags::{ChainArgs, Cli, Command, Output, ShapeArgs};
+use flags::{ChainArgs, Cli, Command, FigureArgs, ModelArg, Output, ShapeArgs};
 
 /// Why the command stopped.
 enum Failure {
@@ -47,9 +48,15 @@ fn main() -> ExitCode {
                 print!("{e}");
                 return ExitCode::SUCCESS;
             }
-            // One line: clap's first, which names the flag and the value.
+            // One line: clap's message without its usage and help hints.
             let rendered = e.to_string();
-            eprintln!("leech: {}", rendered.lines().next().unwrap_or("bad arguments").trim_start_matches("error: "));
+            let message: Vec<&str> = rendered
+                .lines()
+                .map(str::trim)
+                .take_while(|l| !l.starts_with("Usage:") && !l.starts_with("For more information"))
+                .filter(|l| !l.is_empty())
+                .collect();
+            eprintln!("leech: {}", message.join(" ").trim_start_matches("error: "));
             return ExitCode::from(2);
         }
     };
@@ -96,6 +103,7 @@ fn run(cli: Cli, out: &mut String) -> Result<(), Failure> {
         }
         Command::Chain(args) => chain(args, out),
         Command::Shape(args) => shape(args, out),
+        Command::Figure(args) => figure(args, out),
     }
 }
 
@@ -167,11 +175,19 @@ fn solver(max_iterations: usize) -> Solver {
 }
 
 fn chain(args: ChainArgs, out: &mut String) -> Result<(), Failure> {
+    let stiffness = match (args.stiffness, args.shape_parameter) {
+        (Some(k), _) => k,
+        (None, pi) => {
+            let pi = leech::error::positive("shape parameter", pi.unwrap_or(f64::NAN))?;
+            leech::error::positive("gravity_m_per_s2 (the shape parameter needs gravity)", args.gravity)?;
+            pi * args.element_mass * args.gravity * args.element_length
+        }
+    };
     let spec = CantileverSpec {
         elements: args.elements,
         element_length_m: args.element_length,
         element_mass_kg: args.element_mass,
-        joint_stiffness_nm_per_rad: args.stiffness,
+        joint_stiffness_nm_per_rad: stiffness,
         tip_mass_kg: args.tip_mass,
         base_angle_deg: args.base_angle,
         gravity_m_per_s2: args.gravity,
@@ -208,28 +224,92 @@ fn shape(args: ShapeArgs, out: &mut String) -> Result<(), Failure> {
     if let Some(d) = args.discretization {
         robot.model.discretization = d.into();
     }
+    if let Some(pi) = args.shape_parameter {
+        robot = robot.with_shape_parameter(pi)?;
+    }
     let [la, lb] = args.lengths;
+    // The body checks the lengths for both models.
     let body = robot.body(la, lb)?;
-    let eq = body.solve(&solver(args.max_iterations)).map_err(|e| Failure::Solve(e, args.output.json))?;
-    let report = BodyReport::new(&robot.name, robot.shape_parameter(), &body, &eq);
+    let cc = PlanarBody::of(&robot);
+    let cc_report = ConstantCurvatureReport::new(&cc, la, lb, 60);
+    let two_chain = match args.model {
+        ModelArg::ConstantCurvature => None,
+        _ => {
+            let eq = body.solve(&solver(args.max_iterations)).map_err(|e| Failure::Solve(e, args.output.json))?;
+            let report = BodyReport::new(&robot.name, robot.shape_parameter(), &body, &eq);
+            Some((eq, report))
+        }
+    };
     if args.output.json {
-        writeln!(out, "{}", to_json(&report)?).expect("writing to a String");
+        let json = match (&two_chain, args.model) {
+            (Some((_, report)), ModelArg::TwoChain) => to_json(report)?,
+            (Some((_, report)), _) => to_json(&serde_json::json!({ "models": [report, cc_report] }))?,
+            (None, _) => to_json(&cc_report)?,
+        };
+        writeln!(out, "{json}").expect("writing to a String");
     } else {
         writeln!(
             out,
-            "{}: LA = {:.4} m, LB = {:.4} m ({} + {} links, Pi = {:.0})",
-            robot.name, la, lb, report.links[0], report.links[1], report.shape_parameter
+            "{}: LA = {:.4} m, LB = {:.4} m (Pi = {:.0})",
+            robot.name,
+            la,
+            lb,
+            robot.shape_parameter()
         )
         .expect("writing to a String");
-        writeln!(
-            out,
-            "endpoint at ({:.3}, {:.3}) mm, plate angle {:.3} deg",
-            report.endpoint_m[0] * 1e3,
-            report.endpoint_m[1] * 1e3,
-            report.endpoint_angle_rad.to_degrees()
-        )
-        .expect("writing to a String");
-        describe_solution(&eq, out);
+        if let Some((eq, report)) = &two_chain {
+            writeln!(
+                out,
+                "two-chain: endpoint at ({:.3}, {:.3}) mm, plate angle {:.3} deg ({} + {} links)",
+                report.endpoint_m[0] * 1e3,
+                report.endpoint_m[1] * 1e3,
+                report.endpoint_angle_rad.to_degrees(),
+                report.links[0],
+                report.links[1]
+            )
+            .expect("writing to a String");
+            describe_solution(eq, out);
+        }
+        if args.model != ModelArg::TwoChain {
+            writeln!(
+                out,
+                "constant curvature: endpoint at ({:.3}, {:.3}) mm, plate angle {:.3} deg (bend {:.3} rad)",
+                cc_report.endpoint_m[0] * 1e3,
+                cc_report.endpoint_m[1] * 1e3,
+                cc_report.endpoint_angle_rad.to_degrees(),
+                cc_report.bend_rad
+            )
+            .expect("writing to a String");
+        }
     }
-    pictures(&args.output, || leech_plot::shape::body_figure(&robot.name, &body, &eq.q))
+    pictures(&args.output, || match &two_chain {
+        Some((eq, _)) if args.model == ModelArg::Both => {
+            leech_plot::shape::comparison_figure(&robot.name, &body, &eq.q, &cc)
+        }
+        Some((eq, _)) => leech_plot::shape::body_figure(&robot.name, &body, &eq.q),
+        None => leech_plot::shape::constant_curvature_figure(&robot.name, &cc, la, lb),
+    })
+}
+
+fn figure(args: FigureArgs, out: &mut String) -> Result<(), Failure> {
+    use leech_plot::figures::{build, FigureError, NAMES};
+    let mut robot = load_robot(args.robot.as_deref())?;
+    if let Some(pi) = args.shape_parameter {
+        robot = robot.with_shape_parameter(pi)?;
+    }
+    let names: Vec<&str> = if args.name == "all" { NAMES.to_vec() } else { vec![args.name.as_str()] };
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating the output directory {}", args.out.display()))?;
+    for name in names {
+        let output = build(name, &robot).map_err(|e| match e {
+            FigureError::Input(e) => Failure::Input(e.to_string()),
+            FigureError::Solve { source, .. } => Failure::Solve(source, false),
+            FigureError::Plot(e) => Failure::Other(e.into()),
+        })?;
+        let (svg, csv) = (args.out.join(format!("{name}.svg")), args.out.join(format!("{name}.csv")));
+        output.figure.write_svg(&svg).map_err(|e| Failure::Other(e.into()))?;
+        output.table.write_csv(&csv).map_err(|e| Failure::Other(e.into()))?;
+        writeln!(out, "wrote {} and {}", svg.display(), csv.display()).expect("writing to a String");
+    }
+    Ok(())
 }

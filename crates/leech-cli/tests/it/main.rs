@@ -154,3 +154,42 @@ fn failed_solve_exits_3_with_status() {
         "--stiffness", "0.01", "--max-iterations", "1"]).output().unwrap();
     assert_eq!(out.status.code(), Some(3));
 }
+
+#[test]
+fn both_models_are_listed() {
+    let v = json_of(&["shape", "--lengths", "0.3,0.24", "--model", "both"]);
+    let models = v["models"].as_array().unwrap();
+    assert_eq!(models[0]["model"], "two-chain");
+    assert_eq!(models[1]["model"], "constant-curvature");
+    let w = 0.5 * (0.017 + 0.012);
+    assert!((models[1]["bend_rad"].as_f64().unwrap() - (0.24 - 0.3) / w).abs() < 1e-12);
+    let cc = json_of(&["shape", "--lengths", "0.3,0.24", "--model", "constant-curvature"]);
+    assert_eq!(cc["endpoint_m"], models[1]["endpoint_m"]);
+}
+
+#[test]
+fn shape_parameter_flag_sets_pi() {
+    let v = json_of(&["shape", "--lengths", "0.2,0.18", "--shape-parameter", "800"]);
+    assert!((v["shape_parameter"].as_f64().unwrap() - 800.0).abs() < 1e-9);
+    let v = json_of(&[
+        "chain", "--elements", "10", "--element-length", "0.01", "--element-mass", "0.001", "--shape-parameter", "40",
+    ]);
+    assert!((v["shape_parameter"].as_f64().unwrap() - 40.0).abs() < 1e-9);
+    rejected(&["shape", "--lengths", "0.2,0.18", "--shape-parameter", "-3"]);
+    rejected(&["chain", "--elements", "10", "--element-length", "0.01", "--element-mass", "0.001"]);
+}
+
+#[test]
+fn figures_are_regenerated_by_one_command() {
+    let dir = std::env::temp_dir().join(format!("leech-cli-figures-{}", std::process::id()));
+    leech().args(["figure", "all", "--out"]).arg(&dir).assert().success();
+    for name in ["tube-sag", "model-comparison", "scaling", "pi-sweep", "workspace"] {
+        let svg = std::fs::read_to_string(dir.join(format!("{name}.svg"))).unwrap();
+        assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"), "{name}");
+        let csv = std::fs::read_to_string(dir.join(format!("{name}.csv"))).unwrap();
+        assert!(csv.lines().count() > 10, "{name}");
+    }
+    let e = rejected(&["figure", "fig-13"]);
+    assert!(e.contains("fig-13") && e.contains("workspace"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
