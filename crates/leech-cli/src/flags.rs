@@ -162,6 +162,9 @@ pub struct ShapeArgs {
     /// Newton iterations allowed for the whole solve.
     #[arg(long, value_name = "N", default_value_t = SolverOptions::default().max_iterations)]
     pub max_iterations: usize,
+    /// Solve N times (cold each time) and report the solve time (`solve_time_s` in JSON).
+    #[arg(long, value_name = "N")]
+    pub repeat: Option<usize>,
     #[command(flatten)]
     pub output: Output,
 }

@@ -10,8 +10,8 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Parser;
-use leech::prelude::*;
 use leech::constant_curvature::PlanarBody;
+use leech::prelude::*;
 use leech::report::{BodyReport, CantileverReport, ConstantCurvatureReport};
 use leech_plot::Figure;
 
@@ -235,28 +235,33 @@ fn shape(args: ShapeArgs, out: &mut String) -> Result<(), Failure> {
     let two_chain = match args.model {
         ModelArg::ConstantCurvature => None,
         _ => {
-            let eq = body.solve(&solver(args.max_iterations)).map_err(|e| Failure::Solve(e, args.output.json))?;
+            let solver = solver(args.max_iterations);
+            let eq = body.solve(&solver).map_err(|e| Failure::Solve(e, args.output.json))?;
             let report = BodyReport::new(&robot.name, robot.shape_parameter(), &body, &eq);
             Some((eq, report))
         }
     };
+    let timing = match (args.repeat, &two_chain) {
+        (Some(n), Some(_)) => Some(time_solves(&body, &solver(args.max_iterations), n.clamp(1, 1_000_000))),
+        _ => None,
+    };
     if args.output.json {
         let json = match (&two_chain, args.model) {
-            (Some((_, report)), ModelArg::TwoChain) => to_json(report)?,
+            (Some((_, report)), ModelArg::TwoChain) => match timing {
+                Some(t) => {
+                    let mut v = serde_json::to_value(report).context("serializing the result")?;
+                    v["solve_time_s"] = serde_json::to_value(t).context("serializing the timing")?;
+                    to_json(&v)?
+                }
+                None => to_json(report)?,
+            },
             (Some((_, report)), _) => to_json(&serde_json::json!({ "models": [report, cc_report] }))?,
             (None, _) => to_json(&cc_report)?,
         };
         writeln!(out, "{json}").expect("writing to a String");
     } else {
-        writeln!(
-            out,
-            "{}: LA = {:.4} m, LB = {:.4} m (Pi = {:.0})",
-            robot.name,
-            la,
-            lb,
-            robot.shape_parameter()
-        )
-        .expect("writing to a String");
+        writeln!(out, "{}: LA = {:.4} m, LB = {:.4} m (Pi = {:.0})", robot.name, la, lb, robot.shape_parameter())
+            .expect("writing to a String");
         if let Some((eq, report)) = &two_chain {
             writeln!(
                 out,
@@ -269,6 +274,16 @@ fn shape(args: ShapeArgs, out: &mut String) -> Result<(), Failure> {
             )
             .expect("writing to a String");
             describe_solution(eq, out);
+            if let Some(t) = &timing {
+                writeln!(
+                    out,
+                    "solve time over {} cold solves: median {:.1} us, fastest {:.1} us",
+                    t.solves,
+                    t.median * 1e6,
+                    t.min * 1e6
+                )
+                .expect("writing to a String");
+            }
         }
         if args.model != ModelArg::TwoChain {
             writeln!(
@@ -289,6 +304,27 @@ fn shape(args: ShapeArgs, out: &mut String) -> Result<(), Failure> {
         Some((eq, _)) => leech_plot::shape::body_figure(&robot.name, &body, &eq.q),
         None => leech_plot::shape::constant_curvature_figure(&robot.name, &cc, la, lb),
     })
+}
+
+/// Wall-clock statistics of repeated cold solves (s).
+#[derive(serde::Serialize)]
+struct Timing {
+    solves: usize,
+    median: f64,
+    min: f64,
+}
+
+fn time_solves(body: &leech::body::Body, solver: &Solver, n: usize) -> Timing {
+    let mut times: Vec<f64> = (0..n)
+        .map(|_| {
+            let start = std::time::Instant::now();
+            // The first solve succeeded, and a solve is deterministic.
+            let _ = std::hint::black_box(body.solve(solver));
+            start.elapsed().as_secs_f64()
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    Timing { solves: n, median: times[n / 2], min: times[0] }
 }
 
 fn figure(args: FigureArgs, out: &mut String) -> Result<(), Failure> {

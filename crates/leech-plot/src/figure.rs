@@ -214,9 +214,9 @@ impl Figure {
                 _ => 2,
             };
             let drawn = match s.style {
-                SeriesStyle::Dots => chart
-                    .draw_series(mm.iter().map(|p| Circle::new(*p, 3, color.filled())))
-                    .map_err(err)?,
+                SeriesStyle::Dots => {
+                    chart.draw_series(mm.iter().map(|p| Circle::new(*p, 3, color.filled()))).map_err(err)?
+                }
                 SeriesStyle::Dashed => chart
                     .draw_series(DashedLineSeries::new(mm.clone(), 6, 4, color.stroke_width(width)))
                     .map_err(err)?,
@@ -226,9 +226,9 @@ impl Figure {
                 _ => chart.draw_series(LineSeries::new(mm.clone(), color.stroke_width(width))).map_err(err)?,
             };
             if !s.label.is_empty() {
-                drawn.label(s.label.clone()).legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(width))
-                });
+                drawn
+                    .label(s.label.clone())
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(width)));
             }
             if s.style == SeriesStyle::LineAndDots {
                 chart.draw_series(mm.iter().map(|p| Circle::new(*p, 2, color.filled()))).map_err(err)?;

@@ -281,10 +281,7 @@ impl Chain {
     /// Where the first flexible joint sits (m).
     pub fn first_joint(&self) -> [f64; 2] {
         let u = unit(self.clamp_angle);
-        [
-            self.clamp_point[0] + self.root_length * u[0],
-            self.clamp_point[1] + self.root_length * u[1],
-        ]
+        [self.clamp_point[0] + self.root_length * u[0], self.clamp_point[1] + self.root_length * u[1]]
     }
 
     /// The straight, unloaded configuration: every link along the clamp.
@@ -406,12 +403,7 @@ impl Chain {
     pub fn gravity_energy(&self, q: &[f64], gravity: f64) -> f64 {
         let mut y = self.first_joint()[1];
         let mut v = 0.0;
-        for ((l, a), (m, phi)) in self
-            .lengths
-            .iter()
-            .zip(&self.mass_offsets)
-            .zip(self.masses.iter().zip(q))
-        {
+        for ((l, a), (m, phi)) in self.lengths.iter().zip(&self.mass_offsets).zip(self.masses.iter().zip(q)) {
             let s = phi.sin();
             v += m * (y + a * s);
             y += l * s;
@@ -496,11 +488,7 @@ impl Chain {
 
     fn diagonal_inertia_coefficient(&self, k: usize) -> f64 {
         let a = self.mass_offsets[k];
-        let beyond = if self.lengths[k] > 0.0 {
-            (self.levers[k] - a * self.masses[k]) / self.lengths[k]
-        } else {
-            0.0
-        };
+        let beyond = if self.lengths[k] > 0.0 { (self.levers[k] - a * self.masses[k]) / self.lengths[k] } else { 0.0 };
         a * a * self.masses[k] + self.lengths[k] * self.lengths[k] * beyond
     }
 
@@ -514,11 +502,7 @@ impl Chain {
                 if k == j {
                     continue;
                 }
-                let c = if j < k {
-                    self.lengths[j] * self.levers[k]
-                } else {
-                    self.lengths[k] * self.levers[j]
-                };
+                let c = if j < k { self.lengths[j] * self.levers[k] } else { self.lengths[k] * self.levers[j] };
                 h += c * (q[j] - q[k]).sin() * dq[k] * dq[k];
             }
             out[j] = h;

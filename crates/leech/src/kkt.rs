@@ -266,7 +266,13 @@ impl Forward {
         let d0 = a - self.mult * self.off;
         let ok = d0.abs() > tiny;
         // Keep the factors finite on a tiny pivot; the caller does not step with them.
-        let d = if ok { d0 } else if d0 < 0.0 { -tiny } else { tiny };
+        let d = if ok {
+            d0
+        } else if d0 < 0.0 {
+            -tiny
+        } else {
+            tiny
+        };
         self.negative += usize::from(d < 0.0);
         let inv = 1.0 / d;
         pivots[i] = inv;

@@ -350,7 +350,14 @@ pub struct State {
 impl State {
     /// A state at `q` with zero multipliers.
     pub fn new(q: Vec<f64>) -> State {
-        State { q, lambda: [0.0; MAX_CONSTRAINTS], iterations: 0, steps: 0, events: Vec::new(), started: Instant::now() }
+        State {
+            q,
+            lambda: [0.0; MAX_CONSTRAINTS],
+            iterations: 0,
+            steps: 0,
+            events: Vec::new(),
+            started: Instant::now(),
+        }
     }
 }
 
@@ -514,7 +521,12 @@ impl Solver {
             state.iterations += 1;
             let (inertia, min_shift) = self.factor(sys, &state.lambda, ws);
             if !min_shift.is_finite() {
-                return Newton { converged: false, residual: res, stable: false, reason: "singular constraint Jacobian" };
+                return Newton {
+                    converged: false,
+                    residual: res,
+                    stable: false,
+                    reason: "singular constraint Jacobian",
+                };
             }
             // Levenberg-style damping on top of the inertia correction: a
             // rejected full step raises the shift (shorter steps turning towards
@@ -778,8 +790,7 @@ impl Solver {
                 state.lambda[row] += dt * ws.lambda_tangent[row];
             }
             ws.q_predicted.copy_from_slice(&state.q);
-            let tolerance =
-                if t + dt >= 1.0 { self.options.tolerance } else { self.options.path_tolerance };
+            let tolerance = if t + dt >= 1.0 { self.options.tolerance } else { self.options.path_tolerance };
             let budget = Budget {
                 max_iter: self.options.max_corrector_iterations,
                 tolerance,
@@ -910,7 +921,11 @@ mod tests {
             solver.minimize(&body, &mut ahead, t + h, "test", &mut ws).unwrap();
             for i in 0..tangent.len() {
                 let fd = (ahead.q[i] - state.q[i]) / h;
-                assert!((fd - tangent[i]).abs() < 1e-4 * (1.0 + fd.abs()), "t {t} i {i}: fd {fd} tangent {}", tangent[i]);
+                assert!(
+                    (fd - tangent[i]).abs() < 1e-4 * (1.0 + fd.abs()),
+                    "t {t} i {i}: fd {fd} tangent {}",
+                    tangent[i]
+                );
             }
         }
     }

@@ -27,7 +27,8 @@ fn rejected(args: &[&str]) -> String {
 #[test]
 fn shape_json_has_the_documented_keys() {
     let v = json_of(&["shape", "--lengths", "0.25,0.20"]);
-    for key in ["status", "stable", "iterations", "residual", "lengths_m", "endpoint_m", "endpoint_angle_rad", "chains"] {
+    for key in ["status", "stable", "iterations", "residual", "lengths_m", "endpoint_m", "endpoint_angle_rad", "chains"]
+    {
         assert!(v.get(key).is_some(), "missing {key}");
     }
     assert_eq!(v["status"], "converged");
@@ -45,8 +46,21 @@ fn shape_json_has_the_documented_keys() {
 #[test]
 fn chain_json_has_the_documented_keys() {
     let v = json_of(&[
-        "chain", "--elements", "12", "--element-length", "0.01", "--element-mass", "0.001", "--stiffness", "0.05",
-        "--tip-mass", "0.002", "--base-angle", "45", "--discretization", "midpoint",
+        "chain",
+        "--elements",
+        "12",
+        "--element-length",
+        "0.01",
+        "--element-mass",
+        "0.001",
+        "--stiffness",
+        "0.05",
+        "--tip-mass",
+        "0.002",
+        "--base-angle",
+        "45",
+        "--discretization",
+        "midpoint",
     ]);
     for key in ["status", "angles_rad", "points_m", "tip_m"] {
         assert!(v.get(key).is_some(), "missing {key}");
@@ -61,13 +75,7 @@ fn svg_and_png_are_written() {
     let dir = std::env::temp_dir().join(format!("leech-cli-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let (svg, png) = (dir.join("shape.svg"), dir.join("shape.png"));
-    leech()
-        .args(["shape", "--lengths", "0.3,0.28", "--svg"])
-        .arg(&svg)
-        .arg("--png")
-        .arg(&png)
-        .assert()
-        .success();
+    leech().args(["shape", "--lengths", "0.3,0.28", "--svg"]).arg(&svg).arg("--png").arg(&png).assert().success();
     let text = std::fs::read_to_string(&svg).unwrap();
     assert!(text.starts_with("<svg") && text.contains("x (mm)"));
     assert_eq!(&std::fs::read(&png).unwrap()[1..4], b"PNG");
@@ -99,9 +107,20 @@ fn bad_input_exits_2_with_one_line() {
     rejected(&["shape", "--lengths", "0.3,0.2", "--base-angle", "1e9"]);
     let e = rejected(&["shape", "--lengths", "0.3,0.2", "--robot", "/no/such/robot.toml"]);
     assert!(e.contains("--robot"), "{e}");
-    let e = rejected(&["chain", "--elements", "0", "--element-length", "0.01", "--element-mass", "0.001", "--stiffness", "1"]);
+    let e = rejected(&[
+        "chain",
+        "--elements",
+        "0",
+        "--element-length",
+        "0.01",
+        "--element-mass",
+        "0.001",
+        "--stiffness",
+        "1",
+    ]);
     assert!(e.contains("elements"), "{e}");
-    let e = rejected(&["chain", "--elements", "5", "--element-length", "0.01", "--element-mass", "-1", "--stiffness", "1"]);
+    let e =
+        rejected(&["chain", "--elements", "5", "--element-length", "0.01", "--element-mass", "-1", "--stiffness", "1"]);
     assert!(e.contains("element_mass_kg") && e.contains("-1"), "{e}");
     rejected(&["chain", "--elements", "5", "--element-length", "0.01", "--element-mass", "0.001", "--stiffness", "0"]);
     rejected(&["frobnicate"]);
@@ -150,8 +169,22 @@ fn failed_solve_exits_3_with_status() {
     assert!(v["residual"].as_f64().unwrap() > 0.0);
     let err = String::from_utf8(out.stderr).unwrap();
     assert!(err.contains("not converged") && err.contains("residual"), "{err}");
-    let out = leech().args(["chain", "--elements", "30", "--element-length", "0.01", "--element-mass", "0.001",
-        "--stiffness", "0.01", "--max-iterations", "1"]).output().unwrap();
+    let out = leech()
+        .args([
+            "chain",
+            "--elements",
+            "30",
+            "--element-length",
+            "0.01",
+            "--element-mass",
+            "0.001",
+            "--stiffness",
+            "0.01",
+            "--max-iterations",
+            "1",
+        ])
+        .output()
+        .unwrap();
     assert_eq!(out.status.code(), Some(3));
 }
 
@@ -172,7 +205,15 @@ fn shape_parameter_flag_sets_pi() {
     let v = json_of(&["shape", "--lengths", "0.2,0.18", "--shape-parameter", "800"]);
     assert!((v["shape_parameter"].as_f64().unwrap() - 800.0).abs() < 1e-9);
     let v = json_of(&[
-        "chain", "--elements", "10", "--element-length", "0.01", "--element-mass", "0.001", "--shape-parameter", "40",
+        "chain",
+        "--elements",
+        "10",
+        "--element-length",
+        "0.01",
+        "--element-mass",
+        "0.001",
+        "--shape-parameter",
+        "40",
     ]);
     assert!((v["shape_parameter"].as_f64().unwrap() - 40.0).abs() < 1e-9);
     rejected(&["shape", "--lengths", "0.2,0.18", "--shape-parameter", "-3"]);

@@ -67,7 +67,12 @@ fn check_system<S: StaticSystem>(sys: &S, q: &[f64], t: f64) -> Result<(), TestC
         close(ev.param_gradient[i], (ahead.gradient[i] - behind.gradient[i]) / (2.0 * H), k, "d(dV/dq)/dt")?;
         for r in 0..m {
             let idx = i * MAX_CONSTRAINTS + r;
-            close(ev.param_jacobian[idx], (ahead.jacobian[idx] - behind.jacobian[idx]) / (2.0 * H), 1.0, "d(dC/dq)/dt")?;
+            close(
+                ev.param_jacobian[idx],
+                (ahead.jacobian[idx] - behind.jacobian[idx]) / (2.0 * H),
+                1.0,
+                "d(dC/dq)/dt",
+            )?;
         }
     }
     for r in 0..m {

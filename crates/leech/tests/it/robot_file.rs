@@ -53,11 +53,7 @@ fn malformed_or_unknown_keys_are_errors() {
 
 #[test]
 fn continuum_properties_give_element_properties() {
-    let robot = with(
-        "joint_stiffness_nm_per_rad = 0.5",
-        "bending_stiffness_nm2 = 0.005",
-    )
-    .unwrap();
+    let robot = with("joint_stiffness_nm_per_rad = 0.5", "bending_stiffness_nm2 = 0.005").unwrap();
     assert!((robot.tube.joint_stiffness_nm_per_rad - 0.5).abs() < 1e-12);
     assert!((robot.bending_stiffness() - 0.005).abs() < 1e-15);
 }
