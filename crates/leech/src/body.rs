@@ -110,6 +110,22 @@ impl Body {
         self.a.energy(qa, self.gravity) + self.b.energy(qb, self.gravity)
     }
 
+    /// Smallest bending radius of either chain (m), see [`Chain::min_bend_radius`].
+    pub fn min_bend_radius(&self, q: &[f64]) -> f64 {
+        let (qa, qb) = self.split(q);
+        self.a.min_bend_radius(qa).min(self.b.min_bend_radius(qb))
+    }
+
+    /// A state of `other` (the same robot with other tube lengths) carried
+    /// over to this body chain by chain ([`Chain::carry_over`]): the start of
+    /// a warm solve after feeding the tubes.
+    pub fn carry_over(&self, other: &Body, q: &[f64]) -> Vec<f64> {
+        let (qa, qb) = other.split(q);
+        let mut out = self.a.carry_over(qa);
+        out.extend(self.b.carry_over(qb));
+        out
+    }
+
     /// The straight configuration (both chains along the clamp).
     pub fn straight(&self) -> Vec<f64> {
         let mut q = self.a.straight();

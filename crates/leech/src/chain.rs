@@ -161,6 +161,7 @@ pub struct Chain {
     clamp_angle: f64,
     root_length: f64,
     tube_length: f64,
+    element_length: f64,
     lengths: Vec<f64>,
     masses: Vec<f64>,
     mass_offsets: Vec<f64>,
@@ -195,6 +196,7 @@ impl Chain {
             clamp_angle: spec.clamp_angle,
             root_length,
             tube_length: spec.tube_length,
+            element_length: l,
             lengths,
             masses,
             mass_offsets,
@@ -276,6 +278,28 @@ impl Chain {
     /// Tube length from the clamp to the tip (m), as given.
     pub fn tube_length(&self) -> f64 {
         self.tube_length
+    }
+
+    /// Smallest bending radius of the centre line (m): a joint turning by
+    /// `dphi` stands for an element length `l` of tube bent to radius
+    /// `l / |dphi|` (the clamp counts as a joint). Infinite when straight.
+    pub fn min_bend_radius(&self, q: &[f64]) -> f64 {
+        let mut prev = self.clamp_angle;
+        let mut sharpest: f64 = 0.0;
+        for phi in q {
+            sharpest = sharpest.max((phi - prev).abs());
+            prev = *phi;
+        }
+        self.element_length / sharpest
+    }
+
+    /// Angles for this chain from a state `q` of a chain of the same tube
+    /// with another length: shared links keep their angles, new links continue
+    /// the last one straight, missing ones are dropped. Feeding a tube by a
+    /// small step is then a small change of state.
+    pub fn carry_over(&self, q: &[f64]) -> Vec<f64> {
+        let last = q.last().copied().unwrap_or(self.clamp_angle);
+        (0..self.len()).map(|j| q.get(j).copied().unwrap_or(last)).collect()
     }
 
     /// Where the first flexible joint sits (m).

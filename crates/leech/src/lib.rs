@@ -51,6 +51,7 @@
 //! * [`constant_curvature`]: the kinematic constant-curvature model, planar and tri-tube.
 //! * [`statics`]: the Newton-KKT solver, continuation, stability.
 //! * [`kkt`]: the O(n) bordered tridiagonal solve.
+//! * [`workspace`]: sweeps over tube lengths along the actuation path, reach metrics.
 //! * [`robot`]: robot files (TOML) and the built-in robot.
 //! * [`report`]: serializable results (what the command line prints).
 //! * [`error`]: input errors.
@@ -66,6 +67,7 @@ pub mod kkt;
 pub mod report;
 pub mod robot;
 pub mod statics;
+pub mod workspace;
 
 /// The types most programs need.
 pub mod prelude {

@@ -16,6 +16,7 @@
 //! mass_per_length_kg_per_m = 0.1
 //! bending_stiffness_nm2 = 0.005
 //! joint_damping_nms_per_rad = 0.005
+//! min_bend_radius_m = 0.025
 //! [body]
 //! base_spacing_m = 0.017
 //! tip_spacing_m = 0.012
@@ -54,7 +55,12 @@ pub struct Tube {
     pub joint_stiffness_nm_per_rad: f64,
     /// Joint damping `d` (N m s/rad).
     pub joint_damping_nms_per_rad: f64,
+    /// Tightest bend the real tube takes (m); sweeps mark tighter shapes infeasible.
+    pub min_bend_radius_m: f64,
 }
+
+/// The paper's stripwound hose: 25 mm minimum bending radius.
+pub const DEFAULT_MIN_BEND_RADIUS_M: f64 = 0.025;
 
 /// The body's geometry and payload.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -111,6 +117,7 @@ struct RawTube {
     joint_stiffness_nm_per_rad: Option<f64>,
     bending_stiffness_nm2: Option<f64>,
     joint_damping_nms_per_rad: f64,
+    min_bend_radius_m: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -175,6 +182,7 @@ impl Robot {
                 element_mass_kg: if per_element { mass } else { mass * l },
                 joint_stiffness_nm_per_rad: if joint { stiffness } else { stiffness / l },
                 joint_damping_nms_per_rad: raw.tube.joint_damping_nms_per_rad,
+                min_bend_radius_m: raw.tube.min_bend_radius_m.unwrap_or(DEFAULT_MIN_BEND_RADIUS_M),
             },
             body: raw.body,
             world: raw.world,
@@ -190,6 +198,7 @@ impl Robot {
         positive("tube.element_mass_kg", self.tube.element_mass_kg)?;
         positive("tube.joint_stiffness_nm_per_rad", self.tube.joint_stiffness_nm_per_rad)?;
         non_negative("tube.joint_damping_nms_per_rad", self.tube.joint_damping_nms_per_rad)?;
+        non_negative("tube.min_bend_radius_m", self.tube.min_bend_radius_m)?;
         positive("body.base_spacing_m", self.body.base_spacing_m)?;
         positive("body.tip_spacing_m", self.body.tip_spacing_m)?;
         non_negative("body.payload_kg", self.body.payload_kg)?;
@@ -233,6 +242,7 @@ impl Robot {
         robot.tube.element_mass_kg *= s;
         robot.tube.joint_stiffness_nm_per_rad *= s * s;
         robot.tube.joint_damping_nms_per_rad *= s * s * s.sqrt();
+        robot.tube.min_bend_radius_m *= s;
         robot.body.base_spacing_m *= s;
         robot.body.tip_spacing_m *= s;
         robot.body.payload_kg *= s;

@@ -281,6 +281,7 @@ pub struct Equilibrium {
 pub struct Workspace {
     n: usize,
     m: usize,
+    split: usize,
     current: Evaluation,
     trial: Evaluation,
     kkt: Kkt,
@@ -306,6 +307,7 @@ impl Workspace {
         Workspace {
             n,
             m,
+            split,
             current: Evaluation::new(n, m),
             trial: Evaluation::new(n, m),
             kkt: Kkt::with_blocks(n, m, split),
@@ -326,8 +328,9 @@ impl Workspace {
         Workspace::with_blocks(system.dim(), system.constraint_count(), system.block_split())
     }
 
-    fn fits<S: StaticSystem + ?Sized>(&self, system: &S) -> bool {
-        self.n == system.dim() && self.m == system.constraint_count()
+    /// Whether this scratch is sized for `system`.
+    pub fn fits<S: StaticSystem + ?Sized>(&self, system: &S) -> bool {
+        self.n == system.dim() && self.m == system.constraint_count() && self.split == system.block_split()
     }
 }
 
@@ -373,6 +376,10 @@ struct Newton {
 /// How far above the tolerance a residual that no step can reduce (rounding
 /// noise) still counts as converged.
 const ROUNDOFF_SLACK: f64 = 1e3;
+
+/// Iterations without halving the residual after which a residual within
+/// `ROUNDOFF_SLACK` of the tolerance counts as stalled at rounding.
+const STALL_ITERATIONS: usize = 20;
 
 /// Limits of one Newton run: iterations, tolerance, and how far (rad, sup
 /// norm) the iterates may wander from the starting point.
@@ -499,6 +506,7 @@ impl Solver {
         let mut rho: f64 = 0.0;
         let mut damping: f64 = 0.0;
         let mut iter = 0;
+        let (mut best, mut best_at) = (f64::INFINITY, 0);
         // After a tiny unshifted step from a minimum, the last factors still
         // give the stability verdict and a tangent good enough for a predictor.
         let mut factors_fresh = false;
@@ -507,7 +515,15 @@ impl Solver {
             if !res.is_finite() {
                 return Newton { converged: false, residual: res, stable: false, reason: "non-finite residual" };
             }
-            if res <= tolerance {
+            // A residual that stalls within a few orders of the tolerance is at
+            // the rounding floor of an ill-conditioned point (near a fold):
+            // converged, with the residual reported as is.
+            if res < 0.5 * best {
+                best = res;
+                best_at = iter;
+            }
+            let stalled = iter >= best_at + STALL_ITERATIONS && res <= ROUNDOFF_SLACK * tolerance;
+            if res <= tolerance || stalled {
                 let stable = factors_fresh || self.factor(sys, &state.lambda, ws).0 == Inertia::Minimum;
                 return Newton { converged: true, residual: res, stable, reason: "" };
             }
@@ -536,7 +552,9 @@ impl Solver {
             let k = sys.moment_scale();
             let scales = sys.constraint_scales();
             let r0 = Self::residual_l2(sys, &ws.residual, &ws.current);
-            let mut shift = min_shift.max(damping);
+            // Where the curvature is right, try the plain Newton step first:
+            // that keeps quadratic convergence; the memory is for the rest.
+            let mut shift = if min_shift == 0.0 { 0.0 } else { min_shift.max(damping) };
             let mut accepted = false;
             for attempt in 0..80 {
                 if attempt > 0 || shift != min_shift {
@@ -829,16 +847,18 @@ impl Solver {
             }
             // Still failing at the smallest step: the stable branch ends or turns
             // unstable here. Settle from the last stable state at the new
-            // parameter, as damped dynamics would: a far landing is a snap
-            // through a fold, a near one past an unstable point is a pitchfork.
+            // parameter, as damped dynamics would: leaving an unstable
+            // symmetric state is a pitchfork, anything else a snap at a fold.
             let at = t;
             t = (t + dt).min(1.0);
             let (settled, escaped) = self.settle(sys, state, t, stage, ws)?;
             residual = settled;
             let jump_rad = distance(&state.q, &ws.q_saved);
+            // Reaching here means the stable branch could not be followed
+            // past `at`: report it whatever the size of the jump.
             if escaped {
                 state.events.push(Event::Bifurcation { stage, at, side: "right", jump_rad });
-            } else if jump_rad > self.options.jump_tolerance {
+            } else {
                 state.events.push(Event::Snap { stage, at, jump_rad });
             }
             state.steps += 1;

@@ -1,0 +1,470 @@
+//! Workspace sweeps: the endpoint over a grid of tube lengths, for one or
+//! several shape parameters and both models, with reach metrics.
+//!
+//! # Actuation path
+//!
+//! Equilibria are not unique, so the sweep follows how the robot would get
+//! there: the tubes are fed from grid point to grid point with gravity on.
+//! The corner `(L0, L0)` is a default cold solve ([`Body::solve`]); the first
+//! column `(L_i, L0)` is walked upwards in `LA`, each point warm-started
+//! ([`Body::solve_from`]) from its neighbour's state carried over
+//! ([`Body::carry_over`]); then every row walks `LB` upwards from its first
+//! column, rows in parallel. Each point costs one or two Newton steps. A warm
+//! start that lands far from its neighbour (more than `SNAP_RAD` on some
+//! angle) is a snap on the actuation path and is flagged `snapped`; if a warm
+//! start fails, the point is retried cold and, failing that, listed as a
+//! failure (never dropped).
+//!
+//! # Metrics (for each model and shape parameter)
+//!
+//! Over the points that converged and are feasible (no tube bent tighter than
+//! `tube.min_bend_radius_m`): the highest and lowest endpoint, the farthest
+//! horizontal reach (largest `|x|`), and the reachable area (m^2): neighbouring
+//! grid points form triangles in the endpoint plane, which are rasterized onto
+//! a grid of `AREA_CELL_M` cells; the area is the number of cells covered times
+//! the cell area (overlaps count once). Triangles with an edge longer than
+//! `AREA_MAX_EDGE_M` (a snap between neighbours) or a corner that failed, is
+//! infeasible or unstable are left out.
+
+use rayon::prelude::*;
+
+use crate::body::Body;
+use crate::constant_curvature::PlanarBody;
+use crate::error::{positive, InputError};
+use crate::robot::{Robot, MAX_LINKS};
+use crate::statics::{Solver, Workspace};
+
+/// A warm start moving some angle by more than this (rad) is a snap.
+pub const SNAP_RAD: f64 = 0.5;
+/// Raster cell for the reachable area (m).
+pub const AREA_CELL_M: f64 = 0.002;
+/// Triangles whose longest edge exceeds this multiple of the median one span
+/// a jump between neighbours (a snap, or two actuation paths meeting) and are
+/// not part of the reachable area.
+pub const AREA_EDGE_FACTOR: f64 = 5.0;
+
+/// Tube lengths `min, min + step, ..., max` (m).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Grid {
+    /// Shortest tube length (m).
+    pub min: f64,
+    /// Longest tube length (m).
+    pub max: f64,
+    /// Step (m).
+    pub step: f64,
+}
+
+impl Grid {
+    /// A checked grid: `0 < min <= max`, `step > 0`, at most 10 001 values.
+    pub fn new(min: f64, max: f64, step: f64) -> Result<Grid, InputError> {
+        let min = positive("lengths range min", min)?;
+        let max = positive("lengths range max", max)?;
+        let step = positive("lengths range step", step)?;
+        if max < min {
+            return Err(InputError::invalid("lengths range max", max, format!("at least the min ({min})")));
+        }
+        let count = ((max - min) / step).floor() + 1.0;
+        if count > 10_001.0 {
+            return Err(InputError::invalid("lengths range step", step, "a step giving at most 10001 lengths"));
+        }
+        Ok(Grid { min, max, step })
+    }
+
+    /// Parses `MIN:MAX:STEP` (m).
+    pub fn parse(text: &str) -> Result<Grid, InputError> {
+        let parts: Vec<&str> = text.split(':').collect();
+        let bad = || InputError::Invalid {
+            field: "lengths range".into(),
+            value: text.into(),
+            allowed: "MIN:MAX:STEP in m, e.g. 0.05:0.3:0.005".into(),
+        };
+        let [a, b, c] = parts.as_slice() else { return Err(bad()) };
+        let num = |s: &str| s.trim().parse::<f64>().map_err(|_| bad());
+        Grid::new(num(a)?, num(b)?, num(c)?)
+    }
+
+    /// The lengths (m); the last is `max` when the step divides the range.
+    pub fn values(&self) -> Vec<f64> {
+        let count = ((self.max - self.min) / self.step + 1e-9).floor() as usize + 1;
+        (0..count).map(|i| self.min + self.step * i as f64).collect()
+    }
+}
+
+/// Which model a point belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Model {
+    /// The two-chain model with gravity.
+    TwoChain,
+    /// The kinematic constant-curvature model.
+    ConstantCurvature,
+}
+
+impl Model {
+    /// The name used in CSV and JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Model::TwoChain => "two-chain",
+            Model::ConstantCurvature => "constant-curvature",
+        }
+    }
+}
+
+/// What to sweep.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SweepOptions {
+    /// The lengths, for both tubes.
+    pub grid: Grid,
+    /// Shape parameters to sweep (the robot's own when empty).
+    pub shape_parameters: Vec<f64>,
+    /// Models to evaluate.
+    pub models: Vec<Model>,
+    /// Only `LA >= LB` (the paper's Fig. 12: left tube longer).
+    pub left_longer: bool,
+}
+
+/// One grid point.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Point {
+    /// Model.
+    pub model: Model,
+    /// Shape parameter (None for the constant-curvature model, which has none).
+    pub shape_parameter: Option<f64>,
+    /// Tube lengths LA, LB (m).
+    pub lengths_m: [f64; 2],
+    /// `None` when converged, else why it failed.
+    pub failure: Option<String>,
+    /// Stable equilibrium (always true for constant curvature).
+    pub stable: bool,
+    /// The warm start landed far from its neighbour's shape (a snap).
+    pub snapped: bool,
+    /// Smallest bending radius of the tubes (m).
+    pub min_bend_radius_m: f64,
+    /// Not bent tighter than the tube allows.
+    pub feasible: bool,
+    /// Endpoint (m); NaN for a failure.
+    pub endpoint_m: [f64; 2],
+    /// Endpoint plate angle (rad); NaN for a failure.
+    pub endpoint_angle_rad: f64,
+}
+
+/// An extreme endpoint and where it comes from.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Extreme {
+    /// Endpoint (m).
+    pub endpoint_m: [f64; 2],
+    /// Tube lengths (m).
+    pub lengths_m: [f64; 2],
+}
+
+/// A failed point.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Failure {
+    /// Tube lengths (m).
+    pub lengths_m: [f64; 2],
+    /// The solver's message.
+    pub reason: String,
+}
+
+/// Metrics of one model at one shape parameter.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Summary {
+    /// Model.
+    pub model: Model,
+    /// Shape parameter (None for constant curvature).
+    pub shape_parameter: Option<f64>,
+    /// Grid points evaluated.
+    pub points: usize,
+    /// Points that did not converge, each listed.
+    pub failures: Vec<Failure>,
+    /// Points bent tighter than the tube allows.
+    pub infeasible: usize,
+    /// Points that converged to an unstable equilibrium.
+    pub unstable: usize,
+    /// Points where the actuation path snapped.
+    pub snapped: usize,
+    /// Highest endpoint.
+    pub highest: Option<Extreme>,
+    /// Lowest endpoint.
+    pub lowest: Option<Extreme>,
+    /// Largest horizontal distance from the driving unit.
+    pub farthest: Option<Extreme>,
+    /// Reachable area (m^2), see the module doc.
+    pub area_m2: f64,
+}
+
+/// A finished sweep.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Sweep {
+    /// Every grid point of every model and shape parameter.
+    pub points: Vec<Point>,
+    /// Metrics per model and shape parameter.
+    pub summaries: Vec<Summary>,
+}
+
+/// Number of grid points a sweep evaluates (for progress bars).
+pub fn point_count(options: &SweepOptions) -> usize {
+    let n = options.grid.values().len();
+    let per = if options.left_longer { n * (n + 1) / 2 } else { n * n };
+    let pis = options.shape_parameters.len().max(1);
+    options.models.iter().map(|m| if *m == Model::TwoChain { per * pis } else { per }).sum()
+}
+
+/// Runs a sweep. `progress` is called with the number of points just finished
+/// (from several threads).
+pub fn sweep(robot: &Robot, options: &SweepOptions, progress: &(dyn Fn(usize) + Sync)) -> Result<Sweep, InputError> {
+    robot.validate()?;
+    let values = options.grid.values();
+    robot.check_tube_length("lengths range min", values[0])?;
+    robot.check_tube_length("lengths range max", *values.last().expect("a grid has a value"))?;
+    if values.last().copied().unwrap_or(0.0) / robot.tube.element_length_m > MAX_LINKS as f64 {
+        return Err(InputError::invalid("lengths range max", options.grid.max, "fewer elements"));
+    }
+    let pis: Vec<Option<f64>> = if options.shape_parameters.is_empty() {
+        vec![None]
+    } else {
+        options.shape_parameters.iter().map(|p| Some(*p)).collect()
+    };
+    let mut points = Vec::new();
+    let mut summaries = Vec::new();
+    for model in &options.models {
+        match model {
+            Model::TwoChain => {
+                for pi in &pis {
+                    let tuned = match pi {
+                        Some(p) => robot.with_shape_parameter(*p)?,
+                        None => robot.clone(),
+                    };
+                    let pi_value = Some(tuned.shape_parameter());
+                    let pts = two_chain_points(&tuned, &values, options.left_longer, progress)
+                        .into_iter()
+                        .map(|mut p| {
+                            p.shape_parameter = pi_value;
+                            p
+                        })
+                        .collect::<Vec<_>>();
+                    summaries.push(summarize(Model::TwoChain, pi_value, &pts, &values, options.left_longer));
+                    points.extend(pts);
+                }
+            }
+            Model::ConstantCurvature => {
+                let pts = constant_curvature_points(robot, &values, options.left_longer);
+                progress(pts.len());
+                summaries.push(summarize(Model::ConstantCurvature, None, &pts, &values, options.left_longer));
+                points.extend(pts);
+            }
+        }
+    }
+    Ok(Sweep { points, summaries })
+}
+
+fn grid_pairs(n: usize, left_longer: bool) -> impl Iterator<Item = (usize, usize)> {
+    (0..n).flat_map(move |i| (0..if left_longer { i + 1 } else { n }).map(move |j| (i, j)))
+}
+
+fn constant_curvature_points(robot: &Robot, values: &[f64], left_longer: bool) -> Vec<Point> {
+    let cc = PlanarBody::of(robot);
+    grid_pairs(values.len(), left_longer)
+        .map(|(i, j)| {
+            let (la, lb) = (values[i], values[j]);
+            let pose = cc.pose(la, lb);
+            let radius = (la.min(lb) / pose.bend.abs()).max(0.0);
+            Point {
+                model: Model::ConstantCurvature,
+                shape_parameter: None,
+                lengths_m: [la, lb],
+                failure: None,
+                stable: true,
+                snapped: false,
+                min_bend_radius_m: radius,
+                feasible: radius >= robot.tube.min_bend_radius_m,
+                endpoint_m: pose.endpoint,
+                endpoint_angle_rad: pose.endpoint_angle,
+            }
+        })
+        .collect()
+}
+
+/// A solved point and its state, the seed of its neighbours.
+struct Solved {
+    point: Point,
+    body: Option<(Body, Vec<f64>)>,
+}
+
+fn solve_point(robot: &Robot, la: f64, lb: f64, seed: Option<&(Body, Vec<f64>)>, ws: &mut Option<Workspace>) -> Solved {
+    let solver = Solver::default();
+    let failed = |reason: String| Solved {
+        point: Point {
+            model: Model::TwoChain,
+            shape_parameter: None,
+            lengths_m: [la, lb],
+            failure: Some(reason),
+            stable: false,
+            snapped: false,
+            min_bend_radius_m: f64::NAN,
+            feasible: false,
+            endpoint_m: [f64::NAN; 2],
+            endpoint_angle_rad: f64::NAN,
+        },
+        body: None,
+    };
+    let body = match robot.body(la, lb) {
+        Ok(b) => b,
+        Err(e) => return failed(e.to_string()),
+    };
+    let scratch = match ws {
+        Some(w) if w.fits(&body) => w,
+        _ => ws.insert(Workspace::for_system(&body)),
+    };
+    let (result, snapped) = match seed {
+        Some((previous, q)) => {
+            let start = body.carry_over(previous, q);
+            match body.solve_from(&solver, &start, scratch) {
+                Ok(eq) => {
+                    let jump = eq.q.iter().zip(&start).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+                    (Ok(eq), jump > SNAP_RAD)
+                }
+                Err(_) => (body.solve_in(&solver, scratch), false),
+            }
+        }
+        None => (body.solve_in(&solver, scratch), false),
+    };
+    match result {
+        Ok(eq) => {
+            let radius = body.min_bend_radius(&eq.q);
+            Solved {
+                point: Point {
+                    model: Model::TwoChain,
+                    shape_parameter: None,
+                    lengths_m: [la, lb],
+                    failure: None,
+                    stable: eq.stable,
+                    snapped,
+                    min_bend_radius_m: radius,
+                    feasible: radius >= robot.tube.min_bend_radius_m,
+                    endpoint_m: body.endpoint(&eq.q),
+                    endpoint_angle_rad: body.endpoint_angle(&eq.q),
+                },
+                body: Some((body, eq.q)),
+            }
+        }
+        Err(e) => failed(e.to_string()),
+    }
+}
+
+fn two_chain_points(robot: &Robot, values: &[f64], left_longer: bool, progress: &(dyn Fn(usize) + Sync)) -> Vec<Point> {
+    let n = values.len();
+    // The first column, fed upwards in LA from the cold corner.
+    let mut column: Vec<Solved> = Vec::with_capacity(n);
+    let mut ws = None;
+    for i in 0..n {
+        let seed = column.iter().rev().find_map(|s| s.body.as_ref());
+        let solved = solve_point(robot, values[i], values[0], seed, &mut ws);
+        column.push(solved);
+    }
+    progress(n);
+    // Each row fed in LB from its first column, rows in parallel.
+    let rows: Vec<Vec<Point>> = column
+        .into_par_iter()
+        .enumerate()
+        .map(|(i, first)| {
+            let mut ws = None;
+            let end = if left_longer { i + 1 } else { n };
+            let mut row = Vec::with_capacity(end);
+            let mut seed = first.body;
+            row.push(first.point);
+            for j in 1..end {
+                let solved = solve_point(robot, values[i], values[j], seed.as_ref(), &mut ws);
+                if solved.body.is_some() {
+                    seed = solved.body;
+                }
+                row.push(solved.point);
+            }
+            progress(end.saturating_sub(1));
+            row
+        })
+        .collect();
+    rows.into_iter().flatten().collect()
+}
+
+fn extreme(points: &[&Point], key: impl Fn(&Point) -> f64) -> Option<Extreme> {
+    points
+        .iter()
+        .max_by(|a, b| key(a).total_cmp(&key(b)))
+        .map(|p| Extreme { endpoint_m: p.endpoint_m, lengths_m: p.lengths_m })
+}
+
+fn summarize(model: Model, pi: Option<f64>, points: &[Point], values: &[f64], left_longer: bool) -> Summary {
+    let good: Vec<&Point> = points.iter().filter(|p| p.failure.is_none() && p.feasible).collect();
+    Summary {
+        model,
+        shape_parameter: pi,
+        points: points.len(),
+        failures: points
+            .iter()
+            .filter_map(|p| p.failure.as_ref().map(|r| Failure { lengths_m: p.lengths_m, reason: r.clone() }))
+            .collect(),
+        infeasible: points.iter().filter(|p| p.failure.is_none() && !p.feasible).count(),
+        unstable: points.iter().filter(|p| p.failure.is_none() && !p.stable).count(),
+        snapped: points.iter().filter(|p| p.snapped).count(),
+        highest: extreme(&good, |p| p.endpoint_m[1]),
+        lowest: extreme(&good, |p| -p.endpoint_m[1]),
+        farthest: extreme(&good, |p| p.endpoint_m[0].abs()),
+        area_m2: area(points, values.len(), left_longer),
+    }
+}
+
+/// Rasterized area covered by the triangles of neighbouring grid points.
+fn area(points: &[Point], n: usize, left_longer: bool) -> f64 {
+    let index = |i: usize, j: usize| -> Option<&Point> {
+        if left_longer {
+            (j <= i).then(|| &points[i * (i + 1) / 2 + j])
+        } else {
+            Some(&points[i * n + j])
+        }
+    };
+    let usable = |p: &Point| p.failure.is_none() && p.feasible && p.stable;
+    let mut triangles = Vec::new();
+    for i in 0..n.saturating_sub(1) {
+        for j in 0..n.saturating_sub(1) {
+            let corners = [index(i, j), index(i + 1, j), index(i + 1, j + 1), index(i, j + 1)];
+            for tri in [[0, 1, 2], [0, 2, 3]] {
+                let [Some(a), Some(b), Some(c)] = tri.map(|k| corners[k]) else { continue };
+                if [a, b, c].iter().all(|p| usable(p)) {
+                    triangles.push([a.endpoint_m, b.endpoint_m, c.endpoint_m]);
+                }
+            }
+        }
+    }
+    let longest = |t: &[[f64; 2]; 3]| {
+        let edge = |p: [f64; 2], q: [f64; 2]| (p[0] - q[0]).hypot(p[1] - q[1]);
+        edge(t[0], t[1]).max(edge(t[1], t[2])).max(edge(t[2], t[0]))
+    };
+    let mut edges: Vec<f64> = triangles.iter().map(longest).collect();
+    edges.sort_by(f64::total_cmp);
+    let limit = edges.get(edges.len() / 2).map_or(0.0, |m| AREA_EDGE_FACTOR * m);
+    let mut cells = std::collections::HashSet::new();
+    for t in triangles.iter().filter(|t| longest(t) <= limit) {
+        rasterize(t[0], t[1], t[2], &mut cells);
+    }
+    cells.len() as f64 * AREA_CELL_M * AREA_CELL_M
+}
+
+/// Marks the cells whose centres lie in the triangle.
+fn rasterize(a: [f64; 2], b: [f64; 2], c: [f64; 2], cells: &mut std::collections::HashSet<(i64, i64)>) {
+    let h = AREA_CELL_M;
+    let lo = |k: usize| (a[k].min(b[k]).min(c[k]) / h).floor() as i64;
+    let hi = |k: usize| (a[k].max(b[k]).max(c[k]) / h).ceil() as i64;
+    let cross = |o: [f64; 2], p: [f64; 2], q: [f64; 2]| (p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0]);
+    for x in lo(0)..hi(0) {
+        for y in lo(1)..hi(1) {
+            let p = [(x as f64 + 0.5) * h, (y as f64 + 0.5) * h];
+            let (d1, d2, d3) = (cross(a, b, p), cross(b, c, p), cross(c, a, p));
+            let negative = d1 < 0.0 || d2 < 0.0 || d3 < 0.0;
+            let positive = d1 > 0.0 || d2 > 0.0 || d3 > 0.0;
+            if !(negative && positive) {
+                cells.insert((x, y));
+            }
+        }
+    }
+}
