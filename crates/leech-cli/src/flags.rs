@@ -33,6 +33,67 @@ pub enum Command {
     Shape(ShapeArgs),
     /// Regenerate one of the paper's figures (SVG and CSV) for a robot.
     Figure(FigureArgs),
+    /// Sweep both tube lengths over a grid: endpoints, reach metrics (CSV, JSON, SVG).
+    Workspace(WorkspaceArgs),
+    /// Inverse statics: tube lengths that put the endpoint on a target.
+    Reach(ReachArgs),
+}
+
+/// `leech workspace`.
+#[derive(Debug, Args)]
+#[command(allow_negative_numbers = true)]
+pub struct WorkspaceArgs {
+    /// Robot file (TOML); the built-in LEeCH robot if absent.
+    #[arg(long, value_name = "FILE")]
+    pub robot: Option<PathBuf>,
+    /// Tube lengths for both tubes, MIN:MAX:STEP in m.
+    #[arg(long, value_name = "MIN:MAX:STEP", default_value = "0.05:0.3:0.005")]
+    pub lengths_range: String,
+    /// Shape parameters to sweep, comma-separated (the robot's own if absent).
+    #[arg(long, value_name = "P1,P2,...", value_delimiter = ',')]
+    pub shape_parameter: Vec<f64>,
+    /// Which models to sweep.
+    #[arg(long, value_enum, default_value_t = ModelArg::Both)]
+    pub model: ModelArg,
+    /// Only LA >= LB (the left tube, chain A, longer; the paper's Fig. 12).
+    #[arg(long)]
+    pub left_longer: bool,
+    /// Clamp direction (deg), overriding the robot file.
+    #[arg(long, value_name = "DEG")]
+    pub base_angle: Option<f64>,
+    /// CSV file for every grid point.
+    #[arg(long, value_name = "FILE.csv")]
+    pub out: PathBuf,
+    /// Write a picture of the endpoints as SVG.
+    #[arg(long, value_name = "FILE")]
+    pub svg: Option<PathBuf>,
+    /// Print the summary as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `leech reach`.
+#[derive(Debug, Args)]
+#[command(allow_negative_numbers = true)]
+pub struct ReachArgs {
+    /// Robot file (TOML); the built-in LEeCH robot if absent.
+    #[arg(long, value_name = "FILE")]
+    pub robot: Option<PathBuf>,
+    /// Target for the endpoint, X,Y in m (driving unit at the origin).
+    #[arg(long, value_name = "X,Y", value_parser = parse_pair, allow_hyphen_values = true)]
+    pub target: [f64; 2],
+    /// Target plate angle (deg from +x), for the front cup to land flat.
+    #[arg(long, value_name = "DEG")]
+    pub angle: Option<f64>,
+    /// Allowed tube lengths and the grid of the starting map, MIN:MAX:STEP in m.
+    #[arg(long, value_name = "MIN:MAX:STEP", default_value = "0.05:0.3:0.01")]
+    pub lengths_range: String,
+    /// Clamp direction (deg), overriding the robot file.
+    #[arg(long, value_name = "DEG")]
+    pub base_angle: Option<f64>,
+    /// Print the answer as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Which model `leech shape` evaluates.
@@ -173,7 +234,7 @@ pub struct ShapeArgs {
 fn parse_pair(text: &str) -> Result<[f64; 2], String> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     let [a, b] = parts.as_slice() else {
-        return Err(format!("got '{text}', expected two numbers separated by a comma (LA,LB in m)"));
+        return Err(format!("got '{text}', expected two numbers in m separated by a comma"));
     };
     let num = |s: &str| s.parse::<f64>().map_err(|_| format!("got '{s}' in '{text}', expected a number in m"));
     Ok([num(a)?, num(b)?])

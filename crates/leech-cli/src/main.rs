@@ -15,7 +15,7 @@ use leech::prelude::*;
 use leech::report::{BodyReport, CantileverReport, ConstantCurvatureReport};
 use leech_plot::Figure;
 
-use flags::{ChainArgs, Cli, Command, FigureArgs, ModelArg, Output, ShapeArgs};
+use flags::{ChainArgs, Cli, Command, FigureArgs, ModelArg, Output, ReachArgs, ShapeArgs, WorkspaceArgs};
 
 /// Why the command stopped.
 enum Failure {
@@ -104,6 +104,8 @@ fn run(cli: Cli, out: &mut String) -> Result<(), Failure> {
         Command::Chain(args) => chain(args, out),
         Command::Shape(args) => shape(args, out),
         Command::Figure(args) => figure(args, out),
+        Command::Workspace(args) => workspace(args, out),
+        Command::Reach(args) => reach(args, out),
     }
 }
 
@@ -346,6 +348,123 @@ fn figure(args: FigureArgs, out: &mut String) -> Result<(), Failure> {
         output.figure.write_svg(&svg).map_err(|e| Failure::Other(e.into()))?;
         output.table.write_csv(&csv).map_err(|e| Failure::Other(e.into()))?;
         writeln!(out, "wrote {} and {}", svg.display(), csv.display()).expect("writing to a String");
+    }
+    Ok(())
+}
+
+fn workspace(args: WorkspaceArgs, out: &mut String) -> Result<(), Failure> {
+    use leech::workspace::{point_count, sweep, Grid, Model, SweepOptions};
+    let mut robot = load_robot(args.robot.as_deref())?;
+    if let Some(angle) = args.base_angle {
+        robot.world.base_angle_deg = angle;
+    }
+    let models = match args.model {
+        ModelArg::TwoChain => vec![Model::TwoChain],
+        ModelArg::ConstantCurvature => vec![Model::ConstantCurvature],
+        ModelArg::Both => vec![Model::TwoChain, Model::ConstantCurvature],
+    };
+    let options = SweepOptions {
+        grid: Grid::parse(&args.lengths_range)?,
+        shape_parameters: args.shape_parameter.clone(),
+        models,
+        left_longer: args.left_longer,
+    };
+    for pi in &options.shape_parameters {
+        leech::error::positive("shape parameter", *pi)?;
+    }
+    // A bar on a terminal only: indicatif draws nothing when stderr is piped.
+    let bar = indicatif::ProgressBar::new(point_count(&options) as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} points, {elapsed} ({eta} left)")
+            .expect("a valid template"),
+    );
+    let started = std::time::Instant::now();
+    let result = sweep(&robot, &options, &|n| bar.inc(n as u64))?;
+    bar.finish_and_clear();
+    let elapsed = started.elapsed().as_secs_f64();
+    write_sweep_csv(&args.out, &result).map_err(|e| Failure::Other(e.context(format!("writing {}", args.out.display()))))?;
+    if let Some(svg) = &args.svg {
+        let title = format!("{}: endpoints over LA, LB in {}", robot.name, args.lengths_range);
+        leech_plot::figures::sweep_figure(&title, &result).write_svg(svg).map_err(|e| Failure::Other(e.into()))?;
+    }
+    let failures: usize = result.summaries.iter().map(|s| s.failures.len()).sum();
+    if args.json {
+        let v = serde_json::json!({
+            "points": result.points.len(),
+            "failures": failures,
+            "elapsed_s": elapsed,
+            "summaries": result.summaries,
+        });
+        writeln!(out, "{}", to_json(&v)?).expect("writing to a String");
+    } else {
+        writeln!(out, "{} points in {:.2} s, {} failures; every point in {}", result.points.len(), elapsed, failures, args.out.display())
+            .expect("writing to a String");
+        for s in &result.summaries {
+            let pi = s.shape_parameter.map_or("-".to_string(), |p| format!("{p:.0}"));
+            let mm = |e: &Option<leech::workspace::Extreme>, k: usize| e.map_or(f64::NAN, |e| e.endpoint_m[k] * 1e3);
+            writeln!(
+                out,
+                "{:<18} Pi {:>7}: highest y {:7.1} mm, lowest y {:7.1} mm, farthest |x| {:6.1} mm, area {:7.0} mm^2; infeasible {}, unstable {}, snapped {}, failures {}",
+                s.model.name(), pi, mm(&s.highest, 1), mm(&s.lowest, 1), mm(&s.farthest, 0).abs(), s.area_m2 * 1e6,
+                s.infeasible, s.unstable, s.snapped, s.failures.len()
+            )
+            .expect("writing to a String");
+            for f in &s.failures {
+                writeln!(out, "  failed at LA = {} m, LB = {} m: {}", f.lengths_m[0], f.lengths_m[1], f.reason)
+                    .expect("writing to a String");
+            }
+        }
+    }
+    Ok(())
+}
+
+fn write_sweep_csv(path: &Path, sweep: &leech::workspace::Sweep) -> anyhow::Result<()> {
+    let mut text = String::from(
+        "model,shape_parameter,la_m,lb_m,status,stable,snapped,feasible,min_bend_radius_m,endpoint_x_m,endpoint_y_m,endpoint_angle_rad\n",
+    );
+    for p in &sweep.points {
+        let pi = p.shape_parameter.map_or(String::new(), |v| v.to_string());
+        let status = if p.failure.is_some() { "failed" } else { "converged" };
+        writeln!(
+            text,
+            "{},{},{},{},{},{},{},{},{},{},{},{}",
+            p.model.name(), pi, p.lengths_m[0], p.lengths_m[1], status, p.stable, p.snapped, p.feasible,
+            p.min_bend_radius_m, p.endpoint_m[0], p.endpoint_m[1], p.endpoint_angle_rad
+        )
+        .expect("writing to a String");
+    }
+    std::fs::write(path, text)?;
+    Ok(())
+}
+
+fn reach(args: ReachArgs, out: &mut String) -> Result<(), Failure> {
+    use leech::inverse_statics::{check_target, ReachStatus, Reacher};
+    let mut robot = load_robot(args.robot.as_deref())?;
+    if let Some(angle) = args.base_angle {
+        robot.world.base_angle_deg = angle;
+    }
+    let target = [check_target("target x", args.target[0])?, check_target("target y", args.target[1])?];
+    let angle = match args.angle {
+        Some(a) => Some(leech::error::within("angle (deg)", a, -720.0, 720.0)?.to_radians()),
+        None => None,
+    };
+    let grid = leech::workspace::Grid::parse(&args.lengths_range)?;
+    let reacher = Reacher::new(&robot, grid)?;
+    let answer = reacher.reach(target, angle);
+    if args.json {
+        writeln!(out, "{}", to_json(&answer)?).expect("writing to a String");
+    } else {
+        let verdict = match answer.status {
+            ReachStatus::Reached => "reached",
+            ReachStatus::Unreachable => "UNREACHABLE; nearest point found",
+        };
+        writeln!(
+            out,
+            "{verdict}: LA = {:.6} m, LB = {:.6} m, endpoint ({:.4}, {:.4}) mm, error {:.2e} m, plate angle {:.3} deg",
+            answer.lengths_m[0], answer.lengths_m[1], answer.endpoint_m[0] * 1e3, answer.endpoint_m[1] * 1e3,
+            answer.error_m, answer.endpoint_angle_rad.to_degrees()
+        )
+        .expect("writing to a String");
     }
     Ok(())
 }

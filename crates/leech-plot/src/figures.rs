@@ -390,3 +390,32 @@ fn workspace(robot: &Robot) -> Result<Output, FigureError> {
     fig.gravity_arrow = true;
     Ok(Output { name: "workspace", figure: fig, table })
 }
+
+/// The endpoints of a [`leech::workspace::Sweep`]: one colour per model and
+/// shape parameter, feasible converged points only; constant curvature grey.
+pub fn sweep_figure(title: &str, sweep: &leech::workspace::Sweep) -> Figure {
+    use leech::workspace::Model;
+    let mut fig = Figure::new(title);
+    let mut colour = 0;
+    for summary in &sweep.summaries {
+        let points: Vec<[f64; 2]> = sweep
+            .points
+            .iter()
+            .filter(|p| p.model == summary.model && p.shape_parameter == summary.shape_parameter)
+            .filter(|p| p.failure.is_none() && p.feasible)
+            .map(|p| p.endpoint_m)
+            .collect();
+        let (label, color) = match (summary.model, summary.shape_parameter) {
+            (Model::ConstantCurvature, _) => ("constant curvature".to_string(), (170, 170, 170)),
+            (Model::TwoChain, pi) => {
+                colour += 1;
+                (format!("two-chain, Pi = {}", pi_label(pi.unwrap_or(f64::NAN))), PALETTE[(colour - 1) % PALETTE.len()])
+            }
+        };
+        if !points.is_empty() {
+            fig.push(label, points, SeriesStyle::Dots, color);
+        }
+    }
+    fig.gravity_arrow = true;
+    fig
+}

@@ -53,7 +53,7 @@ impl Body {
     /// payload as its tip mass) with an endpoint plate of width `tip_spacing`
     /// (m), under `gravity` (m/s^2).
     pub fn new(a: Chain, b: Chain, tip_spacing: f64, gravity: f64) -> Body {
-        let moment_scale = a.stiffness().iter().chain(b.stiffness()).fold(0.0f64, |m, k| m.max(*k));
+        let moment_scale = a.nominal_stiffness().max(b.nominal_stiffness());
         Body { a, b, tip_spacing, gravity, moment_scale }
     }
 

@@ -81,8 +81,7 @@ impl StaticSystem for Cantilever {
     }
 
     fn moment_scale(&self) -> f64 {
-        // Every joint of a tube has the same k (the last one included).
-        self.chain.stiffness()[0]
+        self.chain.nominal_stiffness()
     }
 
     fn constraint_scales(&self) -> [f64; MAX_CONSTRAINTS] {

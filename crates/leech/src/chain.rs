@@ -36,26 +36,34 @@
 //! the velocity-product terms are `h_j = sum_k C_jk sin(phi_j - phi_k) dphi_k^2`.
 //! For `Paper` these are exactly the paper's `M_jk = l_j l_k mu_max(j,k) cos(...)`.
 //!
-//! A tube of length `L` gets `n` links of length `l`, the last one shorter, so that
-//! shapes are continuous in `L` (see [`Discretization`]).
+//! A tube of length `L` gets `n` elements of length `l`, the last one shorter,
+//! its spring stiffer in proportion, so that shapes are continuous in `L` (see
+//! [`Discretization`]).
 
 use serde::{Deserialize, Serialize};
 
 /// How a continuous tube is cut into rigid links.
 ///
-/// With element length `l` and tube length `L`:
+/// A tube of length `L` is cut into `n = ceil(L / l)` elements of length `l`,
+/// the last one of length `l_n = L - (n - 1) l` in `(0, l]`. Each element `j`
+/// has one joint whose spring carries that element's bending compliance,
+/// `k_j = EI / l_j = k l / l_j` (so `k` for whole elements), and a damper
+/// `d l / l_j`; its mass is `m l_j / l`.
 ///
-/// * `Paper` (the paper's scheme): `n = ceil(L / l)` links, springs at the link
-///   starts, point masses at the link tips; the last link has length
-///   `L - (n - 1) l` and mass `m` times that fraction of `l`. First-order
-///   accurate in `l` against the continuous elastica.
-/// * `Midpoint` (pseudo-rigid-body scheme): joints at `s_j = (j - 1/2) l`; the piece
-///   `[0, l/2]` is rigid with the clamp, the last piece runs from the last joint
-///   to `L` (length in `(0, l]`, exactly `l/2` when `L` is a whole number of
-///   elements); each piece carries its own mass at its centre. Second-order
-///   accurate in `l`.
+/// * `Paper` (the paper's scheme): the joint at the start of each element,
+///   the element is the link, its mass at its tip. First-order accurate in
+///   `l` against the continuous elastica.
+/// * `Midpoint` (pseudo-rigid-body scheme): the joint at the middle of each
+///   element; the piece from the clamp to the first joint is rigid, the links
+///   run from joint to joint and the last from the last joint to the tip,
+///   each carrying its own mass at its centre. With whole elements the end
+///   pieces are `l/2` long. Second-order accurate in `l`.
 ///
-/// Both keep the joint stiffness `k` for every joint, including a short last one.
+/// Scaling the last joint's spring with `l / l_n` (MODEL.md section 8 keeps
+/// `k`) makes shapes continuous in `L` even when the tip is loaded or welded
+/// to the plate: a new element appears rigid and softens as it grows. With a
+/// constant `k` the endpoint of the built-in body jumps by several
+/// millimetres each time a tube crosses a whole number of elements.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Discretization {
@@ -66,36 +74,25 @@ pub enum Discretization {
     Midpoint,
 }
 
+/// Largest factor by which a short last element's spring exceeds `k`.
+pub const MAX_STIFFNESS_RATIO: f64 = 1e4;
+
 /// Guards `ceil` against a length that is a whole number of elements up to
 /// rounding (0.3 / 0.01 = 29.999999999999996).
 const WHOLE_ELEMENT_SLACK: f64 = 1e-9;
 
 impl Discretization {
-    /// Number of flexible links for a tube of length `tube_length` (m) cut into
-    /// elements of `element_length` (m). At least one for `tube_length >= element_length`.
+    /// Number of elements (and links) for a tube of length `tube_length` (m)
+    /// cut into elements of `element_length` (m); at least one.
     ///
     /// ```
     /// use leech::chain::Discretization;
     /// assert_eq!(Discretization::Paper.link_count(0.30, 0.01), 30);
     /// assert_eq!(Discretization::Paper.link_count(0.3004, 0.01), 31);
-    /// assert_eq!(Discretization::Midpoint.link_count(0.30, 0.01), 30);
     /// assert_eq!(Discretization::Midpoint.link_count(0.296, 0.01), 30);
     /// ```
     pub fn link_count(self, tube_length: f64, element_length: f64) -> usize {
-        let elements = tube_length / element_length;
-        let n = match self {
-            Discretization::Paper => (elements - WHOLE_ELEMENT_SLACK).ceil(),
-            Discretization::Midpoint => (elements - 0.5 - WHOLE_ELEMENT_SLACK).ceil(),
-        };
-        (n.max(1.0)) as usize
-    }
-
-    /// Length of the piece rigidly attached to the clamp (m).
-    pub fn root_length(self, element_length: f64) -> f64 {
-        match self {
-            Discretization::Paper => 0.0,
-            Discretization::Midpoint => 0.5 * element_length,
-        }
+        ((tube_length / element_length - WHOLE_ELEMENT_SLACK).ceil().max(1.0)) as usize
     }
 
     /// The name used in robot files and on the command line.
@@ -167,6 +164,7 @@ pub struct Chain {
     mass_offsets: Vec<f64>,
     inertias: Vec<f64>,
     stiffness: Vec<f64>,
+    nominal_stiffness: f64,
     damping: Vec<f64>,
     tip_mass: f64,
     levers: Vec<f64>,
@@ -179,10 +177,15 @@ impl Chain {
         let l = spec.element_length;
         let d = spec.discretization;
         let n = d.link_count(spec.tube_length, l);
-        let root_length = d.root_length(l);
-        let last = spec.tube_length - root_length - (n - 1) as f64 * l;
-        let mut lengths = vec![l; n];
-        lengths[n - 1] = last;
+        let mut elements = vec![l; n];
+        elements[n - 1] = spec.tube_length - (n - 1) as f64 * l;
+        let (root_length, lengths) = match d {
+            Discretization::Paper => (0.0, elements.clone()),
+            Discretization::Midpoint => (
+                0.5 * elements[0],
+                (0..n).map(|j| 0.5 * (elements[j] + elements.get(j + 1).copied().unwrap_or(0.0))).collect(),
+            ),
+        };
         let masses: Vec<f64> = lengths.iter().map(|li| spec.element_mass * li / l).collect();
         let (mass_offsets, inertias): (Vec<f64>, Vec<f64>) = match d {
             Discretization::Paper => (lengths.clone(), vec![0.0; n]),
@@ -191,6 +194,10 @@ impl Chain {
                 lengths.iter().zip(&masses).map(|(li, mi)| mi * li * li / 12.0).collect(),
             ),
         };
+        // A vanishing element would make its spring arbitrarily stiff and the
+        // Newton system arbitrarily ill-conditioned; capping the ratio leaves
+        // a jump of 1/MAX_STIFFNESS_RATIO of the uncapped one (sub-micrometre).
+        let compliance = |e: &f64| (l / e).min(MAX_STIFFNESS_RATIO);
         let mut chain = Chain {
             clamp_point: spec.clamp_point,
             clamp_angle: spec.clamp_angle,
@@ -201,8 +208,9 @@ impl Chain {
             masses,
             mass_offsets,
             inertias,
-            stiffness: vec![spec.stiffness; n],
-            damping: vec![spec.damping; n],
+            stiffness: elements.iter().map(|e| spec.stiffness * compliance(e)).collect(),
+            nominal_stiffness: spec.stiffness,
+            damping: elements.iter().map(|e| spec.damping * compliance(e)).collect(),
             tip_mass: spec.tip_mass,
             levers: Vec::new(),
         };
@@ -243,6 +251,11 @@ impl Chain {
     /// Joint stiffnesses `k_j` (N m/rad); joint `j` sits at the start of link `j`.
     pub fn stiffness(&self) -> &[f64] {
         &self.stiffness
+    }
+
+    /// The stiffness `k` of a whole element's joint (N m/rad).
+    pub fn nominal_stiffness(&self) -> f64 {
+        self.nominal_stiffness
     }
 
     /// Joint dampers `d_j` (N m s/rad).

@@ -51,6 +51,7 @@
 //! * [`constant_curvature`]: the kinematic constant-curvature model, planar and tri-tube.
 //! * [`statics`]: the Newton-KKT solver, continuation, stability.
 //! * [`kkt`]: the O(n) bordered tridiagonal solve.
+//! * [`inverse_statics`]: tube lengths that put the endpoint on a target.
 //! * [`workspace`]: sweeps over tube lengths along the actuation path, reach metrics.
 //! * [`robot`]: robot files (TOML) and the built-in robot.
 //! * [`report`]: serializable results (what the command line prints).
@@ -63,6 +64,7 @@ pub mod cantilever;
 pub mod chain;
 pub mod constant_curvature;
 pub mod error;
+pub mod inverse_statics;
 pub mod kkt;
 pub mod report;
 pub mod robot;

@@ -353,6 +353,21 @@ fn solve_point(robot: &Robot, la: f64, lb: f64, seed: Option<&(Body, Vec<f64>)>,
 }
 
 fn two_chain_points(robot: &Robot, values: &[f64], left_longer: bool, progress: &(dyn Fn(usize) + Sync)) -> Vec<Point> {
+    walk(robot, values, left_longer, false, progress).into_iter().map(|(p, _)| p).collect()
+}
+
+/// A grid point's equilibrium: the body and its angles.
+pub(crate) type State = (Body, Vec<f64>);
+
+/// Walks the grid along the actuation path (see the module doc), returning
+/// every point in row order (`LA` major) and, when `keep` is set, its state.
+pub(crate) fn walk(
+    robot: &Robot,
+    values: &[f64],
+    left_longer: bool,
+    keep: bool,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Vec<(Point, Option<State>)> {
     let n = values.len();
     // The first column, fed upwards in LA from the cold corner.
     let mut column: Vec<Solved> = Vec::with_capacity(n);
@@ -364,7 +379,7 @@ fn two_chain_points(robot: &Robot, values: &[f64], left_longer: bool, progress: 
     }
     progress(n);
     // Each row fed in LB from its first column, rows in parallel.
-    let rows: Vec<Vec<Point>> = column
+    let rows: Vec<Vec<(Point, Option<State>)>> = column
         .into_par_iter()
         .enumerate()
         .map(|(i, first)| {
@@ -372,13 +387,14 @@ fn two_chain_points(robot: &Robot, values: &[f64], left_longer: bool, progress: 
             let end = if left_longer { i + 1 } else { n };
             let mut row = Vec::with_capacity(end);
             let mut seed = first.body;
-            row.push(first.point);
+            row.push((first.point, if keep { seed.clone() } else { None }));
             for j in 1..end {
                 let solved = solve_point(robot, values[i], values[j], seed.as_ref(), &mut ws);
+                let kept = if keep { solved.body.clone() } else { None };
                 if solved.body.is_some() {
                     seed = solved.body;
                 }
-                row.push(solved.point);
+                row.push((solved.point, kept));
             }
             progress(end.saturating_sub(1));
             row

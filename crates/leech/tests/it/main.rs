@@ -3,10 +3,12 @@
 mod constant_curvature;
 mod continuum;
 mod derivatives;
+mod inverse_statics;
 mod limits;
 mod references;
 mod robot_file;
 mod solver;
+mod workspace;
 
 use leech::prelude::*;
 

@@ -1,0 +1,106 @@
+//! Workspace sweeps follow the actuation path and agree with single solves.
+
+use leech::prelude::*;
+use leech::workspace::{sweep, Grid, Model, SweepOptions};
+
+fn options(models: Vec<Model>, left_longer: bool) -> SweepOptions {
+    SweepOptions {
+        grid: Grid::new(0.05, 0.30, 0.025).unwrap(),
+        shape_parameters: vec![],
+        models,
+        left_longer,
+    }
+}
+
+/// Each grid point equals a solve warm-started from its neighbour's state,
+/// and equals the default cold solve wherever the cold path lands on the same
+/// equilibrium (checked: all but the points flagged as snapped agree).
+#[test]
+fn sweep_points_equal_independent_solves() {
+    let robot = Robot::builtin();
+    let result = sweep(&robot, &options(vec![Model::TwoChain], false), &|_| {}).unwrap();
+    let values = Grid::new(0.05, 0.30, 0.025).unwrap().values();
+    let n = values.len();
+    assert_eq!(result.points.len(), n * n);
+    assert!(result.points.iter().all(|p| p.failure.is_none() && p.stable));
+    let solver = Solver::default();
+    let mut agree_cold = 0;
+    for i in 0..n {
+        for j in 0..n {
+            let p = &result.points[i * n + j];
+            assert_eq!(p.lengths_m, [values[i], values[j]]);
+            let body = robot.body(values[i], values[j]).unwrap();
+            // The neighbour this point was fed from: left in the row, or below in the first column.
+            let (ni, nj) = if j > 0 { (i, j - 1) } else if i > 0 { (i - 1, 0) } else { (0, 0) };
+            if (ni, nj) != (i, j) {
+                let neighbour = robot.body(values[ni], values[nj]).unwrap();
+                let seed = replay(&robot, &values, ni, nj);
+                let mut ws = leech::statics::Workspace::for_system(&body);
+                let warm = body.solve_from(&solver, &body.carry_over(&neighbour, &seed), &mut ws).unwrap();
+                let e = body.endpoint(&warm.q);
+                assert!((e[0] - p.endpoint_m[0]).abs() < 1e-9 && (e[1] - p.endpoint_m[1]).abs() < 1e-9);
+            }
+            let cold = body.solve(&solver).unwrap();
+            let e = body.endpoint(&cold.q);
+            if (e[0] - p.endpoint_m[0]).hypot(e[1] - p.endpoint_m[1]) < 1e-9 {
+                agree_cold += 1;
+            }
+        }
+    }
+    // Where the equilibrium is unique the two paths agree: on this grid all
+    // but a few points reached after a snap on one of the paths.
+    assert!(agree_cold as f64 >= 0.95 * (n * n) as f64, "{agree_cold} of {}", n * n);
+}
+
+/// The state the sweep had at grid point (i, j), replayed along its path.
+fn replay(robot: &Robot, values: &[f64], i: usize, j: usize) -> Vec<f64> {
+    let solver = Solver::default();
+    let mut path = vec![(0, 0)];
+    path.extend((1..=i).map(|k| (k, 0)));
+    path.extend((1..=j).map(|k| (i, k)));
+    let mut body = robot.body(values[0], values[0]).unwrap();
+    let mut q = body.solve(&solver).unwrap().q;
+    for &(a, b) in &path[1..] {
+        let next = robot.body(values[a], values[b]).unwrap();
+        let mut ws = leech::statics::Workspace::for_system(&next);
+        q = next.solve_from(&solver, &next.carry_over(&body, &q), &mut ws).unwrap().q;
+        body = next;
+    }
+    q
+}
+
+#[test]
+fn left_longer_and_constant_curvature() {
+    let robot = Robot::builtin();
+    let result = sweep(&robot, &options(vec![Model::TwoChain, Model::ConstantCurvature], true), &|_| {}).unwrap();
+    let n = 11;
+    assert_eq!(result.points.len(), 2 * n * (n + 1) / 2);
+    assert!(result.points.iter().all(|p| p.lengths_m[0] >= p.lengths_m[1]));
+    assert_eq!(result.summaries.len(), 2);
+    for s in &result.summaries {
+        assert!(s.area_m2 > 0.0 && s.highest.is_some() && s.failures.is_empty());
+        let high = s.highest.unwrap().endpoint_m[1];
+        let low = s.lowest.unwrap().endpoint_m[1];
+        assert!(high >= low);
+    }
+    // A tube cannot bend tighter than 25 mm: sharp constant-curvature bends are infeasible.
+    let cc = result.points.iter().filter(|p| p.model == Model::ConstantCurvature);
+    for p in cc {
+        let bend = ((p.lengths_m[1] - p.lengths_m[0]) / (0.5 * (0.017 + 0.012))).abs();
+        let radius = p.lengths_m[1] / bend;
+        assert_eq!(p.feasible, radius >= 0.025 || bend == 0.0, "{:?}", p.lengths_m);
+    }
+}
+
+#[test]
+fn bad_grids_are_rejected() {
+    assert!(Grid::parse("0.05:0.3").is_err());
+    assert!(Grid::parse("0.3:0.05:0.01").is_err());
+    assert!(Grid::parse("0.05:0.3:0").is_err());
+    assert!(Grid::parse("0.05:0.3:1e-9").is_err());
+    assert!(Grid::parse("a:b:c").is_err());
+    let robot = Robot::builtin();
+    let mut o = options(vec![Model::TwoChain], false);
+    o.grid = Grid::new(0.001, 0.3, 0.05).unwrap();
+    assert!(sweep(&robot, &o, &|_| {}).is_err(), "shorter than one element");
+}
