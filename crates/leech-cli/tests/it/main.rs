@@ -234,3 +234,58 @@ fn figures_are_regenerated_by_one_command() {
     assert!(e.contains("fig-13") && e.contains("workspace"), "{e}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn workspace_writes_every_point_and_a_summary() {
+    let dir = std::env::temp_dir().join(format!("leech-cli-ws-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (csv, svg) = (dir.join("ws.csv"), dir.join("ws.svg"));
+    let out = leech()
+        .args(["workspace", "--lengths-range", "0.05:0.3:0.05", "--shape-parameter", "1000,5000", "--left-longer", "--json", "--out"])
+        .arg(&csv)
+        .arg("--svg")
+        .arg(&svg)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["points"], 63);
+    assert_eq!(v["failures"], 0);
+    let summaries = v["summaries"].as_array().unwrap();
+    assert_eq!(summaries.len(), 3);
+    for s in summaries {
+        for key in ["model", "points", "failures", "infeasible", "highest", "lowest", "farthest", "area_m2"] {
+            assert!(s.get(key).is_some(), "missing {key}");
+        }
+    }
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap();
+    assert_eq!(
+        header,
+        "model,shape_parameter,la_m,lb_m,status,stable,snapped,feasible,min_bend_radius_m,endpoint_x_m,endpoint_y_m,endpoint_angle_rad"
+    );
+    assert_eq!(lines.count(), 63);
+    assert!(std::fs::read_to_string(&svg).unwrap().starts_with("<svg"));
+    rejected(&["workspace", "--lengths-range", "0.05:0.3", "--out", "x.csv"]);
+    rejected(&["workspace", "--lengths-range", "0.001:0.3:0.01", "--out", "x.csv"]);
+    rejected(&["workspace", "--shape-parameter", "0", "--out", "x.csv"]);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn reach_finds_lengths_or_says_unreachable() {
+    let shape = json_of(&["shape", "--lengths", "0.21,0.17"]);
+    let target = format!("{},{}", shape["endpoint_m"][0], shape["endpoint_m"][1]);
+    let v = json_of(&["reach", "--target", &target]);
+    assert_eq!(v["status"], "reached");
+    assert!(v["error_m"].as_f64().unwrap() < 1e-6);
+    for key in ["lengths_m", "endpoint_m", "error_m"] {
+        assert!(v.get(key).is_some());
+    }
+    let far = json_of(&["reach", "--target", "1,1"]);
+    assert_eq!(far["status"], "unreachable");
+    assert!(far["error_m"].as_f64().unwrap() > 0.5);
+    rejected(&["reach", "--target", "nan,0.1"]);
+    rejected(&["reach", "--target", "0.1"]);
+}
