@@ -46,6 +46,7 @@ VERSIONS = {"scipy": scipy.__version__, "mujoco": mujoco.__version__, "numpy": n
 NEWTON_TOL = 1e-13  # sup norm of the (scaled) stationarity residual after polishing
 AGREE_TOL = 1e-6  # SciPy vs MuJoCo, rad and m
 SAME_TOL = 1e-7  # two polished SciPy solutions closer than this are the same equilibrium
+MAX_STIFFNESS_RATIO = 1e4  # cap on k_j / k for a very short last element
 
 
 def e(a):
@@ -67,6 +68,14 @@ def nu(a):
 class Chain:
     """One clamped chain, discretized as in the spec.
 
+    The tube is cut into n = ceil(L / l) elements (at least one), e_j = l except the last,
+    e_n = L - (n - 1) l in (0, l]. Every element has exactly one joint, with spring
+    k_j = k min(l / e_j, 1e4) (k for whole elements, stiffer for a short last one) and damper
+    d_j = d min(l / e_j, 1e4). "paper": link j is element j, joint at its start, mass m e_j / l at
+    its tip. "midpoint": a rigid root piece of length e_1 / 2 along the clamp, joint j at the middle
+    of element j, link j from joint j to joint j + 1 (length (e_j + e_{j+1}) / 2), the last link
+    from joint n to the tube tip (e_n / 2); each link carries m (its length) / l at its centre.
+
     All the gravity potential is linear in sin(phi_j): V_g = g * sum_j lever_j sin(phi_j) + const,
     where lever_j is (length of link j) * (mass carried beyond the start of link j, with the
     link's own mass counted at its mass point). That gives V, grad V and the Hessian in closed
@@ -81,7 +90,9 @@ class Chain:
     phi0: float  # clamp angle
     base: np.ndarray  # clamp position p0
     tip_mass: float = 0.0
-    lengths: np.ndarray = field(init=False)
+    elements: np.ndarray = field(init=False)  # element lengths e_j
+    stiff: np.ndarray = field(init=False)  # joint springs k_j
+    lengths: np.ndarray = field(init=False)  # link lengths
     masses: np.ndarray = field(init=False)
     frac: float = field(init=False)  # mass point as a fraction of the link length
     start: np.ndarray = field(init=False)  # start of link 1
@@ -89,21 +100,24 @@ class Chain:
 
     def __post_init__(self):
         l, L = self.l, self.L
+        n = max(1, math.ceil(L / l - 1e-9))
+        last = L - (n - 1) * l
+        assert 0 < last <= l * (1 + 1e-12), (self.disc, L, l, n, last)
+        self.elements = np.array([l] * (n - 1) + [last])
+        ratio = np.minimum(l / self.elements, MAX_STIFFNESS_RATIO)
+        self.stiff = self.k * ratio
         if self.disc == "paper":
-            n = math.ceil(L / l - 1e-9)
-            last = L - (n - 1) * l
+            self.lengths = self.elements.copy()  # link j is element j
             self.frac = 1.0  # mass at the tip of each link
             self.start = np.array(self.base, float)
         elif self.disc == "midpoint":
-            n = max(1, math.ceil(L / l - 0.5 - 1e-9))
-            last = L - (n - 0.5) * l
+            # joint j at the middle of element j: links run joint to joint, the last to the tip
+            self.lengths = 0.5 * (self.elements + np.concatenate([self.elements[1:], [0.0]]))
             self.frac = 0.5  # mass at the centre of each link
-            # a massless rigid piece of length l/2 leaves the clamp along phi0
-            self.start = np.array(self.base, float) + 0.5 * l * e(self.phi0)
+            # a massless rigid piece of length e_1 / 2 leaves the clamp along phi0
+            self.start = np.array(self.base, float) + 0.5 * self.elements[0] * e(self.phi0)
         else:
             raise ValueError(self.disc)
-        assert 0 < last <= l * (1 + 1e-12), (self.disc, L, l, n, last)
-        self.lengths = np.array([l] * (n - 1) + [last])
         self.masses = self.m * self.lengths / l
         beyond = np.concatenate([np.cumsum(self.masses[::-1])[::-1][1:], [0.0]])  # sum_{j>i} M_j
         self.lever = self.lengths * (beyond + self.tip_mass) + self.frac * self.lengths * self.masses
@@ -112,6 +126,11 @@ class Chain:
     def n(self):
         return len(self.lengths)
 
+    @property
+    def damp_ratio(self):
+        """Joint dampers relative to the nominal one: d_j / d = k_j / k."""
+        return self.stiff / self.k
+
     def rel(self, phi):
         """Joint angles phi_j - phi_{j-1} (phi_0 = clamp)."""
         return np.diff(np.concatenate([[self.phi0], phi]))
@@ -119,21 +138,22 @@ class Chain:
     def potential(self, phi, g):
         d = self.rel(phi)
         const = g * (self.masses.sum() + self.tip_mass) * self.start[1]
-        return 0.5 * self.k * np.dot(d, d) + g * np.dot(self.lever, np.sin(phi)) + const
+        return 0.5 * np.dot(self.stiff, d * d) + g * np.dot(self.lever, np.sin(phi)) + const
 
     def grad(self, phi, g):
         d = self.rel(phi)
-        spring = self.k * (d - np.concatenate([d[1:], [0.0]]))
+        kd = self.stiff * d
+        spring = kd - np.concatenate([kd[1:], [0.0]])
         return spring + g * self.lever * np.cos(phi)
 
     def hess(self, phi, g):
         n = self.n
         h = np.zeros((n, n))
         i = np.arange(n)
-        h[i, i] = 2 * self.k
-        h[n - 1, n - 1] = self.k  # the last joint has a spring only on one side
-        h[i[:-1], i[:-1] + 1] = -self.k
-        h[i[:-1] + 1, i[:-1]] = -self.k
+        kn = np.concatenate([self.stiff[1:], [0.0]])  # the last joint has a spring only on one side
+        h[i, i] = self.stiff + kn
+        h[i[:-1], i[:-1] + 1] = -self.stiff[1:]
+        h[i[:-1] + 1, i[:-1]] = -self.stiff[1:]
         h[i, i] += -g * self.lever * np.sin(phi)
         return h
 
@@ -153,7 +173,7 @@ class Chain:
         return self.phi0 + theta * s_mid / self.L
 
     def start_offset(self):
-        return 0.5 * self.l if self.disc == "midpoint" else 0.0
+        return 0.5 * self.elements[0] if self.disc == "midpoint" else 0.0
 
 
 def newton_polish(grad, hess, x, scale, tol=NEWTON_TOL, maxit=50):
@@ -251,8 +271,8 @@ def chain_xml(prefix: str, ch: Chain, phi_init, damping: float, tip_extra: float
             pos = (ch.lengths[j - 1], 0.0, 0.0)
             quat = quat_about_minus_y(delta)
         xml.append(f'<body name="{prefix}{j + 1}" pos="{fmt(*pos)}" quat="{fmt(*quat)}">')
-        xml.append(f'<joint name="{prefix}j{j + 1}" type="hinge" axis="0 -1 0" stiffness="{fmt(ch.k)}" '
-                   f'springref="{fmt(-delta)}" damping="{fmt(damping)}"/>')
+        xml.append(f'<joint name="{prefix}j{j + 1}" type="hinge" axis="0 -1 0" stiffness="{fmt(ch.stiff[j])}" '
+                   f'springref="{fmt(-delta)}" damping="{fmt(damping * ch.damp_ratio[j])}"/>')
         xml.append(f'<geom type="sphere" size="{fmt(r)}" pos="{fmt(ch.frac * ch.lengths[j], 0, 0)}" '
                    f'mass="{fmt(ch.masses[j])}"/>')
         if j == ch.n - 1 and tip_extra > 0:
@@ -395,7 +415,7 @@ def run_single(rng):
         mujoco.mj_fullM(probe, data, M)
         S = np.tril(np.ones((ch.n, ch.n)))  # dphi/dq
         K = S.T @ ch.hess(phi, g) @ S
-        d, zeta1, wmax, rate = choose_damping(M, K, np.eye(ch.n))
+        d, zeta1, wmax, rate = choose_damping(M, K, np.diag(ch.damp_ratio))
         # Springs are explicit in MuJoCo: keep omega_max dt well below 2. If the run does not agree,
         # try again with smaller steps (never needed for the cases below, kept as the fallback).
         dt = min(5e-5, 0.5 / wmax)
@@ -637,7 +657,8 @@ def run_two(rng):
         S = linalg.block_diag(np.tril(np.ones((nA, nA))), np.tril(np.ones((nB, nB))))  # dphi/dq
         HL = tc.hess(q, g) - tc.cons_hess(q, lam)
         Z = linalg.null_space(tc.cons_jac(q) @ S)
-        Dhat = np.diag(np.concatenate([np.ones(nA), 2 * np.ones(nB)]))  # dampers d and 2d, like k and 2k
+        # dampers d_j and 2 d_j, like k_j and 2 k_j
+        Dhat = np.diag(np.concatenate([tc.A.damp_ratio, 2 * tc.B.damp_ratio]))
         d, zeta1, wmax, rate = choose_damping(M, S.T @ HL @ S, Dhat, Z)
         # The weld is a soft constraint: at rest it is violated by about
         # (1 - dmax) * (2 dt)^2 * (constraint-space acceleration), i.e. ~1e-7 at dt = 5e-5 here, so a
