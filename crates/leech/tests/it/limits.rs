@@ -163,3 +163,25 @@ fn shape_parameter_sets_the_stiffness() {
     weightless.world.gravity_m_per_s2 = 0.0;
     assert!(weightless.with_shape_parameter(100.0).is_err());
 }
+
+/// Shapes are continuous in the tube lengths, also where a tube crosses a
+/// whole number of elements and a new (short, stiff) element appears.
+#[test]
+fn shapes_are_continuous_across_element_boundaries() {
+    for d in [Discretization::Paper, Discretization::Midpoint] {
+        let mut robot = Robot::builtin();
+        robot.model.discretization = d;
+        for (la, lb) in [(0.18, 0.11), (0.2, 0.25), (0.13, 0.13)] {
+            let endpoint = |la: f64, lb: f64| {
+                let body = robot.body(la, lb).unwrap();
+                body.endpoint(&solve(&body).q)
+            };
+            let here = endpoint(la, lb);
+            for (da, db) in [(1e-6, 0.0), (-1e-6, 0.0), (0.0, 1e-6), (0.0, -1e-6)] {
+                let there = endpoint(la + da, lb + db);
+                let moved = (there[0] - here[0]).hypot(there[1] - here[1]);
+                assert!(moved < 2e-5, "{d:?} {la}+{da}, {lb}+{db}: moved {moved} m");
+            }
+        }
+    }
+}
