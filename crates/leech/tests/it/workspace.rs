@@ -44,12 +44,16 @@ fn sweep_points_equal_independent_solves() {
             let e = body.endpoint(&cold.q);
             if (e[0] - p.endpoint_m[0]).hypot(e[1] - p.endpoint_m[1]) < 1e-9 {
                 agree_cold += 1;
+            } else {
+                // Two different stable equilibria of one body: not unique, so
+                // the actuation history decides and the paths may differ.
+                assert!(cold.stable && p.stable, "{:?}", p.lengths_m);
+                assert!((e[0] - p.endpoint_m[0]).hypot(e[1] - p.endpoint_m[1]) > 1e-6);
             }
         }
     }
-    // Where the equilibrium is unique the two paths agree: on this grid all
-    // but a few points reached after a snap on one of the paths.
-    assert!(agree_cold as f64 >= 0.95 * (n * n) as f64, "{agree_cold} of {}", n * n);
+    // Non-uniqueness is the exception on this grid.
+    assert!(agree_cold as f64 >= 0.9 * (n * n) as f64, "{agree_cold} of {}", n * n);
 }
 
 /// The state the sweep had at grid point (i, j), replayed along its path.
