@@ -37,6 +37,60 @@ pub enum Command {
     Workspace(WorkspaceArgs),
     /// Inverse statics: tube lengths that put the endpoint on a target.
     Reach(ReachArgs),
+    /// Fit the tube's stiffness (and mass) to measured sag curves and body shapes.
+    Calibrate(CalibrateArgs),
+    /// Compare the two-chain and constant-curvature models with measured bodies.
+    Compare(CompareArgs),
+}
+
+/// What `leech calibrate` fits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FitArg {
+    /// The joint stiffness k.
+    Stiffness,
+    /// k and the element mass m (needs a known mass in the data).
+    #[value(name = "stiffness,mass")]
+    StiffnessMass,
+}
+
+/// `leech calibrate`.
+#[derive(Debug, Args)]
+pub struct CalibrateArgs {
+    /// Tube-sag measurements (CSV: tube_length_m,base_angle_deg,x_m,y_m[,tip_mass_kg]).
+    #[arg(long, value_name = "FILE")]
+    pub sag: PathBuf,
+    /// Body-shape measurements (CSV: shape,la_m,lb_m,base_angle_deg,chain,x_m,y_m).
+    #[arg(long, value_name = "FILE")]
+    pub shapes: Option<PathBuf>,
+    /// What to fit.
+    #[arg(long, value_enum, default_value_t = FitArg::Stiffness)]
+    pub fit: FitArg,
+    /// Starting robot (TOML); the built-in LEeCH robot if absent.
+    #[arg(long, value_name = "FILE")]
+    pub robot: Option<PathBuf>,
+    /// Robot file to write with the fitted values.
+    #[arg(long, value_name = "ROBOT.toml")]
+    pub out: PathBuf,
+    /// Picture of the measurements over the fitted shapes.
+    #[arg(long, value_name = "FILE")]
+    pub svg: Option<PathBuf>,
+    /// Print the result as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `leech compare`.
+#[derive(Debug, Args)]
+pub struct CompareArgs {
+    /// Body-shape measurements (CSV: shape,la_m,lb_m,base_angle_deg,chain,x_m,y_m).
+    #[arg(long, value_name = "FILE")]
+    pub shapes: PathBuf,
+    /// Robot file (TOML); the built-in LEeCH robot if absent.
+    #[arg(long, value_name = "FILE")]
+    pub robot: Option<PathBuf>,
+    /// Print the result as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// `leech workspace`.

@@ -15,7 +15,10 @@ use leech::prelude::*;
 use leech::report::{BodyReport, CantileverReport, ConstantCurvatureReport};
 use leech_plot::Figure;
 
-use flags::{ChainArgs, Cli, Command, FigureArgs, ModelArg, Output, ReachArgs, ShapeArgs, WorkspaceArgs};
+use flags::{
+    CalibrateArgs, ChainArgs, Cli, Command, CompareArgs, FigureArgs, FitArg, ModelArg, Output, ReachArgs, ShapeArgs,
+    WorkspaceArgs,
+};
 
 /// Why the command stopped.
 enum Failure {
@@ -106,6 +109,8 @@ fn run(cli: Cli, out: &mut String) -> Result<(), Failure> {
         Command::Figure(args) => figure(args, out),
         Command::Workspace(args) => workspace(args, out),
         Command::Reach(args) => reach(args, out),
+        Command::Calibrate(args) => calibrate(args, out),
+        Command::Compare(args) => compare(args, out),
     }
 }
 
@@ -463,6 +468,118 @@ fn reach(args: ReachArgs, out: &mut String) -> Result<(), Failure> {
             "{verdict}: LA = {:.6} m, LB = {:.6} m, endpoint ({:.4}, {:.4}) mm, error {:.2e} m, plate angle {:.3} deg",
             answer.lengths_m[0], answer.lengths_m[1], answer.endpoint_m[0] * 1e3, answer.endpoint_m[1] * 1e3,
             answer.error_m, answer.endpoint_angle_rad.to_degrees()
+        )
+        .expect("writing to a String");
+    }
+    Ok(())
+}
+
+fn read_input(path: &Path, flag: &str) -> Result<String, Failure> {
+    std::fs::read_to_string(path).map_err(|e| Failure::Input(format!("{flag}: cannot read '{}': {e}", path.display())))
+}
+
+fn calibration_failure(e: leech::calibration::CalibrationError) -> Failure {
+    use leech::calibration::CalibrationError;
+    match e {
+        CalibrationError::Input(e) => Failure::Input(e.to_string()),
+        other => Failure::Input(other.to_string()),
+    }
+}
+
+fn calibrate(args: CalibrateArgs, out: &mut String) -> Result<(), Failure> {
+    use leech::calibration::{calibrate, read_sag, read_shapes, Fit};
+    let robot = load_robot(args.robot.as_deref())?;
+    let sag_name = args.sag.display().to_string();
+    let sag = read_sag(&read_input(&args.sag, "--sag")?, &sag_name)?;
+    let shapes = match &args.shapes {
+        Some(path) => read_shapes(&read_input(path, "--shapes")?, &path.display().to_string())?,
+        None => vec![],
+    };
+    let fit = match args.fit {
+        FitArg::Stiffness => Fit::Stiffness,
+        FitArg::StiffnessMass => Fit::StiffnessAndMass,
+    };
+    let result = calibrate(&robot, &sag, &shapes, fit).map_err(calibration_failure)?;
+    let mut fitted = robot.clone();
+    fitted.tube.joint_stiffness_nm_per_rad = result.stiffness_nm_per_rad;
+    fitted.tube.element_mass_kg = result.element_mass_kg;
+    if !fitted.name.contains("fitted") {
+        fitted.name = format!("{} (fitted)", fitted.name);
+    }
+    let mass_line = match result.element_mass_std_error_kg {
+        Some(se) => format!("# element_mass_kg fitted: {:.6e} +- {:.2e} kg\n", result.element_mass_kg, se),
+        None => format!("# element_mass_kg kept from the starting robot: {:.6e} kg\n", result.element_mass_kg),
+    };
+    let mut toml = format!(
+        "# Fitted by `leech calibrate` to {} ({} tubes){}: {} points, RMS residual {:.3} mm.\n\
+         # joint_stiffness_nm_per_rad fitted: {:.6e} +- {:.2e} N m/rad (one standard error).\n{}",
+        sag_name,
+        sag.len(),
+        args.shapes.as_ref().map_or(String::new(), |p| format!(" and {} ({} shapes)", p.display(), shapes.len())),
+        result.points,
+        result.rms_residual_mm,
+        result.stiffness_nm_per_rad,
+        result.stiffness_std_error_nm_per_rad,
+        mass_line,
+    );
+    toml.push_str(&fitted.to_toml_string());
+    std::fs::write(&args.out, toml).with_context(|| format!("writing {}", args.out.display()))?;
+    if let Some(svg) = &args.svg {
+        let title = format!("Fit: k = {:.4} N m/rad, RMS {:.2} mm", result.stiffness_nm_per_rad, result.rms_residual_mm);
+        leech_plot::shape::calibration_figure(&title, &fitted, &sag, &shapes)
+            .write_svg(svg)
+            .map_err(|e| Failure::Other(e.into()))?;
+    }
+    if args.json {
+        writeln!(out, "{}", to_json(&result)?).expect("writing to a String");
+    } else {
+        writeln!(
+            out,
+            "k = {:.6} +- {:.6} N m/rad",
+            result.stiffness_nm_per_rad, result.stiffness_std_error_nm_per_rad
+        )
+        .expect("writing to a String");
+        if let Some(se) = result.element_mass_std_error_kg {
+            writeln!(out, "m = {:.6e} +- {:.2e} kg", result.element_mass_kg, se).expect("writing to a String");
+        }
+        writeln!(
+            out,
+            "Pi = {:.1}; RMS residual {:.3} mm, largest {:.3} mm over {} points ({} iterations); wrote {}",
+            result.shape_parameter,
+            result.rms_residual_mm,
+            result.max_residual_mm,
+            result.points,
+            result.iterations,
+            args.out.display()
+        )
+        .expect("writing to a String");
+    }
+    Ok(())
+}
+
+fn compare(args: CompareArgs, out: &mut String) -> Result<(), Failure> {
+    use leech::calibration::{compare, read_shapes};
+    let robot = load_robot(args.robot.as_deref())?;
+    let shapes = read_shapes(&read_input(&args.shapes, "--shapes")?, &args.shapes.display().to_string())?;
+    let rows = compare(&robot, &shapes).map_err(calibration_failure)?;
+    if args.json {
+        writeln!(out, "{}", to_json(&serde_json::json!({ "shapes": rows }))?).expect("writing to a String");
+        return Ok(());
+    }
+    writeln!(out, "{:<16} {:>7} {:>7} | {:>27} | {:>27}", "shape", "LA mm", "LB mm", "two-chain rms/max/end mm", "constant curv. rms/max/end mm")
+        .expect("writing to a String");
+    let cell = |e: &leech::calibration::ShapeError| {
+        format!("{:7.2} {:7.2} {:>9}", e.rms_mm, e.max_mm, e.endpoint_mm.map_or("-".into(), |v| format!("{v:.2}")))
+    };
+    for r in &rows {
+        writeln!(
+            out,
+            "{:<16} {:>7.1} {:>7.1} | {} | {}",
+            r.shape,
+            r.lengths_m[0] * 1e3,
+            r.lengths_m[1] * 1e3,
+            cell(&r.two_chain),
+            cell(&r.constant_curvature)
         )
         .expect("writing to a String");
     }

@@ -60,3 +60,47 @@ pub fn constant_curvature_figure(robot: &str, cc: &PlanarBody, la: f64, lb: f64)
     fig.push("endpoint plate", vec![*a.last().unwrap(), *b.last().unwrap()], SeriesStyle::Thick, PALETTE[2]);
     fig
 }
+
+/// Measured points (dots) over the shapes of a fitted robot (lines): sag
+/// tubes and bodies, each in its own colour.
+pub fn calibration_figure(
+    title: &str,
+    robot: &leech::robot::Robot,
+    sag: &[leech::calibration::SagTube],
+    shapes: &[leech::calibration::BodyShape],
+) -> Figure {
+    use leech::statics::Solver;
+    let mut fig = Figure::new(title);
+    let mut colour = 0;
+    for tube in sag {
+        let mut r = robot.clone();
+        r.world.base_angle_deg = tube.base_angle_deg;
+        let color = PALETTE[colour % PALETTE.len()];
+        colour += 1;
+        if let Ok(c) = r.cantilever(tube.length, tube.tip_mass) {
+            if let Ok(eq) = c.solve(&Solver::default()) {
+                fig.push(format!("tube {:.0} mm (fit)", tube.length * 1e3), c.chain().points(&eq.q), SeriesStyle::Line, color);
+            }
+        }
+        fig.push("", tube.points.clone(), SeriesStyle::Dots, color);
+    }
+    for shape in shapes {
+        let mut r = robot.clone();
+        r.world.base_angle_deg = shape.base_angle_deg;
+        let color = PALETTE[colour % PALETTE.len()];
+        colour += 1;
+        if let Ok(body) = r.body(shape.lengths[0], shape.lengths[1]) {
+            if let Ok(eq) = body.solve(&Solver::default()) {
+                let (qa, qb) = body.split(&eq.q);
+                fig.push(format!("{} (fit)", shape.name), body.chain_a().points(qa), SeriesStyle::Line, color);
+                fig.push("", body.chain_b().points(qb), SeriesStyle::Line, color);
+            }
+        }
+        let mut measured = shape.points_a.clone();
+        measured.extend(&shape.points_b);
+        measured.extend(shape.endpoint);
+        fig.push("", measured, SeriesStyle::Dots, color);
+    }
+    fig.gravity_arrow = true;
+    fig
+}

@@ -33,3 +33,14 @@ fn reach_one_target(bencher: divan::Bencher) {
     let target = body.endpoint(&eq.q);
     bencher.bench_local(|| reacher.reach(divan::black_box(target), None));
 }
+
+/// Fitting k to five sag curves (the paper's Fig. 3a experiment), 5 x 10..15 points.
+#[divan::bench]
+fn calibrate_five_sag_curves(bencher: divan::Bencher) {
+    use leech::calibration::{calibrate, synthetic, Fit};
+    let mut truth = Robot::builtin();
+    truth.tube.joint_stiffness_nm_per_rad = 0.42;
+    let sag = synthetic::sag(&truth, &[0.10, 0.15, 0.20, 0.25, 0.30], 0.0, 0.02, 0.0005, 1);
+    let start = Robot::builtin();
+    bencher.bench_local(|| calibrate(&start, &sag, &[], Fit::Stiffness).unwrap());
+}

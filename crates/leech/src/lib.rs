@@ -48,6 +48,7 @@
 //! * [`chain`]: one tube as a chain of links; discretizations, kinematics, energy.
 //! * [`cantilever`]: a single clamped tube under gravity.
 //! * [`body`]: the two-chain body and its endpoint weld.
+//! * [`calibration`]: fitting `k` (and `m`) to measured tubes and bodies; model comparison.
 //! * [`constant_curvature`]: the kinematic constant-curvature model, planar and tri-tube.
 //! * [`statics`]: the Newton-KKT solver, continuation, stability.
 //! * [`kkt`]: the O(n) bordered tridiagonal solve.
@@ -60,6 +61,7 @@
 #![warn(missing_docs)]
 
 pub mod body;
+pub mod calibration;
 pub mod cantilever;
 pub mod chain;
 pub mod constant_curvature;

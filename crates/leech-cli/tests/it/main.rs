@@ -289,3 +289,59 @@ fn reach_finds_lengths_or_says_unreachable() {
     rejected(&["reach", "--target", "nan,0.1"]);
     rejected(&["reach", "--target", "0.1"]);
 }
+
+fn example(name: &str) -> String {
+    format!("{}/../../examples/data/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+#[test]
+fn calibrate_writes_a_fitted_robot() {
+    let dir = std::env::temp_dir().join(format!("leech-cli-cal-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (toml, svg) = (dir.join("fitted.toml"), dir.join("fit.svg"));
+    let out = leech()
+        .args(["calibrate", "--sag", &example("tube_sag.csv"), "--shapes", &example("body_shapes.csv")])
+        .args(["--fit", "stiffness,mass", "--json", "--out"])
+        .arg(&toml)
+        .arg("--svg")
+        .arg(&svg)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    for key in ["stiffness_nm_per_rad", "stiffness_std_error_nm_per_rad", "rms_residual_mm", "element_mass_kg"] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    // The example data were made with k = 0.42, m = 1.2 g.
+    assert!((v["stiffness_nm_per_rad"].as_f64().unwrap() - 0.42).abs() < 0.02 * 0.42);
+    let text = std::fs::read_to_string(&toml).unwrap();
+    assert!(text.starts_with("# Fitted by `leech calibrate`"));
+    // The fitted robot is a valid robot file.
+    let shape = leech().args(["shape", "--lengths", "0.2,0.18", "--robot"]).arg(&toml).output().unwrap();
+    assert!(shape.status.success());
+    assert!(std::fs::read_to_string(&svg).unwrap().starts_with("<svg"));
+    let e = rejected(&["calibrate", "--sag", &example("tube_sag.csv"), "--fit", "stiffness,mass", "--out", "x.toml"]);
+    assert!(e.contains("not determined"), "{e}");
+    let bad = dir.join("bad.csv");
+    std::fs::write(&bad, "tube_length_m,base_angle_deg,x_m,y_m\n0.2,0,0.1,oops\n").unwrap();
+    let e = rejected(&["calibrate", "--sag", bad.to_str().unwrap(), "--out", "x.toml"]);
+    assert!(e.contains("row 2") && e.contains("y_m"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn compare_reports_both_models() {
+    let v = json_of(&["compare", "--shapes", &example("body_shapes.csv")]);
+    let shapes = v["shapes"].as_array().unwrap();
+    assert_eq!(shapes.len(), 4);
+    for s in shapes {
+        for model in ["two_chain", "constant_curvature"] {
+            for key in ["rms_mm", "max_mm", "endpoint_mm"] {
+                assert!(s[model].get(key).is_some(), "missing {model}.{key}");
+            }
+        }
+    }
+    let out = leech().args(["compare", "--shapes", &example("body_shapes.csv")]).output().unwrap();
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("two-chain") && text.contains("LA300_LB240"));
+}

@@ -1,5 +1,6 @@
 //! Integration tests of the `leech` library: one binary, one module per topic.
 
+mod calibration;
 mod constant_curvature;
 mod continuum;
 mod derivatives;
