@@ -245,6 +245,9 @@ pub struct ChainArgs {
     /// Newton iterations allowed for the whole solve.
     #[arg(long, value_name = "N", default_value_t = SolverOptions::default().max_iterations)]
     pub max_iterations: usize,
+    /// Wall-clock limit for the solve (s).
+    #[arg(long, value_name = "S", default_value_t = 60.0)]
+    pub time_limit: f64,
     #[command(flatten)]
     pub output: Output,
 }
@@ -277,7 +280,10 @@ pub struct ShapeArgs {
     /// Newton iterations allowed for the whole solve.
     #[arg(long, value_name = "N", default_value_t = SolverOptions::default().max_iterations)]
     pub max_iterations: usize,
-    /// Solve N times (cold each time) and report the solve time (`solve_time_s` in JSON).
+    /// Wall-clock limit for the solve (s).
+    #[arg(long, value_name = "S", default_value_t = 60.0)]
+    pub time_limit: f64,
+    /// Solve N times (cold each time, N <= 100000) and report the solve time (`solve_time_s` in JSON).
     #[arg(long, value_name = "N")]
     pub repeat: Option<usize>,
     #[command(flatten)]

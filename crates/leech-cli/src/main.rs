@@ -176,9 +176,12 @@ fn describe_solution(eq: &Equilibrium, out: &mut String) {
     }
 }
 
-/// The solver with the command line's iteration bound.
-fn solver(max_iterations: usize) -> Solver {
-    Solver::new(SolverOptions { max_iterations, ..SolverOptions::default() })
+/// The solver with the command line's bounds.
+fn solver(max_iterations: usize, time_limit: f64) -> Result<Solver, Failure> {
+    let seconds = leech::error::positive("--time-limit (s)", time_limit)?;
+    let time_limit = std::time::Duration::try_from_secs_f64(seconds)
+        .map_err(|_| Failure::Input(format!("--time-limit: got {seconds}, expected a number of seconds")))?;
+    Ok(Solver::new(SolverOptions { max_iterations, time_limit: Some(time_limit), ..SolverOptions::default() }))
 }
 
 fn chain(args: ChainArgs, out: &mut String) -> Result<(), Failure> {
@@ -201,7 +204,7 @@ fn chain(args: ChainArgs, out: &mut String) -> Result<(), Failure> {
         discretization: args.discretization.into(),
     };
     let tube = spec.build()?;
-    let eq = tube.solve(&solver(args.max_iterations)).map_err(|e| Failure::Solve(e, args.output.json))?;
+    let eq = tube.solve(&solver(args.max_iterations, args.time_limit)?).map_err(|e| Failure::Solve(e, args.output.json))?;
     let report = CantileverReport::new(spec.shape_parameter(), &tube, &eq);
     if args.output.json {
         writeln!(out, "{}", to_json(&report)?).expect("writing to a String");
@@ -242,14 +245,19 @@ fn shape(args: ShapeArgs, out: &mut String) -> Result<(), Failure> {
     let two_chain = match args.model {
         ModelArg::ConstantCurvature => None,
         _ => {
-            let solver = solver(args.max_iterations);
+            let solver = solver(args.max_iterations, args.time_limit)?;
             let eq = body.solve(&solver).map_err(|e| Failure::Solve(e, args.output.json))?;
             let report = BodyReport::new(&robot.name, robot.shape_parameter(), &body, &eq);
             Some((eq, report))
         }
     };
     let timing = match (args.repeat, &two_chain) {
-        (Some(n), Some(_)) => Some(time_solves(&body, &solver(args.max_iterations), n.clamp(1, 1_000_000))),
+        (Some(n), Some(_)) => {
+            if n == 0 || n > 100_000 {
+                return Err(Failure::Input(format!("--repeat: got {n}, expected 1 to 100000")));
+            }
+            Some(time_solves(&body, &solver(args.max_iterations, args.time_limit)?, n))
+        }
         _ => None,
     };
     if args.output.json {

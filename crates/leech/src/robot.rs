@@ -41,8 +41,9 @@ use crate::error::{non_negative, positive, within, InputError};
 /// The built-in robot's file, comments included.
 pub const BUILTIN_TOML: &str = include_str!("../robots/leech.toml");
 
-/// Most links one chain may have: keeps memory and time bounded for any input.
-pub const MAX_LINKS: usize = 100_000;
+/// Most links one chain may have: keeps memory and time bounded for any input
+/// (a 100 m tube at 1 cm elements).
+pub const MAX_LINKS: usize = 10_000;
 
 /// One tube's element.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -263,7 +264,8 @@ impl Robot {
     /// Checks a tube length: at least one element, at most [`MAX_LINKS`].
     pub fn check_tube_length(&self, field: &str, length: f64) -> Result<f64, InputError> {
         let l = self.tube.element_length_m;
-        within(field, length, l, l * MAX_LINKS as f64).map_err(|_| {
+        // A relative slack keeps exactly MAX_LINKS elements inside despite rounding.
+        within(field, length, l * (1.0 - 1e-12), l * MAX_LINKS as f64 * (1.0 + 1e-12)).map_err(|_| {
             InputError::invalid(
                 field,
                 length,
@@ -292,6 +294,18 @@ impl Robot {
         self.validate()?;
         let la = self.check_tube_length("lengths[0] (LA)", la)?;
         let lb = self.check_tube_length("lengths[1] (LB)", lb)?;
+        // The plate takes three constraints: with fewer than four links the
+        // body has no freedom left (and is over-determined unless b = c).
+        let d = self.model.discretization;
+        let l = self.tube.element_length_m;
+        let links = d.link_count(la, l) + d.link_count(lb, l);
+        if links < 4 {
+            return Err(InputError::Invalid {
+                field: "lengths (LA, LB)".into(),
+                value: format!("{la}, {lb} ({links} elements in all)"),
+                allowed: format!("at least 4 elements in all, e.g. both tubes at least {} m", 2.0 * l),
+            });
+        }
         let nu = right_normal(self.world.base_angle_deg.to_radians());
         let b = self.body.base_spacing_m;
         let a = Chain::new(&self.spec(la, 1.0, 0.0, [0.0, 0.0]));

@@ -19,9 +19,18 @@
 //!
 //! *Globalization.* When the reduced Hessian is not positive definite, `H` is
 //! shifted by `delta I` until it is (inertia correction), so the step always
-//! points towards a *stable* equilibrium. A step is accepted by backtracking
-//! when it decreases the exact-penalty merit `V/k + rho |C|_1` (Armijo) or the
-//! norm of the scaled residual `F`.
+//! points towards a *stable* equilibrium. A rejected step raises a
+//! Levenberg shift (shorter steps turning towards steepest descent) instead of
+//! backtracking; where the curvature was corrected steps are also kept within
+//! a trust radius. A step is accepted when it decreases the exact-penalty
+//! merit `V/k + rho |C|_1` measurably (Armijo, above rounding) or, where the
+//! curvature needed no correction, the norm of the scaled residual `F`.
+//!
+//! *Rounding floor.* Near a fold the system is ill-conditioned and rounding
+//! can keep the residual above the tolerance. A solve counts as converged
+//! there only if no step can improve it and the residual is within
+//! `SolverOptions::rounding_slack` times the tolerance; the residual is
+//! reported as it is.
 //!
 //! *Stability.* An equilibrium is stable when `H` is positive definite on the
 //! null space of `J`; the factorization reports it for free (Sylvester's law of
@@ -170,6 +179,12 @@ pub struct SolverOptions {
     pub jump_tolerance: f64,
     /// Longest step (rad, sup norm) taken where the curvature is corrected.
     pub trust_radius: f64,
+    /// A residual that no step can reduce counts as converged up to this
+    /// multiple of the tolerance (the rounding floor near folds).
+    pub rounding_slack: f64,
+    /// A settle after a failed step moving some angle by more than this
+    /// (rad) is reported as a snap.
+    pub snap_threshold: f64,
     /// Optional wall-clock limit for one solve.
     pub time_limit: Option<Duration>,
 }
@@ -186,6 +201,8 @@ impl Default for SolverOptions {
             min_step: 1e-4,
             jump_tolerance: 0.5,
             trust_radius: 0.1,
+            rounding_slack: 1e3,
+            snap_threshold: 0.05,
             time_limit: None,
         }
     }
@@ -373,12 +390,9 @@ struct Newton {
     reason: &'static str,
 }
 
-/// How far above the tolerance a residual that no step can reduce (rounding
-/// noise) still counts as converged.
-const ROUNDOFF_SLACK: f64 = 1e3;
-
-/// Iterations without halving the residual after which a residual within
-/// `ROUNDOFF_SLACK` of the tolerance counts as stalled at rounding.
+/// Iterations without halving the residual, with steps at the rounding level,
+/// after which a residual within `rounding_slack` of the tolerance counts as
+/// stalled at rounding.
 const STALL_ITERATIONS: usize = 20;
 
 /// Limits of one Newton run: iterations, tolerance, and how far (rad, sup
@@ -522,7 +536,9 @@ impl Solver {
                 best = res;
                 best_at = iter;
             }
-            let stalled = iter >= best_at + STALL_ITERATIONS && res <= ROUNDOFF_SLACK * tolerance;
+            let stalled = iter >= best_at + STALL_ITERATIONS
+                && res <= self.options.rounding_slack * tolerance
+                && sup_norm(&ws.step) < 1e-10;
             if res <= tolerance || stalled {
                 let stable = factors_fresh || self.factor(sys, &state.lambda, ws).0 == Inertia::Minimum;
                 return Newton { converged: true, residual: res, stable, reason: "" };
@@ -606,10 +622,13 @@ impl Solver {
                     }
                     s.sqrt()
                 };
-                let armijo = slope < 0.0 && phi <= phi0 + 1e-4 * slope;
+                // A decrease lost in rounding is no progress: accepting it would
+                // spend the iteration budget on null steps.
+                let measurable = phi0 - phi > 1e-14 * phi0.abs().max(1.0);
+                let armijo = slope < 0.0 && phi <= phi0 + 1e-4 * slope && measurable;
                 // Where the curvature needed correcting, only energy descent
                 // counts: a falling residual may be heading for a saddle.
-                let decrease = shift == 0.0 && r_trial <= (1.0 - 1e-4) * r0;
+                let decrease = min_shift == 0.0 && r_trial <= (1.0 - 1e-4) * r0;
                 if phi.is_finite() && (armijo || decrease) {
                     factors_fresh = inertia == Inertia::Minimum && shift == 0.0 && sup_norm(&ws.step) < 1e-5;
                     damping = if shift > min_shift { 0.25 * shift } else { 0.0 };
@@ -624,7 +643,7 @@ impl Solver {
             if !accepted {
                 // Within a few orders of the tolerance no step can improve on
                 // rounding: that is convergence, with the residual reported as is.
-                if res <= ROUNDOFF_SLACK * tolerance {
+                if res <= self.options.rounding_slack * tolerance {
                     let stable = self.factor(sys, &state.lambda, ws).0 == Inertia::Minimum;
                     return Newton { converged: true, residual: res, stable, reason: "" };
                 }
@@ -854,11 +873,10 @@ impl Solver {
             let (settled, escaped) = self.settle(sys, state, t, stage, ws)?;
             residual = settled;
             let jump_rad = distance(&state.q, &ws.q_saved);
-            // Reaching here means the stable branch could not be followed
-            // past `at`: report it whatever the size of the jump.
+            // A settle that stays close was a hard step, not a snap.
             if escaped {
                 state.events.push(Event::Bifurcation { stage, at, side: "right", jump_rad });
-            } else {
+            } else if jump_rad > self.options.snap_threshold {
                 state.events.push(Event::Snap { stage, at, jump_rad });
             }
             state.steps += 1;
