@@ -309,7 +309,7 @@ def main():
     robot_args = ["--robot", args.robot] if args.robot else []
     LA, LB = (float(x) for x in args.lengths.split(","))
     info = {"machine": machine_info(), "git": git_info(),
-            "leech_binary": {"path": args.leech, "sha256": hashlib.sha256(Path(args.leech).read_bytes()).hexdigest(),
+            "leech_binary": {"path": os.path.relpath(args.leech, ROOT), "sha256": hashlib.sha256(Path(args.leech).read_bytes()).hexdigest(),
                              "modified": datetime.datetime.fromtimestamp(Path(args.leech).stat().st_mtime).isoformat()},
             "versions": {"numpy": np.__version__, "scipy": scipy.__version__, "mujoco": mujoco.__version__},
             "date": datetime.datetime.now().isoformat(timespec="seconds")}
@@ -438,7 +438,7 @@ def main():
         "command": "validation/.venv/bin/python benchmarks/compare.py " + " ".join(sys.argv[1:]),
         **info,
         "case": {"robot": robot, "lengths_m": [LA, LB], "links": [tc.A.n, tc.B.n]},
-        "leech": {"command": " ".join(map(str, lcmd)), "runs": args.leech_runs,
+        "leech": {"command": " ".join(os.path.relpath(str(c), ROOT) if str(c).startswith(str(ROOT)) else str(c) for c in lcmd), "runs": args.leech_runs,
                   "solve_time_s_median_of_runs": leech_s, "solve_time_s_best_run_median": leech_best,
                   "solve_time_s_per_run": lres["solve_time_s_runs"],
                   "iterations": lres["iterations"], "residual": lres["residual"], "endpoint_m": list(ep_leech),
