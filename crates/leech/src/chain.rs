@@ -483,19 +483,26 @@ impl Chain {
     /// Generalized spring and damper force `-(K phi - k_1 phi_0 e_1) - D dphi`
     /// (N m), written to `out`.
     pub fn elastic_forces(&self, q: &[f64], dq: &[f64], out: &mut [f64]) {
-        out.iter_mut().for_each(|o| *o = 0.0);
-        self.add_spring_gradient(q, out);
+        self.damping_forces(dq, out);
+        let mut spring = vec![0.0; self.len()];
+        self.add_spring_gradient(q, &mut spring);
+        out.iter_mut().zip(&spring).for_each(|(o, s)| *o -= s);
+    }
+
+    /// Generalized damper force `-D dphi` (N m), `D` tridiagonal like `K`
+    /// (dampers act on the relative rates, the clamp's being zero), into `out`.
+    pub fn damping_forces(&self, dq: &[f64], out: &mut [f64]) {
         let n = self.len();
+        out[..n].iter_mut().for_each(|o| *o = 0.0);
         let mut prev = 0.0;
         for j in 0..n {
             let t = self.damping[j] * (dq[j] - prev);
-            out[j] += t;
+            out[j] -= t;
             if j > 0 {
-                out[j - 1] -= t;
+                out[j - 1] += t;
             }
             prev = dq[j];
         }
-        out.iter_mut().for_each(|o| *o = -*o);
     }
 
     /// Generalized force of a constant planar force `f` (N) acting on link

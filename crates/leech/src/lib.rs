@@ -51,6 +51,7 @@
 //! * [`calibration`]: fitting `k` (and `m`) to measured tubes and bodies; model comparison.
 //! * [`constant_curvature`]: the kinematic constant-curvature model, planar and tri-tube.
 //! * [`statics`]: the Newton-KKT solver, continuation, stability.
+//! * [`dynamics`]: constrained forward dynamics and integrators.
 //! * [`kkt`]: the O(n) bordered tridiagonal solve.
 //! * [`inverse_statics`]: tube lengths that put the endpoint on a target.
 //! * [`workspace`]: sweeps over tube lengths along the actuation path, reach metrics.
@@ -65,6 +66,7 @@ pub mod calibration;
 pub mod cantilever;
 pub mod chain;
 pub mod constant_curvature;
+pub mod dynamics;
 pub mod error;
 pub mod inverse_statics;
 pub mod kkt;
