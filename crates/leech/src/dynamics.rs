@@ -125,6 +125,8 @@ pub struct Simulator<'a, S: Multibody> {
     rhs: Vec<f64>,
     y: Vec<f64>,
     work: Vec<f64>,
+    /// Fraction of gravity applied (1 unless a scenario ramps it).
+    pub load: f64,
 }
 
 impl<'a, S: Multibody> Simulator<'a, S> {
@@ -142,6 +144,7 @@ impl<'a, S: Multibody> Simulator<'a, S> {
             rhs: vec![0.0; n],
             y: vec![0.0; n * MAX_CONSTRAINTS],
             work: vec![0.0; n],
+            load: 1.0,
         }
     }
 
@@ -152,7 +155,7 @@ impl<'a, S: Multibody> Simulator<'a, S> {
 
     fn evaluate(&mut self, q: &[f64]) {
         self.ev.clear();
-        self.sys.evaluate(q, 1.0, &mut self.ev);
+        self.sys.evaluate(q, self.load, &mut self.ev);
     }
 
     /// Factors each chain's block of `M(q) + shift_v D + shift_q H_blocks`
@@ -372,6 +375,44 @@ impl<'a, S: Multibody> Simulator<'a, S> {
         lambda
     }
 
+    /// Whether the body is at rest: every rate below `1e-9` rad/s and every
+    /// constrained acceleration below `1e-7` rad/s^2 (so it stays there).
+    pub fn at_rest(&mut self, state: &State) -> Result<bool, StepError> {
+        if state.v.iter().any(|v| v.abs() > 1e-9) {
+            return Ok(false);
+        }
+        let mut a = vec![0.0; self.n];
+        self.accelerations(&state.q, &state.v, &mut a)?;
+        Ok(a.iter().all(|x| x.abs() < 1e-7))
+    }
+
+    /// Integrates until [`Simulator::at_rest`] or `max_time` (s), with
+    /// gravity raised linearly over the first `ramp` seconds (0: all at once,
+    /// as the paper; a slow ramp follows the quasi-static loading path of the
+    /// static solver where a sudden load would overshoot into another
+    /// equilibrium). Returns the time (s) and steps to rest, or `None`.
+    pub fn run_to_rest(
+        &mut self,
+        state: &mut State,
+        dt: f64,
+        integrator: Integrator,
+        ramp: f64,
+        max_time: f64,
+    ) -> Result<Option<(f64, usize)>, StepError> {
+        let mut t = 0.0;
+        let mut steps = 0;
+        while t < max_time {
+            self.load = if ramp > 0.0 { ((t + dt) / ramp).min(1.0) } else { 1.0 };
+            self.step(state, dt, integrator)?;
+            t += dt;
+            steps += 1;
+            if self.load == 1.0 && self.at_rest(state)? {
+                return Ok(Some((t, steps)));
+            }
+        }
+        Ok(None)
+    }
+
     /// One step of `dt` (s), projected onto the constraints.
     pub fn step(&mut self, state: &mut State, dt: f64, integrator: Integrator) -> Result<(), StepError> {
         match integrator {
@@ -419,9 +460,13 @@ impl<'a, S: Multibody> Simulator<'a, S> {
             let qm: Vec<f64> = (0..n).map(|i| q0[i] + 0.5 * dt * vm[i]).collect();
             self.accelerations(&qm, &vm, &mut a)?;
             let next: Vec<f64> = (0..n).map(|i| v0[i] + 0.5 * dt * a[i]).collect();
-            residual = next.iter().zip(&vm).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+            let change = next.iter().zip(&vm).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
             vm = next;
-            if residual < 1e-13 * (1.0 + vm.iter().fold(0.0f64, |m, x| m.max(x.abs()))) {
+            let scale = 1.0 + vm.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            // Converged, or stalled at rounding (no longer contracting).
+            let done = change < 1e-13 * scale || (change < 1e-10 * scale && change >= 0.5 * residual);
+            residual = change;
+            if done {
                 for i in 0..n {
                     state.q[i] = q0[i] + dt * vm[i];
                     state.v[i] = 2.0 * vm[i] - v0[i];

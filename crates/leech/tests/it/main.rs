@@ -4,6 +4,7 @@ mod calibration;
 mod constant_curvature;
 mod continuum;
 mod derivatives;
+mod dynamics;
 mod inverse_statics;
 mod limits;
 mod references;
