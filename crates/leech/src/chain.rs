@@ -518,12 +518,23 @@ impl Chain {
 
     /// Dense mass matrix `M` (kg m^2), row-major `n x n`, into `out`.
     pub fn mass_matrix(&self, q: &[f64], out: &mut [f64]) {
+        let (sin, cos): (Vec<f64>, Vec<f64>) = q[..self.len()].iter().map(|phi| phi.sin_cos()).unzip();
+        self.mass_matrix_from_trig(&cos, &sin, out);
+    }
+
+    /// [`Chain::mass_matrix`] from the links' cosines and sines.
+    pub fn mass_matrix_from_trig(&self, cos: &[f64], sin: &[f64], out: &mut [f64]) {
         let n = self.len();
+        // cos(phi_j - phi_k) = c_j c_k + s_j s_k: n sin_cos instead of n^2 cos.
+        let trig = |j: usize| (sin[j], cos[j]);
         for k in 0..n {
             let ckk = self.diagonal_inertia_coefficient(k);
             out[k * n + k] = ckk + self.inertias[k];
+            let (sk, ck) = trig(k);
+            let wk = self.levers[k];
             for j in 0..k {
-                let m = self.lengths[j] * self.levers[k] * (q[j] - q[k]).cos();
+                let (sj, cj) = trig(j);
+                let m = self.lengths[j] * wk * (cj * ck + sj * sk);
                 out[j * n + k] = m;
                 out[k * n + j] = m;
             }
@@ -532,24 +543,43 @@ impl Chain {
 
     fn diagonal_inertia_coefficient(&self, k: usize) -> f64 {
         let a = self.mass_offsets[k];
-        let beyond = if self.lengths[k] > 0.0 { (self.levers[k] - a * self.masses[k]) / self.lengths[k] } else { 0.0 };
+        let beyond = if self.lengths[k] > 0.0 {
+            (self.levers[k] - a * self.masses[k]) / self.lengths[k]
+        } else {
+            0.0
+        };
         a * a * self.masses[k] + self.lengths[k] * self.lengths[k] * beyond
     }
 
     /// Velocity-product terms `h_j = sum_k C_jk sin(phi_j - phi_k) dphi_k^2` (N m),
-    /// into `out`.
+    /// into `out`. With `C_jk = l_j W_k` (j < k) and `l_k W_j` (j > k) and
+    /// `sin(phi_j - phi_k) = s_j c_k - c_j s_k`, prefix and suffix sums make it O(n).
     pub fn velocity_terms(&self, q: &[f64], dq: &[f64], out: &mut [f64]) {
+        let (sin, cos): (Vec<f64>, Vec<f64>) = q[..self.len()].iter().map(|phi| phi.sin_cos()).unzip();
+        self.velocity_terms_from_trig(&cos, &sin, dq, out);
+    }
+
+    /// [`Chain::velocity_terms`] from the links' cosines and sines.
+    pub fn velocity_terms_from_trig(&self, cos: &[f64], sin: &[f64], dq: &[f64], out: &mut [f64]) {
         let n = self.len();
+        let trig: Vec<(f64, f64)> = (0..n).map(|j| (sin[j], cos[j])).collect();
+        // Suffix sums over k > j of W_k (c_k, s_k) dphi_k^2.
+        let (mut sc, mut ss) = (0.0, 0.0);
+        for j in (0..n).rev() {
+            let (sj, cj) = trig[j];
+            out[j] = self.lengths[j] * (sj * sc - cj * ss);
+            let w = self.levers[j] * dq[j] * dq[j];
+            sc += w * cj;
+            ss += w * sj;
+        }
+        // Prefix sums over k < j of l_k (c_k, s_k) dphi_k^2.
+        let (mut pc, mut ps) = (0.0, 0.0);
         for j in 0..n {
-            let mut h = 0.0;
-            for k in 0..n {
-                if k == j {
-                    continue;
-                }
-                let c = if j < k { self.lengths[j] * self.levers[k] } else { self.lengths[k] * self.levers[j] };
-                h += c * (q[j] - q[k]).sin() * dq[k] * dq[k];
-            }
-            out[j] = h;
+            let (sj, cj) = trig[j];
+            out[j] += self.levers[j] * (sj * pc - cj * ps);
+            let w = self.lengths[j] * dq[j] * dq[j];
+            pc += w * cj;
+            ps += w * sj;
         }
     }
 
