@@ -112,3 +112,59 @@ fn settling_from_the_unloaded_body_reaches_the_static_equilibrium() {
         }
     }
 }
+
+/// Tip trajectories against MuJoCo (RK4 at 1e-5 and 2e-6 s, point masses,
+/// cross-checked there with SciPy's Radau): `validation/dynamics_references.py`.
+#[test]
+fn trajectories_match_mujoco() {
+    let path = format!("{}/tests/data/dynamics.json", env!("CARGO_MANIFEST_DIR"));
+    let v: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    for case in v["cases"].as_array().unwrap() {
+        let num = |k: &str| case[k].as_f64().unwrap();
+        let list = |k: &str| -> Vec<f64> { case[k].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect() };
+        let mut robot = Robot::builtin();
+        robot.tube.element_length_m = num("element_length_m");
+        robot.tube.element_mass_kg = num("element_mass_kg");
+        robot.tube.joint_stiffness_nm_per_rad = num("joint_stiffness_nm_per_rad");
+        robot.tube.joint_damping_nms_per_rad = num("joint_damping_nms_per_rad");
+        robot.world.base_angle_deg = num("base_angle_deg");
+        robot.world.gravity_m_per_s2 = num("gravity_m_per_s2");
+        let times = list("times_s");
+        let tips: Vec<[f64; 2]> =
+            case["tip_m"].as_array().unwrap().iter().map(|p| [p[0].as_f64().unwrap(), p[1].as_f64().unwrap()]).collect();
+        let dt = 1e-5;
+        let per_sample = ((times[1] - times[0]) / dt).round() as usize;
+        let mut worst: f64 = 0.0;
+        let mut check = |tip: [f64; 2], i: usize| worst = worst.max((tip[0] - tips[i][0]).hypot(tip[1] - tips[i][1]));
+        if case["kind"] == "chain" {
+            let tube = robot.cantilever(num("tube_length_m"), 0.0).unwrap();
+            let mut sim = Simulator::new(&tube);
+            let mut state = State { q: list("initial_angles_rad"), v: vec![0.0; tube.dim()] };
+            for i in 1..times.len() {
+                for _ in 0..per_sample {
+                    sim.step(&mut state, dt, Integrator::Implicit).unwrap();
+                }
+                check(tube.chain().tip(&state.q), i);
+            }
+        } else {
+            robot.body.base_spacing_m = num("base_spacing_m");
+            robot.body.tip_spacing_m = num("tip_spacing_m");
+            robot.body.payload_kg = num("payload_kg");
+            let lengths = list("lengths_m");
+            let body = robot.body(lengths[0], lengths[1]).unwrap();
+            let mut q = list("initial_angles_a_rad");
+            q.extend(list("initial_angles_b_rad"));
+            let mut sim = Simulator::new(&body);
+            let mut state = State { v: vec![0.0; q.len()], q };
+            sim.project(&mut state).unwrap();
+            for i in 1..times.len() {
+                for _ in 0..per_sample {
+                    sim.step(&mut state, dt, Integrator::Implicit).unwrap();
+                }
+                check(body.endpoint(&state.q), i);
+            }
+        }
+        assert!(worst < 1e-4, "{}: tip differs from MuJoCo by up to {worst:e} m", case["name"]);
+        eprintln!("{}: largest tip difference from MuJoCo {worst:e} m", case["name"]);
+    }
+}
