@@ -41,6 +41,79 @@ pub enum Command {
     Calibrate(CalibrateArgs),
     /// Compare the two-chain and constant-curvature models with measured bodies.
     Compare(CompareArgs),
+    /// Simulate the body's motion: settling, a step of lengths, or feeding at a speed.
+    Simulate(SimulateArgs),
+}
+
+/// Integrators for `leech simulate`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum IntegratorArg {
+    /// RK4 at its stability limit (tiny steps with the stiff dampers).
+    Explicit,
+    /// Backward Euler with Newton iterations: large steps, damps fast modes.
+    Implicit,
+    /// Implicit midpoint: energy-conserving, needs small steps.
+    Midpoint,
+}
+
+/// Where `leech simulate` starts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum StartArg {
+    /// The unloaded (g = 0) shape at rest, gravity then on (the paper's method).
+    Unloaded,
+    /// The static equilibrium.
+    Static,
+}
+
+/// `leech simulate`.
+#[derive(Debug, Args)]
+#[command(allow_negative_numbers = true)]
+pub struct SimulateArgs {
+    /// Robot file (TOML); the built-in LEeCH robot if absent.
+    #[arg(long, value_name = "FILE")]
+    pub robot: Option<PathBuf>,
+    /// Starting tube lengths LA,LB in m.
+    #[arg(long, value_name = "LA,LB", value_parser = parse_pair, allow_hyphen_values = true)]
+    pub lengths: [f64; 2],
+    /// Move the tubes to these lengths (m).
+    #[arg(long, value_name = "LA2,LB2", value_parser = parse_pair, allow_hyphen_values = true)]
+    pub to: Option<[f64; 2]>,
+    /// Feeding speed of each motor (mm/s), as the paper's robot.
+    #[arg(long, value_name = "MM_PER_S", default_value_t = 20.0)]
+    pub speed: f64,
+    /// Change the lengths at once instead of feeding them.
+    #[arg(long, requires = "to")]
+    pub step: bool,
+    /// Start shape (default: unloaded without --to, static with it).
+    #[arg(long, value_enum)]
+    pub start: Option<StartArg>,
+    /// Simulated time (s); the longest run with --until-rest.
+    #[arg(long, value_name = "S", default_value_t = 5.0)]
+    pub duration: f64,
+    /// Time step (s); default 5 ms implicit, the stability limit otherwise.
+    #[arg(long, value_name = "S")]
+    pub dt: Option<f64>,
+    /// Time-stepping scheme.
+    #[arg(long, value_enum, default_value_t = IntegratorArg::Implicit)]
+    pub integrator: IntegratorArg,
+    /// Stop when the body is at rest (every rate below --rest-rate).
+    #[arg(long)]
+    pub until_rest: bool,
+    /// Rates counting as rest (rad/s).
+    #[arg(long, value_name = "RAD_PER_S", default_value_t = 1e-6)]
+    pub rest_rate: f64,
+    /// Raise gravity over this time (s) instead of at once.
+    #[arg(long, value_name = "S", default_value_t = 0.0)]
+    pub ramp: f64,
+    /// CSV time series (time, lengths, endpoint, energies, violation, angles).
+    #[arg(long, value_name = "FILE")]
+    pub csv: Option<PathBuf>,
+    /// Animated SVG (SMIL) of the body with a time stamp.
+    #[arg(long, value_name = "FILE")]
+    pub svg: Option<PathBuf>,
+    /// Print a summary as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// What `leech calibrate` fits.

@@ -16,8 +16,8 @@ use leech::report::{BodyReport, CantileverReport, ConstantCurvatureReport};
 use leech_plot::Figure;
 
 use flags::{
-    CalibrateArgs, ChainArgs, Cli, Command, CompareArgs, FigureArgs, FitArg, ModelArg, Output, ReachArgs, ShapeArgs,
-    WorkspaceArgs,
+    CalibrateArgs, ChainArgs, Cli, Command, CompareArgs, FigureArgs, FitArg, IntegratorArg, ModelArg, Output,
+    ReachArgs, ShapeArgs, SimulateArgs, StartArg, WorkspaceArgs,
 };
 
 /// Why the command stopped.
@@ -111,6 +111,7 @@ fn run(cli: Cli, out: &mut String) -> Result<(), Failure> {
         Command::Reach(args) => reach(args, out),
         Command::Calibrate(args) => calibrate(args, out),
         Command::Compare(args) => compare(args, out),
+        Command::Simulate(args) => simulate(args, out),
     }
 }
 
@@ -204,7 +205,8 @@ fn chain(args: ChainArgs, out: &mut String) -> Result<(), Failure> {
         discretization: args.discretization.into(),
     };
     let tube = spec.build()?;
-    let eq = tube.solve(&solver(args.max_iterations, args.time_limit)?).map_err(|e| Failure::Solve(e, args.output.json))?;
+    let eq =
+        tube.solve(&solver(args.max_iterations, args.time_limit)?).map_err(|e| Failure::Solve(e, args.output.json))?;
     let report = CantileverReport::new(spec.shape_parameter(), &tube, &eq);
     if args.output.json {
         writeln!(out, "{}", to_json(&report)?).expect("writing to a String");
@@ -395,7 +397,8 @@ fn workspace(args: WorkspaceArgs, out: &mut String) -> Result<(), Failure> {
     let result = sweep(&robot, &options, &|n| bar.inc(n as u64))?;
     bar.finish_and_clear();
     let elapsed = started.elapsed().as_secs_f64();
-    write_sweep_csv(&args.out, &result).map_err(|e| Failure::Other(e.context(format!("writing {}", args.out.display()))))?;
+    write_sweep_csv(&args.out, &result)
+        .map_err(|e| Failure::Other(e.context(format!("writing {}", args.out.display()))))?;
     if let Some(svg) = &args.svg {
         let title = format!("{}: endpoints over LA, LB in {}", robot.name, args.lengths_range);
         leech_plot::figures::sweep_figure(&title, &result).write_svg(svg).map_err(|e| Failure::Other(e.into()))?;
@@ -410,8 +413,15 @@ fn workspace(args: WorkspaceArgs, out: &mut String) -> Result<(), Failure> {
         });
         writeln!(out, "{}", to_json(&v)?).expect("writing to a String");
     } else {
-        writeln!(out, "{} points in {:.2} s, {} failures; every point in {}", result.points.len(), elapsed, failures, args.out.display())
-            .expect("writing to a String");
+        writeln!(
+            out,
+            "{} points in {:.2} s, {} failures; every point in {}",
+            result.points.len(),
+            elapsed,
+            failures,
+            args.out.display()
+        )
+        .expect("writing to a String");
         for s in &result.summaries {
             let pi = s.shape_parameter.map_or("-".to_string(), |p| format!("{p:.0}"));
             let mm = |e: &Option<leech::workspace::Extreme>, k: usize| e.map_or(f64::NAN, |e| e.endpoint_m[k] * 1e3);
@@ -441,8 +451,18 @@ fn write_sweep_csv(path: &Path, sweep: &leech::workspace::Sweep) -> anyhow::Resu
         writeln!(
             text,
             "{},{},{},{},{},{},{},{},{},{},{},{}",
-            p.model.name(), pi, p.lengths_m[0], p.lengths_m[1], status, p.stable, p.snapped, p.feasible,
-            p.min_bend_radius_m, p.endpoint_m[0], p.endpoint_m[1], p.endpoint_angle_rad
+            p.model.name(),
+            pi,
+            p.lengths_m[0],
+            p.lengths_m[1],
+            status,
+            p.stable,
+            p.snapped,
+            p.feasible,
+            p.min_bend_radius_m,
+            p.endpoint_m[0],
+            p.endpoint_m[1],
+            p.endpoint_angle_rad
         )
         .expect("writing to a String");
     }
@@ -474,8 +494,12 @@ fn reach(args: ReachArgs, out: &mut String) -> Result<(), Failure> {
         writeln!(
             out,
             "{verdict}: LA = {:.6} m, LB = {:.6} m, endpoint ({:.4}, {:.4}) mm, error {:.2e} m, plate angle {:.3} deg",
-            answer.lengths_m[0], answer.lengths_m[1], answer.endpoint_m[0] * 1e3, answer.endpoint_m[1] * 1e3,
-            answer.error_m, answer.endpoint_angle_rad.to_degrees()
+            answer.lengths_m[0],
+            answer.lengths_m[1],
+            answer.endpoint_m[0] * 1e3,
+            answer.endpoint_m[1] * 1e3,
+            answer.error_m,
+            answer.endpoint_angle_rad.to_degrees()
         )
         .expect("writing to a String");
     }
@@ -533,7 +557,8 @@ fn calibrate(args: CalibrateArgs, out: &mut String) -> Result<(), Failure> {
     toml.push_str(&fitted.to_toml_string());
     std::fs::write(&args.out, toml).with_context(|| format!("writing {}", args.out.display()))?;
     if let Some(svg) = &args.svg {
-        let title = format!("Fit: k = {:.4} N m/rad, RMS {:.2} mm", result.stiffness_nm_per_rad, result.rms_residual_mm);
+        let title =
+            format!("Fit: k = {:.4} N m/rad, RMS {:.2} mm", result.stiffness_nm_per_rad, result.rms_residual_mm);
         leech_plot::shape::calibration_figure(&title, &fitted, &sag, &shapes)
             .write_svg(svg)
             .map_err(|e| Failure::Other(e.into()))?;
@@ -541,12 +566,8 @@ fn calibrate(args: CalibrateArgs, out: &mut String) -> Result<(), Failure> {
     if args.json {
         writeln!(out, "{}", to_json(&result)?).expect("writing to a String");
     } else {
-        writeln!(
-            out,
-            "k = {:.6} +- {:.6} N m/rad",
-            result.stiffness_nm_per_rad, result.stiffness_std_error_nm_per_rad
-        )
-        .expect("writing to a String");
+        writeln!(out, "k = {:.6} +- {:.6} N m/rad", result.stiffness_nm_per_rad, result.stiffness_std_error_nm_per_rad)
+            .expect("writing to a String");
         if let Some(se) = result.element_mass_std_error_kg {
             writeln!(out, "m = {:.6e} +- {:.2e} kg", result.element_mass_kg, se).expect("writing to a String");
         }
@@ -574,8 +595,12 @@ fn compare(args: CompareArgs, out: &mut String) -> Result<(), Failure> {
         writeln!(out, "{}", to_json(&serde_json::json!({ "shapes": rows }))?).expect("writing to a String");
         return Ok(());
     }
-    writeln!(out, "{:<16} {:>7} {:>7} | {:>27} | {:>27}", "shape", "LA mm", "LB mm", "two-chain rms/max/end mm", "constant curv. rms/max/end mm")
-        .expect("writing to a String");
+    writeln!(
+        out,
+        "{:<16} {:>7} {:>7} | {:>27} | {:>27}",
+        "shape", "LA mm", "LB mm", "two-chain rms/max/end mm", "constant curv. rms/max/end mm"
+    )
+    .expect("writing to a String");
     let cell = |e: &leech::calibration::ShapeError| {
         format!("{:7.2} {:7.2} {:>9}", e.rms_mm, e.max_mm, e.endpoint_mm.map_or("-".into(), |v| format!("{v:.2}")))
     };
@@ -588,6 +613,148 @@ fn compare(args: CompareArgs, out: &mut String) -> Result<(), Failure> {
             r.lengths_m[1] * 1e3,
             cell(&r.two_chain),
             cell(&r.constant_curvature)
+        )
+        .expect("writing to a String");
+    }
+    Ok(())
+}
+
+fn simulate(args: SimulateArgs, out: &mut String) -> Result<(), Failure> {
+    use leech::dynamics::{simulate, Actuation, Integrator, SimulationError, SimulationOptions, Start};
+    let robot = load_robot(args.robot.as_deref())?;
+    let actuation = match (args.to, args.step) {
+        (None, _) => Actuation::Hold,
+        (Some(to), true) => Actuation::Step { to },
+        (Some(to), false) => Actuation::Feed { to, speed: leech::error::positive("--speed (mm/s)", args.speed)? / 1e3 },
+    };
+    let start = match (args.start, args.to) {
+        (Some(StartArg::Unloaded), _) | (None, None) => Start::Unloaded,
+        _ => Start::Static,
+    };
+    let integrator = match args.integrator {
+        IntegratorArg::Explicit => Integrator::Explicit,
+        IntegratorArg::Implicit => Integrator::Implicit,
+        IntegratorArg::Midpoint => Integrator::Midpoint,
+    };
+    let duration = leech::error::within("--duration (s)", args.duration, 1e-6, 3600.0)?;
+    let dt = match (args.dt, integrator) {
+        (Some(dt), _) => Some(leech::error::within("--dt (s)", dt, 1e-9, duration)?),
+        (None, Integrator::Implicit) => Some(5e-3_f64.min(duration)),
+        (None, _) => None,
+    };
+    let options = SimulationOptions {
+        integrator,
+        dt,
+        duration,
+        until_rest: args.until_rest,
+        gravity_ramp: args.ramp,
+        sample_interval: (duration / 500.0).max(1e-4),
+        rest_rate: args.rest_rate,
+    };
+    let bar = indicatif::ProgressBar::new((duration * 1e3) as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} ms simulated, {elapsed} ({eta} left)")
+            .expect("a valid template"),
+    );
+    let started = std::time::Instant::now();
+    let result = simulate(&robot, args.lengths, start, actuation, &options, &|t| bar.set_position((t * 1e3) as u64))
+        .map_err(|e| match e {
+            SimulationError::Input(e) => Failure::Input(e.to_string()),
+            SimulationError::Start(e) => Failure::Solve(e, args.json),
+            other => Failure::Other(anyhow::anyhow!("simulation failed: {other}")),
+        })?;
+    bar.finish_and_clear();
+    let wall = started.elapsed().as_secs_f64();
+    let last = result.samples.last().expect("a simulation records its start");
+    if let Some(path) = &args.csv {
+        let mut text = String::from(
+            "time_s,la_m,lb_m,endpoint_x_m,endpoint_y_m,kinetic_j,potential_j,constraint_violation,angles_a_rad,angles_b_rad\n",
+        );
+        let list = |v: &[f64]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" ");
+        for s in &result.samples {
+            writeln!(
+                text,
+                "{},{},{},{},{},{},{},{},{},{}",
+                s.time_s,
+                s.lengths_m[0],
+                s.lengths_m[1],
+                s.endpoint_m[0],
+                s.endpoint_m[1],
+                s.kinetic_j,
+                s.potential_j,
+                s.violation,
+                list(&s.angles_a_rad),
+                list(&s.angles_b_rad)
+            )
+            .expect("writing to a String");
+        }
+        std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
+    }
+    if let Some(path) = &args.svg {
+        // At most about 250 frames keeps the file small and the playback smooth.
+        let every = (result.samples.len() / 250).max(1);
+        let frames: Vec<leech_plot::animation::Frame> = result
+            .samples
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| i % every == 0 || *i == result.samples.len() - 1)
+            .map(|(_, s)| leech_plot::animation::Frame {
+                time: s.time_s,
+                lines: vec![
+                    s.points_a_m.clone(),
+                    s.points_b_m.clone(),
+                    vec![*s.points_a_m.last().expect("a chain"), *s.points_b_m.last().expect("a chain")],
+                    vec![s.points_a_m[0], s.points_b_m[0]],
+                ],
+            })
+            .collect();
+        let title = format!("{}: {:?}, {:?} integration", robot.name, actuation, integrator);
+        std::fs::write(path, leech_plot::animation::animated_svg(&title, &frames))
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    let simulated = last.time_s;
+    if args.json {
+        let v = serde_json::json!({
+            "integrator": integrator,
+            "dt_s": result.dt,
+            "steps": result.steps,
+            "simulated_s": simulated,
+            "wall_s": wall,
+            "real_time_factor": simulated / wall.max(1e-12),
+            "time_to_rest_s": result.time_to_rest,
+            "max_constraint_violation": result.max_violation,
+            "final": {
+                "lengths_m": last.lengths_m,
+                "endpoint_m": last.endpoint_m,
+                "endpoint_angle_rad": last.angles_a_rad.last(),
+                "kinetic_j": last.kinetic_j,
+                "potential_j": last.potential_j,
+                "chains": {
+                    "a": {"points_m": last.points_a_m, "angles_rad": last.angles_a_rad},
+                    "b": {"points_m": last.points_b_m, "angles_rad": last.angles_b_rad},
+                },
+            },
+        });
+        writeln!(out, "{}", to_json(&v)?).expect("writing to a String");
+    } else {
+        let rest = result.time_to_rest.map_or("not at rest".to_string(), |t| format!("at rest after {t:.3} s"));
+        writeln!(
+            out,
+            "{:.3} s simulated in {} steps of {:.2e} s ({:.0}x real time); {rest}; largest constraint violation {:.1e}",
+            simulated,
+            result.steps,
+            result.dt,
+            simulated / wall.max(1e-12),
+            result.max_violation
+        )
+        .expect("writing to a String");
+        writeln!(
+            out,
+            "final endpoint ({:.3}, {:.3}) mm at LA = {:.4} m, LB = {:.4} m",
+            last.endpoint_m[0] * 1e3,
+            last.endpoint_m[1] * 1e3,
+            last.lengths_m[0],
+            last.lengths_m[1]
         )
         .expect("writing to a String");
     }

@@ -121,7 +121,7 @@ fn solve_body(robot: &Robot, la: f64, lb: f64) -> Result<(Body, Equilibrium), Fi
 }
 
 fn pi_label(pi: f64) -> String {
-    if pi >= 1e4 || pi < 1e-2 {
+    if !(1e-2..1e4).contains(&pi) {
         format!("{pi:.1e}")
     } else {
         format!("{pi:.0}")

@@ -21,6 +21,7 @@
 
 #![warn(missing_docs)]
 
+pub mod animation;
 pub mod figure;
 pub mod figures;
 pub mod shape;

@@ -79,7 +79,12 @@ pub fn calibration_figure(
         colour += 1;
         if let Ok(c) = r.cantilever(tube.length, tube.tip_mass) {
             if let Ok(eq) = c.solve(&Solver::default()) {
-                fig.push(format!("tube {:.0} mm (fit)", tube.length * 1e3), c.chain().points(&eq.q), SeriesStyle::Line, color);
+                fig.push(
+                    format!("tube {:.0} mm (fit)", tube.length * 1e3),
+                    c.chain().points(&eq.q),
+                    SeriesStyle::Line,
+                    color,
+                );
             }
         }
         fig.push("", tube.points.clone(), SeriesStyle::Dots, color);

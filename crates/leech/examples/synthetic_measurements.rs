@@ -38,13 +38,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     std::fs::write(format!("{dir}/tube_sag.csv"), text)?;
 
-    let shapes = synthetic::shapes(&truth, &[[0.10, 0.09], [0.20, 0.17], [0.30, 0.24], [0.25, 0.25]], 90.0, 0.02, NOISE_M, SEED);
+    let shapes =
+        synthetic::shapes(&truth, &[[0.10, 0.09], [0.20, 0.17], [0.30, 0.24], [0.25, 0.25]], 90.0, 0.02, NOISE_M, SEED);
     let mut text = provenance;
     text.push_str("shape,la_m,lb_m,base_angle_deg,chain,x_m,y_m\n");
     for s in &shapes {
         let rows = s.points_a.iter().map(|p| ("a", p)).chain(s.points_b.iter().map(|p| ("b", p)));
         for (chain, p) in rows.chain(s.endpoint.iter().map(|p| ("endpoint", p))) {
-            writeln!(text, "{},{},{},{},{chain},{:.6},{:.6}", s.name, s.lengths[0], s.lengths[1], s.base_angle_deg, p[0], p[1])?;
+            writeln!(
+                text,
+                "{},{},{},{},{chain},{:.6},{:.6}",
+                s.name, s.lengths[0], s.lengths[1], s.base_angle_deg, p[0], p[1]
+            )?;
         }
     }
     std::fs::write(format!("{dir}/body_shapes.csv"), text)?;

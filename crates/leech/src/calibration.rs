@@ -82,7 +82,8 @@ impl Table {
             value: message,
             allowed: "CSV with the documented columns".into(),
         };
-        let mut reader = csv::ReaderBuilder::new().comment(Some(b'#')).trim(csv::Trim::All).from_reader(text.as_bytes());
+        let mut reader =
+            csv::ReaderBuilder::new().comment(Some(b'#')).trim(csv::Trim::All).from_reader(text.as_bytes());
         let header = reader.headers().map_err(|e| bad(1, e.to_string()))?.clone();
         let mut columns = BTreeMap::new();
         for (i, name) in header.iter().enumerate() {
@@ -149,8 +150,7 @@ pub fn read_sag(text: &str, source: &str) -> Result<Vec<SagTube>, InputError> {
 
 /// Reads a body-shapes file (see the module doc).
 pub fn read_shapes(text: &str, source: &str) -> Result<Vec<BodyShape>, InputError> {
-    let table =
-        Table::parse(text, source, &["shape", "la_m", "lb_m", "base_angle_deg", "chain", "x_m", "y_m"], &[])?;
+    let table = Table::parse(text, source, &["shape", "la_m", "lb_m", "base_angle_deg", "chain", "x_m", "y_m"], &[])?;
     let mut shapes: Vec<BodyShape> = Vec::new();
     for row in &table.rows {
         let name = table.text(row, "shape").unwrap_or_default();
@@ -338,8 +338,9 @@ fn check_data(robot: &Robot, sag: &[SagTube], shapes: &[BodyShape], parameters: 
         ));
     }
     // Points at the clamp are where every model puts the tube: no information.
-    let informative = sag.iter().flat_map(|t| t.points.iter()).any(|p| p[0].hypot(p[1]) > 1e-3 * robot.tube.element_length_m)
-        || !shapes.is_empty();
+    let informative =
+        sag.iter().flat_map(|t| t.points.iter()).any(|p| p[0].hypot(p[1]) > 1e-3 * robot.tube.element_length_m)
+            || !shapes.is_empty();
     if !informative {
         return Err(InputError::Invalid {
             field: "sag points".into(),
@@ -351,7 +352,12 @@ fn check_data(robot: &Robot, sag: &[SagTube], shapes: &[BodyShape], parameters: 
 }
 
 /// Fits `k` (and `m`) of `robot`'s tube to the measurements.
-pub fn calibrate(robot: &Robot, sag: &[SagTube], shapes: &[BodyShape], fit: Fit) -> Result<Calibration, CalibrationError> {
+pub fn calibrate(
+    robot: &Robot,
+    sag: &[SagTube],
+    shapes: &[BodyShape],
+    fit: Fit,
+) -> Result<Calibration, CalibrationError> {
     robot.validate()?;
     let p = if fit == Fit::Stiffness { 1 } else { 2 };
     let n = check_data(robot, sag, shapes, p)?;
@@ -518,7 +524,8 @@ pub fn compare(robot: &Robot, shapes: &[BodyShape]) -> Result<Vec<ShapeCompariso
         .map(|shape| {
             let (body, q) = solve_shape(robot, shape).map_err(CalibrationError::Model)?;
             let (qa, qb) = body.split(&q);
-            let two_chain = shape_error(shape, &body.chain_a().points(qa), &body.chain_b().points(qb), body.endpoint(&q));
+            let two_chain =
+                shape_error(shape, &body.chain_a().points(qa), &body.chain_b().points(qb), body.endpoint(&q));
             let mut r = robot.clone();
             r.world.base_angle_deg = shape.base_angle_deg;
             let cc = PlanarBody::of(&r);
@@ -612,7 +619,14 @@ pub mod synthetic {
     }
 
     /// Body shapes for the given tube lengths at `angle_deg`.
-    pub fn shapes(robot: &Robot, lengths: &[[f64; 2]], angle_deg: f64, spacing: f64, noise: f64, seed: u64) -> Vec<BodyShape> {
+    pub fn shapes(
+        robot: &Robot,
+        lengths: &[[f64; 2]],
+        angle_deg: f64,
+        spacing: f64,
+        noise: f64,
+        seed: u64,
+    ) -> Vec<BodyShape> {
         let mut rng = Noise::new(seed ^ 0x5EED);
         let mut r = robot.clone();
         r.world.base_angle_deg = angle_deg;

@@ -543,11 +543,7 @@ impl Chain {
 
     fn diagonal_inertia_coefficient(&self, k: usize) -> f64 {
         let a = self.mass_offsets[k];
-        let beyond = if self.lengths[k] > 0.0 {
-            (self.levers[k] - a * self.masses[k]) / self.lengths[k]
-        } else {
-            0.0
-        };
+        let beyond = if self.lengths[k] > 0.0 { (self.levers[k] - a * self.masses[k]) / self.lengths[k] } else { 0.0 };
         a * a * self.masses[k] + self.lengths[k] * self.lengths[k] * beyond
     }
 

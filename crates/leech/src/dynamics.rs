@@ -199,14 +199,20 @@ impl<'a, S: Multibody> Simulator<'a, S> {
         }
         for a in 0..m {
             for b in 0..m {
-                s[a][b] = (0..n).map(|i| self.ev.jacobian[i * MAX_CONSTRAINTS + a] * self.y[i * MAX_CONSTRAINTS + b]).sum();
+                s[a][b] =
+                    (0..n).map(|i| self.ev.jacobian[i * MAX_CONSTRAINTS + a] * self.y[i * MAX_CONSTRAINTS + b]).sum();
             }
         }
         s
     }
 
     /// Corrects `x` (already `M^-1 f`) by `Y lambda` so that `J x = target`.
-    fn enforce(&mut self, x: &mut [f64], target: [f64; MAX_CONSTRAINTS], s: &[[f64; MAX_CONSTRAINTS]; MAX_CONSTRAINTS]) {
+    fn enforce(
+        &mut self,
+        x: &mut [f64],
+        target: [f64; MAX_CONSTRAINTS],
+        s: &[[f64; MAX_CONSTRAINTS]; MAX_CONSTRAINTS],
+    ) {
         let (n, m) = (self.n, self.m);
         if m == 0 {
             return;
@@ -317,6 +323,20 @@ impl<'a, S: Multibody> Simulator<'a, S> {
                 x[i] -= jac[i * MAX_CONSTRAINTS + a] * mu[a];
             }
         }
+    }
+
+    /// Checks that `state` satisfies the constraints in position and velocity
+    /// (to 1e-9 m, rad and rad/s): the initial state of a run must.
+    pub fn check(&mut self, state: &State) -> Result<(), StepError> {
+        let position = self.violation(&state.q);
+        let velocity = (0..self.m)
+            .map(|r| (0..self.n).map(|i| self.ev.jacobian[i * MAX_CONSTRAINTS + r] * state.v[i]).sum::<f64>().abs())
+            .fold(0.0f64, f64::max);
+        let violation = position.max(velocity);
+        if !(violation <= 1e-9) || state.q.len() != self.n || state.v.len() != self.n {
+            return Err(StepError::Inconsistent { violation });
+        }
+        Ok(())
     }
 
     /// Kinetic plus potential energy (J).
@@ -510,7 +530,12 @@ impl<'a, S: Multibody> Simulator<'a, S> {
                 chain.mass_matrix_from_trig(&self.ev.cos[range.clone()], &self.ev.sin[range], raw);
                 for i in 0..k {
                     let row = &raw[i * k..(i + 1) * k];
-                    g[offset + i] = row.iter().zip(&v1[*offset..*offset + k]).zip(&v0[*offset..*offset + k]).map(|((m, a), b)| m * (a - b)).sum::<f64>();
+                    g[offset + i] = row
+                        .iter()
+                        .zip(&v1[*offset..*offset + k])
+                        .zip(&v0[*offset..*offset + k])
+                        .map(|((m, a), b)| m * (a - b))
+                        .sum::<f64>();
                 }
                 if iteration == 0 {
                     let block = &mut self.mass[b];
@@ -619,7 +644,11 @@ fn cholesky_solve(l: &[f64], k: usize, x: &mut [f64]) {
 }
 
 /// Solves the small symmetric system `S x = b` (Gaussian elimination with pivoting).
-fn solve_small(s: &[[f64; MAX_CONSTRAINTS]; MAX_CONSTRAINTS], b: [f64; MAX_CONSTRAINTS], m: usize) -> [f64; MAX_CONSTRAINTS] {
+fn solve_small(
+    s: &[[f64; MAX_CONSTRAINTS]; MAX_CONSTRAINTS],
+    b: [f64; MAX_CONSTRAINTS],
+    m: usize,
+) -> [f64; MAX_CONSTRAINTS] {
     let mut a = *s;
     let mut x = b;
     for c in 0..m {
@@ -810,9 +839,9 @@ pub fn simulate(
     let dt = match (options.dt, options.integrator) {
         (Some(dt), _) => positive("dt (s)", dt)?,
         (None, Integrator::Implicit) => 2e-3,
-        (None, _) => Simulator::new(&body)
-            .stable_step(&state.q)
-            .map_err(|source| SimulationError::Step { time: 0.0, source })?,
+        (None, _) => {
+            Simulator::new(&body).stable_step(&state.q).map_err(|source| SimulationError::Step { time: 0.0, source })?
+        }
     };
     if let Actuation::Step { to } = actuation {
         let next = robot.body(to[0], to[1])?;
@@ -822,6 +851,7 @@ pub fn simulate(
     }
     let ramp_load = |t: f64| if options.gravity_ramp > 0.0 { (t / options.gravity_ramp).min(1.0) } else { 1.0 };
     let mut sim = Simulator::new(&body);
+    sim.check(&state).map_err(|source| SimulationError::Step { time: 0.0, source })?;
     sim.load = ramp_load(0.0);
     let mut samples = vec![sample(&mut sim, &body, &state, 0.0)];
     let mut max_violation = samples[0].violation;
@@ -852,7 +882,8 @@ pub fn simulate(
         let violation = sim.violation(&state.q);
         max_violation = max_violation.max(violation);
         let settled_inputs = current == target && sim.load == 1.0;
-        let at_rest = options.until_rest && settled_inputs && sim.at_rest(&state, options.rest_rate).map_err(fail(t))?;
+        let at_rest =
+            options.until_rest && settled_inputs && sim.at_rest(&state, options.rest_rate).map_err(fail(t))?;
         if t + 1e-12 >= next_sample || at_rest || steps == max_steps {
             samples.push(sample(&mut sim, &body, &state, t));
             next_sample += options.sample_interval;

@@ -247,11 +247,13 @@ impl Reacher {
                 angle: *a,
             };
             let found = self.descend(start, target, angle, &mut solves);
-            let better = best.as_ref().is_none_or(|b| map_cost(found.endpoint, found.angle) < map_cost(b.endpoint, b.angle));
+            let better =
+                best.as_ref().is_none_or(|b| map_cost(found.endpoint, found.angle) < map_cost(b.endpoint, b.angle));
             if better {
                 best = Some(found);
             }
-            let hit = best.as_ref().is_some_and(|b| map_cost(b.endpoint, b.angle).sqrt() < 1e-3 * self.tolerance.tolerance_m);
+            let hit =
+                best.as_ref().is_some_and(|b| map_cost(b.endpoint, b.angle).sqrt() < 1e-3 * self.tolerance.tolerance_m);
             if hit {
                 break;
             }

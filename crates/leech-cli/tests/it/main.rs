@@ -241,7 +241,16 @@ fn workspace_writes_every_point_and_a_summary() {
     std::fs::create_dir_all(&dir).unwrap();
     let (csv, svg) = (dir.join("ws.csv"), dir.join("ws.svg"));
     let out = leech()
-        .args(["workspace", "--lengths-range", "0.05:0.3:0.05", "--shape-parameter", "1000,5000", "--left-longer", "--json", "--out"])
+        .args([
+            "workspace",
+            "--lengths-range",
+            "0.05:0.3:0.05",
+            "--shape-parameter",
+            "1000,5000",
+            "--left-longer",
+            "--json",
+            "--out",
+        ])
         .arg(&csv)
         .arg("--svg")
         .arg(&svg)
@@ -344,4 +353,42 @@ fn compare_reports_both_models() {
     let out = leech().args(["compare", "--shapes", &example("body_shapes.csv")]).output().unwrap();
     let text = String::from_utf8(out.stdout).unwrap();
     assert!(text.contains("two-chain") && text.contains("LA300_LB240"));
+}
+
+#[test]
+fn simulate_writes_series_animation_and_summary() {
+    let dir = std::env::temp_dir().join(format!("leech-cli-sim-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (csv, svg) = (dir.join("sim.csv"), dir.join("sim.svg"));
+    let out = leech()
+        .args(["simulate", "--lengths", "0.12,0.12", "--to", "0.15,0.11", "--until-rest", "--duration", "30", "--json"])
+        .arg("--csv")
+        .arg(&csv)
+        .arg("--svg")
+        .arg(&svg)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    for key in ["time_to_rest_s", "steps", "max_constraint_violation", "final", "real_time_factor"] {
+        assert!(v.get(key).is_some(), "missing {key}");
+    }
+    assert!(v["max_constraint_violation"].as_f64().unwrap() < 1e-9);
+    // At rest on the static equilibrium of the final lengths.
+    let statics = json_of(&["shape", "--lengths", "0.15,0.11"]);
+    let (a, b) = (&v["final"]["endpoint_m"], &statics["endpoint_m"]);
+    let d = (a[0].as_f64().unwrap() - b[0].as_f64().unwrap()).hypot(a[1].as_f64().unwrap() - b[1].as_f64().unwrap());
+    assert!(d < 1e-5, "final endpoint {d} m from the static one");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    assert!(text.starts_with("time_s,la_m,lb_m,endpoint_x_m,endpoint_y_m,kinetic_j,potential_j,constraint_violation"));
+    assert!(text.lines().count() > 10);
+    let anim = std::fs::read_to_string(&svg).unwrap();
+    assert!(
+        anim.starts_with("<svg") && anim.contains("<animate attributeName=\"points\"") && anim.contains("t = 0.000 s")
+    );
+    rejected(&["simulate", "--lengths", "0.2,0.2", "--dt", "-1"]);
+    rejected(&["simulate", "--lengths", "0.2,0.2", "--duration", "0"]);
+    rejected(&["simulate", "--lengths", "0.2,0.2", "--to", "0.2,0.001"]);
+    rejected(&["simulate", "--lengths", "0.2,0.2", "--step"]);
+    std::fs::remove_dir_all(&dir).ok();
 }

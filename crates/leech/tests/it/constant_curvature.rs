@@ -10,7 +10,7 @@ fn planar(b: f64, c: f64, angle: f64) -> PlanarBody {
 
 #[test]
 fn equal_lengths_give_a_straight_body() {
-    for angle in [0.0, 0.7, 1.5707963267948966, 3.0] {
+    for angle in [0.0, 0.7, std::f64::consts::FRAC_PI_2, 3.0] {
         let cc = planar(0.017, 0.012, angle);
         let pose = cc.pose(0.23, 0.23);
         assert_eq!(pose.bend, 0.0);

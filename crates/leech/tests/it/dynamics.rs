@@ -55,7 +55,11 @@ fn damped_energy_never_increases_and_constraints_hold() {
             t += dt;
             let (k, p) = sim.energy(&state);
             // Never up, but for rounding in the projection (1e-11 of the energy seen).
-            assert!(k + p <= last + 1e-9 * last.abs(), "{integrator:?}: energy rose at t = {t} by {:e} of {last:e}", k + p - last);
+            assert!(
+                k + p <= last + 1e-9 * last.abs(),
+                "{integrator:?}: energy rose at t = {t} by {:e} of {last:e}",
+                k + p - last
+            );
             last = k + p;
             assert!(sim.violation(&state.q) < 1e-9, "{integrator:?}: violation at t = {t}");
         }
@@ -130,8 +134,12 @@ fn trajectories_match_mujoco() {
         robot.world.base_angle_deg = num("base_angle_deg");
         robot.world.gravity_m_per_s2 = num("gravity_m_per_s2");
         let times = list("times_s");
-        let tips: Vec<[f64; 2]> =
-            case["tip_m"].as_array().unwrap().iter().map(|p| [p[0].as_f64().unwrap(), p[1].as_f64().unwrap()]).collect();
+        let tips: Vec<[f64; 2]> = case["tip_m"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| [p[0].as_f64().unwrap(), p[1].as_f64().unwrap()])
+            .collect();
         let dt = 1e-5;
         let per_sample = ((times[1] - times[0]) / dt).round() as usize;
         let mut worst: f64 = 0.0;
@@ -167,4 +175,16 @@ fn trajectories_match_mujoco() {
         assert!(worst < 1e-4, "{}: tip differs from MuJoCo by up to {worst:e} m", case["name"]);
         eprintln!("{}: largest tip difference from MuJoCo {worst:e} m", case["name"]);
     }
+}
+
+#[test]
+fn inconsistent_initial_states_are_rejected() {
+    let (body, mut state) = swinging_body(0.005);
+    let mut sim = Simulator::new(&body);
+    state.q[0] += 0.1;
+    assert!(matches!(sim.check(&state), Err(leech::dynamics::StepError::Inconsistent { .. })));
+    sim.project(&mut state).unwrap();
+    assert!(sim.check(&state).is_ok());
+    state.v[0] = 1.0;
+    assert!(matches!(sim.check(&state), Err(leech::dynamics::StepError::Inconsistent { .. })));
 }

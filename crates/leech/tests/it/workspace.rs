@@ -4,12 +4,7 @@ use leech::prelude::*;
 use leech::workspace::{sweep, Grid, Model, SweepOptions};
 
 fn options(models: Vec<Model>, left_longer: bool) -> SweepOptions {
-    SweepOptions {
-        grid: Grid::new(0.05, 0.30, 0.025).unwrap(),
-        shape_parameters: vec![],
-        models,
-        left_longer,
-    }
+    SweepOptions { grid: Grid::new(0.05, 0.30, 0.025).unwrap(), shape_parameters: vec![], models, left_longer }
 }
 
 /// Each grid point equals a solve warm-started from its neighbour's state,
@@ -31,7 +26,13 @@ fn sweep_points_equal_independent_solves() {
             assert_eq!(p.lengths_m, [values[i], values[j]]);
             let body = robot.body(values[i], values[j]).unwrap();
             // The neighbour this point was fed from: left in the row, or below in the first column.
-            let (ni, nj) = if j > 0 { (i, j - 1) } else if i > 0 { (i - 1, 0) } else { (0, 0) };
+            let (ni, nj) = if j > 0 {
+                (i, j - 1)
+            } else if i > 0 {
+                (i - 1, 0)
+            } else {
+                (0, 0)
+            };
             if (ni, nj) != (i, j) {
                 let neighbour = robot.body(values[ni], values[nj]).unwrap();
                 let seed = replay(&robot, &values, ni, nj);

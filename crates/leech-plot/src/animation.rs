@@ -1,0 +1,115 @@
+//! Animated SVG (SMIL) of a moving body: open it in a web browser.
+//!
+//! Every frame's polylines become one `<animate attributeName="points">` per
+//! polyline with discrete key times, so frames may have different numbers of
+//! points (links appear while a tube is fed); a time stamp is shown frame by
+//! frame. Coordinates are drawn in millimetres.
+
+use std::fmt::Write as _;
+
+/// One instant: its time and polylines (m), in drawing order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frame {
+    /// Time (s).
+    pub time: f64,
+    /// Polylines (m).
+    pub lines: Vec<Vec<[f64; 2]>>,
+}
+
+/// Style of each polyline: colour and width (px).
+pub const STYLES: [(&str, f64); 4] = [("#0072b2", 2.0), ("#d55e00", 2.0), ("#009e73", 4.0), ("#5a5a5a", 5.0)];
+
+fn points(line: &[[f64; 2]]) -> String {
+    let mut s = String::new();
+    for p in line {
+        let _ = write!(s, "{:.3},{:.3} ", p[0] * 1e3, -p[1] * 1e3);
+    }
+    s.trim_end().to_string()
+}
+
+/// The animation as an SVG document. `frames` must not be empty.
+pub fn animated_svg(title: &str, frames: &[Frame]) -> String {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in frames.iter().flat_map(|f| f.lines.iter().flatten()) {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k] * 1e3);
+            hi[k] = hi[k].max(p[k] * 1e3);
+        }
+    }
+    let span = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(10.0);
+    let pad = 0.12 * span;
+    // SVG y grows downwards: plot -y.
+    let (x0, y0, w, h) = (lo[0] - pad, -hi[1] - pad, hi[0] - lo[0] + 2.0 * pad, hi[1] - lo[1] + 2.0 * pad);
+    let duration = frames.last().map_or(1.0, |f| f.time).max(1e-3);
+    let font = 0.035 * span;
+    let mut svg = String::new();
+    let _ = writeln!(
+        svg,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="760" height="{:.0}" viewBox="{x0:.3} {:.3} {w:.3} {:.3}">"#,
+        760.0 * (h + 2.0 * font) / w,
+        y0 - 2.0 * font,
+        h + 2.0 * font
+    );
+    let _ = writeln!(
+        svg,
+        r#"<rect x="{x0:.3}" y="{:.3}" width="{w:.3}" height="{:.3}" fill="white"/>"#,
+        y0 - 2.0 * font,
+        h + 2.0 * font
+    );
+    let _ = writeln!(
+        svg,
+        r#"<text x="{:.3}" y="{:.3}" font-family="sans-serif" font-size="{font:.3}">{}</text>"#,
+        x0 + 0.02 * w,
+        y0 - 0.6 * font,
+        xml_escape(title)
+    );
+    // A 10 mm scale bar and the axes through the driving unit.
+    let _ = writeln!(
+        svg,
+        r##"<g stroke="#cccccc" stroke-width="{:.3}"><line x1="{x0:.3}" y1="0" x2="{:.3}" y2="0"/><line x1="0" y1="{y0:.3}" x2="0" y2="{:.3}"/></g>"##,
+        0.002 * span,
+        x0 + w,
+        y0 + h
+    );
+    let (bx, by) = (x0 + 0.05 * w, y0 + h - 0.05 * h);
+    let _ = writeln!(
+        svg,
+        r#"<line x1="{bx:.3}" y1="{by:.3}" x2="{:.3}" y2="{by:.3}" stroke="black" stroke-width="{:.3}"/><text x="{bx:.3}" y="{:.3}" font-family="sans-serif" font-size="{:.3}">10 mm (g points down)</text>"#,
+        bx + 10.0,
+        0.006 * span,
+        by - 0.4 * font,
+        0.8 * font
+    );
+    let lines = frames.iter().map(|f| f.lines.len()).max().unwrap_or(0);
+    let key_times: Vec<String> = frames.iter().map(|f| format!("{:.6}", f.time / duration)).collect();
+    for l in 0..lines {
+        let (color, width) = STYLES[l.min(STYLES.len() - 1)];
+        let values: Vec<String> =
+            frames.iter().map(|f| f.lines.get(l).map(|p| points(p)).unwrap_or_default()).collect();
+        let _ = writeln!(
+            svg,
+            r#"<polyline fill="none" stroke="{color}" stroke-width="{:.3}" points="{}"><animate attributeName="points" calcMode="discrete" dur="{duration:.6}s" fill="freeze" keyTimes="{}" values="{}"/></polyline>"#,
+            width * span / 760.0,
+            values[0],
+            key_times.join(";"),
+            values.join(";")
+        );
+    }
+    for (i, f) in frames.iter().enumerate() {
+        let end = frames.get(i + 1).map(|n| format!(r#" end="{:.6}s""#, n.time)).unwrap_or_default();
+        let _ = writeln!(
+            svg,
+            r#"<text x="{:.3}" y="{:.3}" font-family="sans-serif" font-size="{font:.3}" visibility="hidden">t = {:.3} s<set attributeName="visibility" to="visible" begin="{:.6}s"{end}/></text>"#,
+            x0 + 0.72 * w,
+            y0 - 0.6 * font,
+            f.time,
+            f.time
+        );
+    }
+    svg.push_str("</svg>\n");
+    svg
+}
+
+fn xml_escape(text: &str) -> String {
+    text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
+}
