@@ -77,18 +77,7 @@ fn settling_from_the_unloaded_body_reaches_the_static_equilibrium() {
     let v: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
     for case in v["cases"].as_array().unwrap() {
         let num = |k: &str| case[k].as_f64().unwrap();
-        let mut robot = Robot::builtin();
-        robot.tube.element_length_m = num("element_length_m");
-        robot.tube.element_mass_kg = num("element_mass_kg");
-        robot.tube.joint_stiffness_nm_per_rad = num("joint_stiffness_nm_per_rad");
-        robot.body.base_spacing_m = num("base_spacing_m");
-        robot.body.tip_spacing_m = num("tip_spacing_m");
-        robot.body.payload_kg = num("payload_kg");
-        robot.world.base_angle_deg = num("base_angle_deg");
-        robot.model.discretization = match case["discretization"].as_str() {
-            Some("midpoint") => Discretization::Midpoint,
-            _ => Discretization::Paper,
-        };
+        let mut robot = super::robot_from_case(case);
         // Damping about as the paper: enough to settle in a few seconds.
         robot.tube.joint_damping_nms_per_rad = 0.02 * robot.tube.joint_stiffness_nm_per_rad;
         let lengths: Vec<f64> = case["lengths_m"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
@@ -126,13 +115,7 @@ fn trajectories_match_mujoco() {
     for case in v["cases"].as_array().unwrap() {
         let num = |k: &str| case[k].as_f64().unwrap();
         let list = |k: &str| -> Vec<f64> { case[k].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect() };
-        let mut robot = Robot::builtin();
-        robot.tube.element_length_m = num("element_length_m");
-        robot.tube.element_mass_kg = num("element_mass_kg");
-        robot.tube.joint_stiffness_nm_per_rad = num("joint_stiffness_nm_per_rad");
-        robot.tube.joint_damping_nms_per_rad = num("joint_damping_nms_per_rad");
-        robot.world.base_angle_deg = num("base_angle_deg");
-        robot.world.gravity_m_per_s2 = num("gravity_m_per_s2");
+        let robot = super::robot_from_case(case);
         let times = list("times_s");
         let tips: Vec<[f64; 2]> = case["tip_m"]
             .as_array()
@@ -155,9 +138,6 @@ fn trajectories_match_mujoco() {
                 check(tube.chain().tip(&state.q), i);
             }
         } else {
-            robot.body.base_spacing_m = num("base_spacing_m");
-            robot.body.tip_spacing_m = num("tip_spacing_m");
-            robot.body.payload_kg = num("payload_kg");
             let lengths = list("lengths_m");
             let body = robot.body(lengths[0], lengths[1]).unwrap();
             let mut q = list("initial_angles_a_rad");

@@ -74,16 +74,7 @@ fn two_chain_bodies_match_scipy_and_mujoco() {
     assert!(cases.len() >= 6, "at least six two-chain references");
     for case in &cases {
         let name = case["name"].as_str().unwrap();
-        let mut robot = Robot::builtin();
-        robot.tube.element_length_m = num(case, "element_length_m");
-        robot.tube.element_mass_kg = num(case, "element_mass_kg");
-        robot.tube.joint_stiffness_nm_per_rad = num(case, "joint_stiffness_nm_per_rad");
-        robot.body.base_spacing_m = num(case, "base_spacing_m");
-        robot.body.tip_spacing_m = num(case, "tip_spacing_m");
-        robot.body.payload_kg = num(case, "payload_kg");
-        robot.world.base_angle_deg = num(case, "base_angle_deg");
-        robot.world.gravity_m_per_s2 = num(case, "gravity_m_per_s2");
-        robot.model.discretization = discretization(case);
+        let robot = super::robot_from_case(case);
         let lengths = vector(case, "lengths_m");
         let body = robot.body(lengths[0], lengths[1]).unwrap();
         let eq = body.solve(&Solver::default()).unwrap_or_else(|e| panic!("{name}: {e}"));
