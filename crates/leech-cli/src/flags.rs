@@ -72,6 +72,9 @@ pub struct SimulateArgs {
     /// Robot file (TOML); the built-in LEeCH robot if absent.
     #[arg(long, value_name = "FILE")]
     pub robot: Option<PathBuf>,
+    /// Shape parameter Pi = k/(m g l), set by scaling the joint stiffness.
+    #[arg(long, value_name = "P")]
+    pub shape_parameter: Option<f64>,
     /// Starting tube lengths LA,LB in m.
     #[arg(long, value_name = "LA,LB", value_parser = parse_pair, allow_hyphen_values = true)]
     pub lengths: [f64; 2],
@@ -161,6 +164,9 @@ pub struct CompareArgs {
     /// Robot file (TOML); the built-in LEeCH robot if absent.
     #[arg(long, value_name = "FILE")]
     pub robot: Option<PathBuf>,
+    /// Shape parameter Pi = k/(m g l), set by scaling the joint stiffness.
+    #[arg(long, value_name = "P")]
+    pub shape_parameter: Option<f64>,
     /// Print the result as JSON.
     #[arg(long)]
     pub json: bool,
@@ -206,6 +212,9 @@ pub struct ReachArgs {
     /// Robot file (TOML); the built-in LEeCH robot if absent.
     #[arg(long, value_name = "FILE")]
     pub robot: Option<PathBuf>,
+    /// Shape parameter Pi = k/(m g l), set by scaling the joint stiffness.
+    #[arg(long, value_name = "P")]
+    pub shape_parameter: Option<f64>,
     /// Target for the endpoint, X,Y in m (driving unit at the origin).
     #[arg(long, value_name = "X,Y", value_parser = parse_pair, allow_hyphen_values = true)]
     pub target: [f64; 2],

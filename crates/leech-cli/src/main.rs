@@ -115,6 +115,15 @@ fn run(cli: Cli, out: &mut String) -> Result<(), Failure> {
     }
 }
 
+/// The robot file (or the built-in robot) with an optional shape parameter.
+fn load_tuned(path: Option<&Path>, shape_parameter: Option<f64>) -> Result<Robot, Failure> {
+    let robot = load_robot(path)?;
+    match shape_parameter {
+        Some(pi) => Ok(robot.with_shape_parameter(pi)?),
+        None => Ok(robot),
+    }
+}
+
 fn load_robot(path: Option<&Path>) -> Result<Robot, Failure> {
     let Some(path) = path else { return Ok(Robot::builtin()) };
     let text = std::fs::read_to_string(path)
@@ -346,10 +355,7 @@ fn time_solves(body: &leech::body::Body, solver: &Solver, n: usize) -> Timing {
 
 fn figure(args: FigureArgs, out: &mut String) -> Result<(), Failure> {
     use leech_plot::figures::{build, FigureError, NAMES};
-    let mut robot = load_robot(args.robot.as_deref())?;
-    if let Some(pi) = args.shape_parameter {
-        robot = robot.with_shape_parameter(pi)?;
-    }
+    let robot = load_tuned(args.robot.as_deref(), args.shape_parameter)?;
     let names: Vec<&str> = if args.name == "all" { NAMES.to_vec() } else { vec![args.name.as_str()] };
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating the output directory {}", args.out.display()))?;
@@ -472,7 +478,7 @@ fn write_sweep_csv(path: &Path, sweep: &leech::workspace::Sweep) -> anyhow::Resu
 
 fn reach(args: ReachArgs, out: &mut String) -> Result<(), Failure> {
     use leech::inverse_statics::{check_target, ReachStatus, Reacher};
-    let mut robot = load_robot(args.robot.as_deref())?;
+    let mut robot = load_tuned(args.robot.as_deref(), args.shape_parameter)?;
     if let Some(angle) = args.base_angle {
         robot.world.base_angle_deg = angle;
     }
@@ -588,7 +594,7 @@ fn calibrate(args: CalibrateArgs, out: &mut String) -> Result<(), Failure> {
 
 fn compare(args: CompareArgs, out: &mut String) -> Result<(), Failure> {
     use leech::calibration::{compare, read_shapes};
-    let robot = load_robot(args.robot.as_deref())?;
+    let robot = load_tuned(args.robot.as_deref(), args.shape_parameter)?;
     let shapes = read_shapes(&read_input(&args.shapes, "--shapes")?, &args.shapes.display().to_string())?;
     let rows = compare(&robot, &shapes).map_err(calibration_failure)?;
     if args.json {
@@ -621,7 +627,7 @@ fn compare(args: CompareArgs, out: &mut String) -> Result<(), Failure> {
 
 fn simulate(args: SimulateArgs, out: &mut String) -> Result<(), Failure> {
     use leech::dynamics::{simulate, Actuation, Integrator, SimulationError, SimulationOptions, Start};
-    let robot = load_robot(args.robot.as_deref())?;
+    let robot = load_tuned(args.robot.as_deref(), args.shape_parameter)?;
     let actuation = match (args.to, args.step) {
         (None, _) => Actuation::Hold,
         (Some(to), true) => Actuation::Step { to },
