@@ -144,6 +144,9 @@ pub struct CalibrateArgs {
     /// Starting robot (TOML); the built-in LEeCH robot if absent.
     #[arg(long, value_name = "FILE")]
     pub robot: Option<PathBuf>,
+    /// Starting shape parameter Pi = k/(m g l) (sets the starting stiffness).
+    #[arg(long, value_name = "P")]
+    pub shape_parameter: Option<f64>,
     /// Robot file to write with the fitted values.
     #[arg(long, value_name = "ROBOT.toml")]
     pub out: PathBuf,

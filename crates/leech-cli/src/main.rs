@@ -526,7 +526,7 @@ fn calibration_failure(e: leech::calibration::CalibrationError) -> Failure {
 
 fn calibrate(args: CalibrateArgs, out: &mut String) -> Result<(), Failure> {
     use leech::calibration::{calibrate, read_sag, read_shapes, Fit};
-    let robot = load_robot(args.robot.as_deref())?;
+    let robot = load_tuned(args.robot.as_deref(), args.shape_parameter)?;
     let sag_name = args.sag.display().to_string();
     let sag = read_sag(&read_input(&args.sag, "--sag")?, &sag_name)?;
     let shapes = match &args.shapes {
