@@ -746,7 +746,7 @@ fn simulate(args: SimulateArgs, out: &mut String) -> Result<(), Failure> {
         let rest = result.time_to_rest.map_or("not at rest".to_string(), |t| format!("at rest after {t:.3} s"));
         writeln!(
             out,
-            "{:.3} s simulated in {} steps of {:.2e} s ({:.0}x real time); {rest}; largest constraint violation {:.1e}",
+            "{:.3} s simulated in {} steps of {:.2e} s ({:.3}x real time); {rest}; largest constraint violation {:.1e}",
             simulated,
             result.steps,
             result.dt,
