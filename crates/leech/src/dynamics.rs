@@ -126,8 +126,30 @@ pub struct Simulator<'a, S: Multibody> {
     rhs: Vec<f64>,
     y: Vec<f64>,
     work: Vec<f64>,
+    scratch: Scratch,
     /// Fraction of gravity applied (1 unless a scenario ramps it).
     pub load: f64,
+}
+
+/// Vectors of one implicit step, kept between steps.
+#[derive(Clone, Debug, Default)]
+struct Scratch {
+    v1: Vec<f64>,
+    q1: Vec<f64>,
+    f: Vec<f64>,
+    g: Vec<f64>,
+    dv: Vec<f64>,
+    diag: Vec<f64>,
+    off: Vec<f64>,
+}
+
+impl Scratch {
+    fn resize(&mut self, n: usize) {
+        for v in [&mut self.v1, &mut self.q1, &mut self.f, &mut self.g, &mut self.dv, &mut self.diag] {
+            v.resize(n, 0.0);
+        }
+        self.off.resize(n.saturating_sub(1), 0.0);
+    }
 }
 
 impl<'a, S: Multibody> Simulator<'a, S> {
@@ -146,6 +168,7 @@ impl<'a, S: Multibody> Simulator<'a, S> {
             rhs: vec![0.0; n],
             y: vec![0.0; n * MAX_CONSTRAINTS],
             work: vec![0.0; n],
+            scratch: Scratch::default(),
             load: 1.0,
         }
     }
@@ -361,7 +384,8 @@ impl<'a, S: Multibody> Simulator<'a, S> {
         self.factor_mass(q)?;
         let n = self.n;
         let (diag, off) = (self.ev.hessian_diag.clone(), self.ev.hessian_off.clone());
-        let (ddiag, doff) = self.iteration_matrix(1.0, false);
+        let (mut ddiag, mut doff) = (vec![0.0; n], vec![0.0; n.saturating_sub(1)]);
+        self.iteration_matrix(1.0, false, &mut ddiag, &mut doff);
         let springs = self.largest_eigenvalue(|i, x| {
             let mut y = diag[i].abs() * x[i];
             if i > 0 {
@@ -507,44 +531,50 @@ impl<'a, S: Multibody> Simulator<'a, S> {
     }
 
     fn backward_euler(&mut self, state: &mut State, dt: f64) -> Result<(), StepError> {
+        // The step's vectors live in the simulator: no allocation per step.
+        let mut sc = std::mem::take(&mut self.scratch);
+        sc.resize(self.n);
+        let result = self.backward_euler_with(state, dt, &mut sc);
+        self.scratch = sc;
+        result
+    }
+
+    fn backward_euler_with(&mut self, state: &mut State, dt: f64, sc: &mut Scratch) -> Result<(), StepError> {
         let n = self.n;
-        let (q0, v0) = (state.q.clone(), state.v.clone());
-        let mut v1 = v0.clone();
+        sc.v1.copy_from_slice(&state.v);
         let mut residual = f64::INFINITY;
         let mut s = [[0.0; MAX_CONSTRAINTS]; MAX_CONSTRAINTS];
         // Simplified Newton: the matrix M + dt D + dt^2 H is factored at the
         // first iterate only and reused; the iterations converge linearly
         // at a rate of order dt, for a fraction of the cost.
         for iteration in 0..40 {
-            let q1: Vec<f64> = (0..n).map(|i| q0[i] + dt * v1[i]).collect();
-            self.evaluate(&q1);
+            for i in 0..n {
+                sc.q1[i] = state.q[i] + dt * sc.v1[i];
+            }
+            self.evaluate(&sc.q1);
             // G = M(q1)(v1 - v0) - dt Q(q1, v1).
-            let mut f = vec![0.0; n];
-            self.forces(&v1, &mut f);
-            let mut g = vec![0.0; n];
-            let (diag, off) = if iteration == 0 { self.iteration_matrix(dt, true) } else { (vec![], vec![]) };
+            self.forces(&sc.v1, &mut sc.f);
+            if iteration == 0 {
+                self.iteration_matrix(dt, true, &mut sc.diag, &mut sc.off);
+            }
             for (b, (chain, offset)) in self.chains.iter().enumerate() {
                 let k = chain.len();
                 let raw = &mut self.raw[b];
                 let range = *offset..*offset + k;
-                chain.mass_matrix_from_trig(&self.ev.cos[range.clone()], &self.ev.sin[range], raw);
+                chain.mass_matrix_from_trig(&self.ev.cos[range.clone()], &self.ev.sin[range.clone()], raw);
                 for i in 0..k {
                     let row = &raw[i * k..(i + 1) * k];
-                    g[offset + i] = row
-                        .iter()
-                        .zip(&v1[*offset..*offset + k])
-                        .zip(&v0[*offset..*offset + k])
-                        .map(|((m, a), b)| m * (a - b))
-                        .sum::<f64>();
+                    sc.g[offset + i] =
+                        row.iter().zip(&sc.v1[range.clone()]).zip(&state.v[range.clone()]).map(|((m, a), b)| m * (a - b)).sum::<f64>();
                 }
                 if iteration == 0 {
                     let block = &mut self.mass[b];
                     block.copy_from_slice(raw);
                     for i in 0..k {
-                        block[i * k + i] += diag[offset + i];
+                        block[i * k + i] += sc.diag[offset + i];
                         if i + 1 < k {
-                            block[i * k + i + 1] += off[offset + i];
-                            block[(i + 1) * k + i] += off[offset + i];
+                            block[i * k + i + 1] += sc.off[offset + i];
+                            block[(i + 1) * k + i] += sc.off[offset + i];
                         }
                     }
                     cholesky(block, k).map_err(|i| StepError::NonPositivePivot { index: offset + i })?;
@@ -553,24 +583,23 @@ impl<'a, S: Multibody> Simulator<'a, S> {
             if iteration == 0 {
                 s = self.schur();
             }
-            for i in 0..n {
-                g[i] -= dt * f[i];
-            }
             // Step with the velocity constraint J(q1) v1 = 0.
-            let mut dv: Vec<f64> = g.iter().map(|x| -x).collect();
-            self.solve_mass(&mut dv);
+            for i in 0..n {
+                sc.dv[i] = dt * sc.f[i] - sc.g[i];
+            }
+            self.solve_mass(&mut sc.dv);
             let mut target = [0.0; MAX_CONSTRAINTS];
             for r in 0..self.m {
-                target[r] = -(0..n).map(|i| self.ev.jacobian[i * MAX_CONSTRAINTS + r] * v1[i]).sum::<f64>();
+                target[r] = -(0..n).map(|i| self.ev.jacobian[i * MAX_CONSTRAINTS + r] * sc.v1[i]).sum::<f64>();
             }
-            self.enforce(&mut dv, target, &s);
-            v1.iter_mut().zip(&dv).for_each(|(v, d)| *v += d);
-            let scale = 1.0 + v1.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-            residual = dv.iter().fold(0.0f64, |m, x| m.max(x.abs())) / scale;
+            self.enforce(&mut sc.dv, target, &s);
+            sc.v1.iter_mut().zip(&sc.dv).for_each(|(v, d)| *v += d);
+            let scale = 1.0 + sc.v1.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            residual = sc.dv.iter().fold(0.0f64, |m, x| m.max(x.abs())) / scale;
             if residual < 1e-10 {
                 for i in 0..n {
-                    state.q[i] = q0[i] + dt * v1[i];
-                    state.v[i] = v1[i];
+                    state.q[i] += dt * sc.v1[i];
+                    state.v[i] = sc.v1[i];
                 }
                 return Ok(());
             }
@@ -579,15 +608,18 @@ impl<'a, S: Multibody> Simulator<'a, S> {
     }
 
     /// The tridiagonal part `dt D + dt^2 H` of the backward-Euler matrix
-    /// (`dt D` alone without `springs`),
-    /// with `H` the potential's Hessian at the evaluated point (its negative
-    /// gravity curvature dropped, which keeps the matrix positive definite
-    /// and only slows Newton where gravity destabilizes).
-    fn iteration_matrix(&self, dt: f64, springs: bool) -> (Vec<f64>, Vec<f64>) {
-        let n = self.n;
+    /// (`dt D` alone without `springs`), with `H` the potential's Hessian at
+    /// the evaluated point (its negative gravity curvature dropped, which
+    /// keeps the matrix positive definite and only slows Newton where gravity
+    /// destabilizes), into `diag` (n) and `off` (n - 1).
+    fn iteration_matrix(&self, dt: f64, springs: bool, diag: &mut [f64], off: &mut [f64]) {
         let w = if springs { dt * dt } else { 0.0 };
-        let mut diag: Vec<f64> = self.ev.hessian_diag.iter().map(|h| w * h.max(0.0)).collect();
-        let mut off: Vec<f64> = self.ev.hessian_off.iter().map(|h| w * h).collect();
+        for (d, h) in diag.iter_mut().zip(&self.ev.hessian_diag) {
+            *d = w * h.max(0.0);
+        }
+        for (o, h) in off.iter_mut().zip(&self.ev.hessian_off) {
+            *o = w * h;
+        }
         for (chain, offset) in &self.chains {
             let d = chain.damping();
             for j in 0..chain.len() {
@@ -598,8 +630,6 @@ impl<'a, S: Multibody> Simulator<'a, S> {
                 }
             }
         }
-        debug_assert_eq!(diag.len(), n);
-        (diag, off)
     }
 }
 
