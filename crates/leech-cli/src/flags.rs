@@ -69,12 +69,8 @@ pub enum StartArg {
 #[derive(Debug, Args)]
 #[command(allow_negative_numbers = true)]
 pub struct SimulateArgs {
-    /// Robot file (TOML); the built-in LEeCH robot if absent.
-    #[arg(long, value_name = "FILE")]
-    pub robot: Option<PathBuf>,
-    /// Shape parameter Pi = k/(m g l), set by scaling the joint stiffness.
-    #[arg(long, value_name = "P")]
-    pub shape_parameter: Option<f64>,
+    #[command(flatten)]
+    pub robot: RobotChoice,
     /// Starting tube lengths LA,LB in m.
     #[arg(long, value_name = "LA,LB", value_parser = parse_pair, allow_hyphen_values = true)]
     pub lengths: [f64; 2],
@@ -141,12 +137,8 @@ pub struct CalibrateArgs {
     /// What to fit.
     #[arg(long, value_enum, default_value_t = FitArg::Stiffness)]
     pub fit: FitArg,
-    /// Starting robot (TOML); the built-in LEeCH robot if absent.
-    #[arg(long, value_name = "FILE")]
-    pub robot: Option<PathBuf>,
-    /// Starting shape parameter Pi = k/(m g l) (sets the starting stiffness).
-    #[arg(long, value_name = "P")]
-    pub shape_parameter: Option<f64>,
+    #[command(flatten)]
+    pub robot: RobotChoice,
     /// Robot file to write with the fitted values.
     #[arg(long, value_name = "ROBOT.toml")]
     pub out: PathBuf,
@@ -164,12 +156,8 @@ pub struct CompareArgs {
     /// Body-shape measurements (CSV: shape,la_m,lb_m,base_angle_deg,chain,x_m,y_m).
     #[arg(long, value_name = "FILE")]
     pub shapes: PathBuf,
-    /// Robot file (TOML); the built-in LEeCH robot if absent.
-    #[arg(long, value_name = "FILE")]
-    pub robot: Option<PathBuf>,
-    /// Shape parameter Pi = k/(m g l), set by scaling the joint stiffness.
-    #[arg(long, value_name = "P")]
-    pub shape_parameter: Option<f64>,
+    #[command(flatten)]
+    pub robot: RobotChoice,
     /// Print the result as JSON.
     #[arg(long)]
     pub json: bool,
@@ -212,12 +200,8 @@ pub struct WorkspaceArgs {
 #[derive(Debug, Args)]
 #[command(allow_negative_numbers = true)]
 pub struct ReachArgs {
-    /// Robot file (TOML); the built-in LEeCH robot if absent.
-    #[arg(long, value_name = "FILE")]
-    pub robot: Option<PathBuf>,
-    /// Shape parameter Pi = k/(m g l), set by scaling the joint stiffness.
-    #[arg(long, value_name = "P")]
-    pub shape_parameter: Option<f64>,
+    #[command(flatten)]
+    pub robot: RobotChoice,
     /// Target for the endpoint, X,Y in m (driving unit at the origin).
     #[arg(long, value_name = "X,Y", value_parser = parse_pair, allow_hyphen_values = true)]
     pub target: [f64; 2],
@@ -253,15 +237,22 @@ pub struct FigureArgs {
     /// tube-sag, model-comparison, scaling, pi-sweep, workspace, or all.
     #[arg(value_name = "NAME")]
     pub name: String,
-    /// Robot file (TOML); the built-in LEeCH robot if absent.
-    #[arg(long, value_name = "FILE")]
-    pub robot: Option<PathBuf>,
-    /// Shape parameter Pi = k/(m g l), set by scaling the joint stiffness.
-    #[arg(long, value_name = "P")]
-    pub shape_parameter: Option<f64>,
+    #[command(flatten)]
+    pub robot: RobotChoice,
     /// Directory for NAME.svg and NAME.csv (created if missing).
     #[arg(long, value_name = "DIR", default_value = "figures")]
     pub out: PathBuf,
+}
+
+/// Which robot: a file or the built-in one, optionally at another shape parameter.
+#[derive(Debug, Args)]
+pub struct RobotChoice {
+    /// Robot file (TOML); the built-in LEeCH robot if absent.
+    #[arg(long = "robot", value_name = "FILE")]
+    pub file: Option<PathBuf>,
+    /// Shape parameter Pi = k/(m g l), set by scaling the joint stiffness.
+    #[arg(long, value_name = "P")]
+    pub shape_parameter: Option<f64>,
 }
 
 /// Where results go.
@@ -341,9 +332,8 @@ pub struct ChainArgs {
 #[derive(Debug, Args)]
 #[command(allow_negative_numbers = true)]
 pub struct ShapeArgs {
-    /// Robot file (TOML); the built-in LEeCH robot if absent.
-    #[arg(long, value_name = "FILE")]
-    pub robot: Option<PathBuf>,
+    #[command(flatten)]
+    pub robot: RobotChoice,
     /// Tube lengths LA (centre tube) and LB (side pair), in m.
     #[arg(long, value_name = "LA,LB", value_parser = parse_pair, allow_hyphen_values = true)]
     pub lengths: [f64; 2],
@@ -356,9 +346,6 @@ pub struct ShapeArgs {
     /// Discretization, overriding the robot file.
     #[arg(long, value_enum)]
     pub discretization: Option<DiscretizationArg>,
-    /// Shape parameter Pi = k/(m g l), set by scaling the joint stiffness.
-    #[arg(long, value_name = "P")]
-    pub shape_parameter: Option<f64>,
     /// Which model to evaluate.
     #[arg(long, value_enum, default_value_t = ModelArg::TwoChain)]
     pub model: ModelArg,

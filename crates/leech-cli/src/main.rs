@@ -116,9 +116,9 @@ fn run(cli: Cli, out: &mut String) -> Result<(), Failure> {
 }
 
 /// The robot file (or the built-in robot) with an optional shape parameter.
-fn load_tuned(path: Option<&Path>, shape_parameter: Option<f64>) -> Result<Robot, Failure> {
-    let robot = load_robot(path)?;
-    match shape_parameter {
+fn load_tuned(choice: &flags::RobotChoice) -> Result<Robot, Failure> {
+    let robot = load_robot(choice.file.as_deref())?;
+    match choice.shape_parameter {
         Some(pi) => Ok(robot.with_shape_parameter(pi)?),
         None => Ok(robot),
     }
@@ -235,7 +235,7 @@ fn chain(args: ChainArgs, out: &mut String) -> Result<(), Failure> {
 }
 
 fn shape(args: ShapeArgs, out: &mut String) -> Result<(), Failure> {
-    let mut robot = load_robot(args.robot.as_deref())?;
+    let mut robot = load_robot(args.robot.file.as_deref())?;
     if let Some(angle) = args.base_angle {
         robot.world.base_angle_deg = angle;
     }
@@ -245,7 +245,7 @@ fn shape(args: ShapeArgs, out: &mut String) -> Result<(), Failure> {
     if let Some(d) = args.discretization {
         robot.model.discretization = d.into();
     }
-    if let Some(pi) = args.shape_parameter {
+    if let Some(pi) = args.robot.shape_parameter {
         robot = robot.with_shape_parameter(pi)?;
     }
     let [la, lb] = args.lengths;
@@ -355,7 +355,7 @@ fn time_solves(body: &leech::body::Body, solver: &Solver, n: usize) -> Timing {
 
 fn figure(args: FigureArgs, out: &mut String) -> Result<(), Failure> {
     use leech_plot::figures::{build, FigureError, NAMES};
-    let robot = load_tuned(args.robot.as_deref(), args.shape_parameter)?;
+    let robot = load_tuned(&args.robot)?;
     let names: Vec<&str> = if args.name == "all" { NAMES.to_vec() } else { vec![args.name.as_str()] };
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating the output directory {}", args.out.display()))?;
@@ -478,7 +478,7 @@ fn write_sweep_csv(path: &Path, sweep: &leech::workspace::Sweep) -> anyhow::Resu
 
 fn reach(args: ReachArgs, out: &mut String) -> Result<(), Failure> {
     use leech::inverse_statics::{check_target, ReachStatus, Reacher};
-    let mut robot = load_tuned(args.robot.as_deref(), args.shape_parameter)?;
+    let mut robot = load_tuned(&args.robot)?;
     if let Some(angle) = args.base_angle {
         robot.world.base_angle_deg = angle;
     }
@@ -526,7 +526,7 @@ fn calibration_failure(e: leech::calibration::CalibrationError) -> Failure {
 
 fn calibrate(args: CalibrateArgs, out: &mut String) -> Result<(), Failure> {
     use leech::calibration::{calibrate, read_sag, read_shapes, Fit};
-    let robot = load_tuned(args.robot.as_deref(), args.shape_parameter)?;
+    let robot = load_tuned(&args.robot)?;
     let sag_name = args.sag.display().to_string();
     let sag = read_sag(&read_input(&args.sag, "--sag")?, &sag_name)?;
     let shapes = match &args.shapes {
@@ -594,7 +594,7 @@ fn calibrate(args: CalibrateArgs, out: &mut String) -> Result<(), Failure> {
 
 fn compare(args: CompareArgs, out: &mut String) -> Result<(), Failure> {
     use leech::calibration::{compare, read_shapes};
-    let robot = load_tuned(args.robot.as_deref(), args.shape_parameter)?;
+    let robot = load_tuned(&args.robot)?;
     let shapes = read_shapes(&read_input(&args.shapes, "--shapes")?, &args.shapes.display().to_string())?;
     let rows = compare(&robot, &shapes).map_err(calibration_failure)?;
     if args.json {
@@ -627,7 +627,7 @@ fn compare(args: CompareArgs, out: &mut String) -> Result<(), Failure> {
 
 fn simulate(args: SimulateArgs, out: &mut String) -> Result<(), Failure> {
     use leech::dynamics::{simulate, Actuation, Integrator, SimulationError, SimulationOptions, Start};
-    let robot = load_tuned(args.robot.as_deref(), args.shape_parameter)?;
+    let robot = load_tuned(&args.robot)?;
     let actuation = match (args.to, args.step) {
         (None, _) => Actuation::Hold,
         (Some(to), true) => Actuation::Step { to },
