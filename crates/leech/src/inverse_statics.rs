@@ -9,13 +9,13 @@
 //! |e(L) - target|^2  (+ (w (phi(L) - angle))^2 when an angle is asked, w = 0.05 m/rad)
 //! ```
 //!
-//! by Levenberg-Marquardt on the two lengths, projected on the box. Each
-//! evaluation is a warm-started static solve from the previous iterate's
-//! state (the tubes fed by the step), and the Jacobian `de/dL` is taken by
-//! forward differences of two more warm solves (`h = 1e-6` m; solves converge
-//! to 1e-11, so the differences are good to about 1e-5 relative). It starts
-//! from the nearest points of a map of the workspace computed once along the
-//! actuation path ([`crate::workspace`]).
+//! by Levenberg-Marquardt on the two lengths, projected on the box (angles
+//! compared modulo 2 pi). Each evaluation is a warm-started static solve from
+//! the previous iterate's state (the tubes fed by the step), and the Jacobian
+//! `de/dL` is taken by central differences of warm solves (`h = 1e-6` m;
+//! solves converge to 1e-11). It starts
+//! from the nearest points of a map of the workspace computed once with
+//! default solves (in parallel).
 //!
 //! The answer is checked with the default cold solve at the lengths found
 //! (the equilibrium a fresh `leech shape` gives): the target counts as
@@ -28,13 +28,16 @@ use crate::body::Body;
 use crate::error::InputError;
 use crate::robot::Robot;
 use crate::statics::{Solver, Workspace};
-use crate::workspace::{walk, Grid, State};
+use crate::workspace::{Grid, State};
+use rayon::prelude::*;
 
 /// Weight of the angle error in the cost (m/rad).
 pub const ANGLE_WEIGHT_M_PER_RAD: f64 = 0.05;
 const FD_STEP_M: f64 = 1e-6;
-const MAX_ITERATIONS: usize = 40;
-const STARTS: usize = 8;
+const MAX_ITERATIONS: usize = 100;
+const STARTS: usize = 32;
+/// Largest map the reacher builds (a 10 mm grid over 0.05..0.3 m has 676).
+pub const MAX_MAP_POINTS: usize = 40_000;
 
 /// Whether the target was hit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -89,6 +92,7 @@ pub struct Reacher {
 }
 
 /// One evaluated iterate.
+#[derive(Clone)]
 struct Iterate {
     lengths: [f64; 2],
     state: State,
@@ -97,8 +101,8 @@ struct Iterate {
 }
 
 impl Reacher {
-    /// Maps the workspace of `robot` over `grid` (both tubes), along the
-    /// actuation path. Lengths stay within the grid's range.
+    /// Maps the workspace of `robot` over `grid` (both tubes) with default
+    /// solves. Lengths stay within the grid's range.
     ///
     /// ```
     /// use leech::prelude::*;
@@ -114,10 +118,25 @@ impl Reacher {
         let values = grid.values();
         robot.check_tube_length("lengths range min", grid.min)?;
         robot.check_tube_length("lengths range max", grid.max)?;
-        let map = walk(robot, &values, false, true, &|_| {})
-            .into_iter()
-            .filter_map(|(p, state)| state.map(|s| (s, p.endpoint_m, p.endpoint_angle_rad)))
-            .filter(|(_, e, _)| e[0].is_finite())
+        if values.len() * values.len() > MAX_MAP_POINTS {
+            return Err(InputError::invalid(
+                "lengths range step",
+                grid.step,
+                format!("a step giving at most {MAX_MAP_POINTS} map points"),
+            ));
+        }
+        // Fresh (default-path) solves, the same equilibria the answer is
+        // checked against: where equilibria are not unique the starts then lie
+        // on the right branch.
+        let pairs: Vec<(f64, f64)> = values.iter().flat_map(|&a| values.iter().map(move |&b| (a, b))).collect();
+        let map = pairs
+            .par_iter()
+            .filter_map(|&(la, lb)| {
+                let body = robot.body(la, lb).ok()?;
+                let eq = body.solve(&Solver::default()).ok()?;
+                let (e, a) = (body.endpoint(&eq.q), body.endpoint_angle(&eq.q));
+                Some(((body, eq.q), e, a))
+            })
             .collect::<Vec<_>>();
         if map.is_empty() {
             return Err(InputError::invalid("lengths range", grid.min, "a range where the body can be solved"));
@@ -140,16 +159,22 @@ impl Reacher {
         [
             endpoint[0] - target[0],
             endpoint[1] - target[1],
-            target_angle.map_or(0.0, |a| ANGLE_WEIGHT_M_PER_RAD * (angle - a)),
+            target_angle.map_or(0.0, |a| ANGLE_WEIGHT_M_PER_RAD * angle_difference(angle, a)),
         ]
     }
 
-    fn evaluate(&self, lengths: [f64; 2], from: &State, solves: &mut usize) -> Option<Iterate> {
+    /// The equilibrium at `lengths`: warm-started from `from` (the tubes fed
+    /// from the previous iterate), or the default cold solve when `cold`.
+    fn evaluate(&self, lengths: [f64; 2], from: &State, cold: bool, solves: &mut usize) -> Option<Iterate> {
         *solves += 1;
         let body: Body = self.robot.body(lengths[0], lengths[1]).ok()?;
-        let start = body.carry_over(&from.0, &from.1);
-        let mut ws = Workspace::for_system(&body);
-        let eq = body.solve_from(&Solver::default(), &start, &mut ws).ok()?;
+        let eq = if cold {
+            body.solve(&Solver::default()).ok()?
+        } else {
+            let start = body.carry_over(&from.0, &from.1);
+            let mut ws = Workspace::for_system(&body);
+            body.solve_from(&Solver::default(), &start, &mut ws).ok()?
+        };
         Some(Iterate {
             lengths,
             endpoint: body.endpoint(&eq.q),
@@ -158,12 +183,18 @@ impl Reacher {
         })
     }
 
+    /// Whether a fresh default solve at the iterate's lengths lands on its endpoint.
+    fn fresh_agrees(&self, it: &Iterate, solves: &mut usize) -> bool {
+        self.evaluate(it.lengths, &it.state, true, solves)
+            .is_some_and(|fresh| (fresh.endpoint[0] - it.endpoint[0]).hypot(fresh.endpoint[1] - it.endpoint[1]) < 1e-9)
+    }
+
     fn clamp(&self, x: f64) -> f64 {
         x.clamp(self.range[0], self.range[1])
     }
 
     /// Levenberg-Marquardt from one start; returns the best iterate.
-    fn descend(&self, start: Iterate, target: [f64; 2], angle: Option<f64>, solves: &mut usize) -> Iterate {
+    fn descend(&self, start: Iterate, target: [f64; 2], angle: Option<f64>, cold: bool, solves: &mut usize) -> Iterate {
         let cost = |it: &Iterate| {
             let r = self.residual(it.endpoint, it.angle, target, angle);
             r.iter().map(|x| x * x).sum::<f64>()
@@ -175,16 +206,19 @@ impl Reacher {
             if r.iter().map(|x| x * x).sum::<f64>().sqrt() < 1e-3 * self.tolerance.tolerance_m.min(1e-6) {
                 break;
             }
-            // Forward differences, stepping into the box.
+            // Central differences (one-sided at the box): near-singular maps
+            // have long shallow valleys where a forward difference's error
+            // would steer the step.
             let mut jac = [[0.0; 2]; 3];
             for k in 0..2 {
-                let mut shifted = best.lengths;
-                let h = if shifted[k] + FD_STEP_M <= self.range[1] { FD_STEP_M } else { -FD_STEP_M };
-                shifted[k] += h;
-                let Some(it) = self.evaluate(shifted, &best.state, solves) else { return best };
-                let rk = self.residual(it.endpoint, it.angle, target, angle);
+                let (mut up, mut down) = (best.lengths, best.lengths);
+                up[k] = (up[k] + FD_STEP_M).min(self.range[1]);
+                down[k] = (down[k] - FD_STEP_M).max(self.range[0]);
+                let Some(a) = self.evaluate(up, &best.state, cold, solves) else { return best };
+                let Some(b) = self.evaluate(down, &best.state, cold, solves) else { return best };
+                let (ra, rb) = (self.residual(a.endpoint, a.angle, target, angle), self.residual(b.endpoint, b.angle, target, angle));
                 for row in 0..3 {
-                    jac[row][k] = (rk[row] - r[row]) / h;
+                    jac[row][k] = (ra[row] - rb[row]) / (up[k] - down[k]);
                 }
             }
             let mut jtj = [[0.0; 2]; 2];
@@ -207,7 +241,7 @@ impl Reacher {
                 if lengths == best.lengths {
                     break;
                 }
-                if let Some(it) = self.evaluate(lengths, &best.state, solves) {
+                if let Some(it) = self.evaluate(lengths, &best.state, cold, solves) {
                     if cost(&it) < cost(&best) {
                         best = it;
                         mu = (mu * 0.2).max(1e-12);
@@ -238,41 +272,63 @@ impl Reacher {
             map_cost(a.1, a.2).total_cmp(&map_cost(b.1, b.2))
         });
         let mut best: Option<Iterate> = None;
-        for &i in order.iter().take(STARTS) {
-            let (state, endpoint, a) = &self.map[i];
-            let start = Iterate {
-                lengths: [state.0.chain_a().tube_length(), state.0.chain_b().tube_length()],
-                state: state.clone(),
-                endpoint: *endpoint,
-                angle: *a,
-            };
-            let found = self.descend(start, target, angle, &mut solves);
-            let better =
-                best.as_ref().is_none_or(|b| map_cost(found.endpoint, found.angle) < map_cost(b.endpoint, b.angle));
-            if better {
-                best = Some(found);
-            }
-            let hit =
-                best.as_ref().is_some_and(|b| map_cost(b.endpoint, b.angle).sqrt() < 1e-3 * self.tolerance.tolerance_m);
-            if hit {
-                break;
+        // With an angle the weighted cost can have local minima off the
+        // solution; the position alone has none nearby, so its solutions
+        // (one per branch of the map) are tried as well, judged by the full cost.
+        let modes: &[Option<f64>] = if angle.is_some() { &[angle, None] } else { &[None] };
+        'search: for mode in modes {
+            for &i in order.iter().take(STARTS) {
+                let (state, endpoint, a) = &self.map[i];
+                let start = Iterate {
+                    lengths: [state.0.chain_a().tube_length(), state.0.chain_b().tube_length()],
+                    state: state.clone(),
+                    endpoint: *endpoint,
+                    angle: *a,
+                };
+                let found = self.descend(start, target, *mode, false, &mut solves);
+                let better =
+                    best.as_ref().is_none_or(|b| map_cost(found.endpoint, found.angle) < map_cost(b.endpoint, b.angle));
+                if better {
+                    best = Some(found);
+                }
+                let hit = best
+                    .as_ref()
+                    .is_some_and(|b| map_cost(b.endpoint, b.angle).sqrt() < 1e-3 * self.tolerance.tolerance_m);
+                if hit {
+                    break 'search;
+                }
             }
         }
-        let best = best.expect("the map is not empty");
+        let mut best = best.expect("the map is not empty");
+        // Where equilibria are not unique the fed (warm) path and a fresh solve
+        // can disagree; the answer must hold for a fresh solve, so finish
+        // with fresh solves from the best point when the warm one missed.
+        let fresh_cost = |it: &Iterate| map_cost(it.endpoint, it.angle);
+        if fresh_cost(&best).sqrt() >= 1e-3 * self.tolerance.tolerance_m || !self.fresh_agrees(&best, &mut solves) {
+            if let Some(start) = self.evaluate(best.lengths, &best.state, true, &mut solves) {
+                let found = self.descend(start, target, angle, true, &mut solves);
+                if angle.is_some() && fresh_cost(&found).sqrt() >= 1e-3 * self.tolerance.tolerance_m {
+                    let position = self.descend(found.clone(), target, None, true, &mut solves);
+                    best = if fresh_cost(&position) < fresh_cost(&found) { position } else { found };
+                } else {
+                    best = found;
+                }
+            }
+        }
         // The check: a fresh default solve at the lengths found.
         solves += 1;
-        let (endpoint, endpoint_angle) = match self
+        let checked = self
             .robot
             .body(best.lengths[0], best.lengths[1])
             .ok()
-            .and_then(|b| b.solve(&Solver::default()).ok().map(|eq| (b.endpoint(&eq.q), b.endpoint_angle(&eq.q))))
-        {
-            Some(checked) => checked,
-            None => (best.endpoint, best.angle),
-        };
+            .and_then(|b| b.solve(&Solver::default()).ok().map(|eq| (b.endpoint(&eq.q), b.endpoint_angle(&eq.q))));
+        // Without the check there is no answer to vouch for: unreachable.
+        let verified = checked.is_some();
+        let (endpoint, endpoint_angle) = checked.unwrap_or((best.endpoint, best.angle));
         let error_m = (endpoint[0] - target[0]).hypot(endpoint[1] - target[1]);
-        let angle_error_rad = angle.map(|a| (endpoint_angle - a).abs());
-        let reached = error_m <= self.tolerance.tolerance_m
+        let angle_error_rad = angle.map(|a| angle_difference(endpoint_angle, a).abs());
+        let reached = verified
+            && error_m <= self.tolerance.tolerance_m
             && angle_error_rad.is_none_or(|e| e <= self.tolerance.angle_tolerance_rad);
         Reach {
             status: if reached { ReachStatus::Reached } else { ReachStatus::Unreachable },
@@ -283,6 +339,17 @@ impl Reacher {
             angle_error_rad,
             solves,
         }
+    }
+}
+
+/// `a - b` wrapped to `(-pi, pi]`: plate angles are compared as directions.
+fn angle_difference(a: f64, b: f64) -> f64 {
+    let tau = 2.0 * std::f64::consts::PI;
+    let d = (a - b).rem_euclid(tau);
+    if d > std::f64::consts::PI {
+        d - tau
+    } else {
+        d
     }
 }
 

@@ -13,7 +13,7 @@ fn lcg(seed: &mut u64) -> f64 {
 #[test]
 fn random_reachable_targets_are_reached() {
     let robot = Robot::builtin();
-    let reacher = Reacher::new(&robot, Grid::new(0.05, 0.30, 0.01).unwrap()).unwrap();
+    let reacher = Reacher::new(&robot, Grid::new(0.05, 0.30, 0.005).unwrap()).unwrap();
     let solver = Solver::default();
     let mut seed = 7;
     let count = if cfg!(debug_assertions) { 120 } else { 1000 };
