@@ -26,6 +26,8 @@ enum Failure {
     Input(String),
     /// A solve that did not converge (with its status for --json).
     Solve(SolveError, bool),
+    /// Another computation that did not converge (a fit, a simulation step).
+    Unsolved(String),
     /// Anything else.
     Other(anyhow::Error),
 }
@@ -77,6 +79,10 @@ fn main() -> ExitCode {
                 emit(&format!("{}\n", solve_failure_json(&e)));
             }
             eprintln!("leech: solve failed: {e}");
+            ExitCode::from(3)
+        }
+        Err(Failure::Unsolved(message)) => {
+            eprintln!("leech: {message}");
             ExitCode::from(3)
         }
         Err(Failure::Other(e)) => {
@@ -519,7 +525,7 @@ fn read_input(path: &Path, flag: &str) -> Result<String, Failure> {
 fn calibration_failure(e: leech::calibration::CalibrationError) -> Failure {
     use leech::calibration::CalibrationError;
     match e {
-        CalibrationError::Input(e) => Failure::Input(e.to_string()),
+        CalibrationError::Model(message) => Failure::Unsolved(format!("fit failed: {message}")),
         other => Failure::Input(other.to_string()),
     }
 }
@@ -667,7 +673,7 @@ fn simulate(args: SimulateArgs, out: &mut String) -> Result<(), Failure> {
         .map_err(|e| match e {
             SimulationError::Input(e) => Failure::Input(e.to_string()),
             SimulationError::Start(e) => Failure::Solve(e, args.json),
-            other => Failure::Other(anyhow::anyhow!("simulation failed: {other}")),
+            other => Failure::Unsolved(format!("simulation failed: {other}")),
         })?;
     bar.finish_and_clear();
     let wall = started.elapsed().as_secs_f64();
@@ -698,7 +704,7 @@ fn simulate(args: SimulateArgs, out: &mut String) -> Result<(), Failure> {
     }
     if let Some(path) = &args.svg {
         // At most about 250 frames keeps the file small and the playback smooth.
-        let every = (result.samples.len() / 250).max(1);
+        let every = result.samples.len().div_ceil(250).max(1);
         let frames: Vec<leech_plot::animation::Frame> = result
             .samples
             .iter()

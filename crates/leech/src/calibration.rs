@@ -94,7 +94,13 @@ impl Table {
                     allowed: format!("the columns {}", [required, optional].concat().join(", ")),
                 });
             }
-            columns.insert(name.to_string(), i);
+            if columns.insert(name.to_string(), i).is_some() {
+                return Err(InputError::Invalid {
+                    field: format!("{source} header"),
+                    value: format!("column '{name}' twice"),
+                    allowed: "each column once".into(),
+                });
+            }
         }
         for name in required {
             if !columns.contains_key(*name) {
@@ -120,12 +126,13 @@ impl Table {
 
     fn number(&self, row: &(usize, Vec<String>), column: &str) -> Result<f64, InputError> {
         let value = self.text(row, column).unwrap_or_default();
+        // Lengths, angles and masses of a robot are far below 1e6 in SI units.
         match value.parse::<f64>() {
-            Ok(v) if v.is_finite() => Ok(v),
+            Ok(v) if v.is_finite() && v.abs() < 1e6 => Ok(v),
             _ => Err(InputError::Invalid {
                 field: format!("{} row {}, column {column}", self.source, row.0),
                 value: format!("'{value}'"),
-                allowed: "a finite number".into(),
+                allowed: "a finite number of magnitude below 1e6".into(),
             }),
         }
     }
@@ -254,6 +261,10 @@ pub enum CalibrationError {
     /// The model could not be solved even at the starting parameters.
     #[error("the model cannot be solved for these measurements at the starting parameters: {0}")]
     Model(String),
+    /// The predicted points do not move with the stiffness (the data are out
+    /// of the model's reach, or the tube is far too soft or stiff to start with).
+    #[error("the measured points do not depend on the stiffness here: check the data's units and the starting robot (--shape-parameter)")]
+    Insensitive,
     /// The data do not determine the mass.
     #[error("the element mass is not determined by these data (a single tube sags by Pi = k/(m g l) alone): add body shapes (the payload sets the scale) or sag data with tip_mass_kg, or fit the stiffness only")]
     MassNotIdentifiable,
@@ -400,7 +411,8 @@ pub fn calibrate(
         jac = jacobian(&problem, &x, &r)?;
     }
     let (jtj, _) = normal_equations(&jac, &r, p);
-    let covariance = invert(&jtj, p).ok_or(CalibrationError::MassNotIdentifiable)?;
+    let undetermined = if p == 2 { CalibrationError::MassNotIdentifiable } else { CalibrationError::Insensitive };
+    let covariance = invert(&jtj, p).ok_or(undetermined)?;
     if p == 2 {
         // The correlation of ln k and ln m tends to 1 when only Pi is seen.
         let correlation = covariance[1] / (covariance[0] * covariance[3]).sqrt();

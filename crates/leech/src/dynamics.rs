@@ -16,8 +16,8 @@
 //! By Gauss' principle `lambda = -(J M^-1 J^T)^-1 (J M^-1 Q + gamma)`; each
 //! chain's block of `M` is factored by Cholesky. Drift is removed after every
 //! step by projecting onto the constraint manifold (positions by Newton with
-//! the `M`-weighted least-norm correction, then velocities onto `J v = 0`), so
-//! the constraints hold to rounding throughout.
+//! the least-norm correction `-J^T (J J^T)^-1 C`, then velocities onto
+//! `J v = 0`), so the constraints hold to rounding throughout.
 //!
 //! # Integrators
 //!
@@ -59,6 +59,11 @@ impl Multibody for Cantilever {
         vec![(self.chain(), 0)]
     }
 }
+
+/// Most links per chain a simulation takes: the mass matrix is dense.
+pub const MAX_SIMULATED_LINKS: usize = 500;
+/// Most steps one simulation takes.
+pub const MAX_STEPS: usize = 10_000_000;
 
 /// Time-stepping scheme.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -577,7 +582,9 @@ impl<'a, S: Multibody> Simulator<'a, S> {
                             block[(i + 1) * k + i] += sc.off[offset + i];
                         }
                     }
-                    cholesky(block, k).map_err(|i| StepError::NonPositivePivot { index: offset + i })?;
+                    if cholesky(block, k).is_err() {
+                        return Err(StepError::NotConverged { integrator: Integrator::Implicit, dt, residual });
+                    }
                 }
             }
             if iteration == 0 {
@@ -609,18 +616,24 @@ impl<'a, S: Multibody> Simulator<'a, S> {
 
     /// The tridiagonal part `dt D + dt^2 H` of the backward-Euler matrix
     /// (`dt D` alone without `springs`), with `H` the potential's Hessian at
-    /// the evaluated point (its negative gravity curvature dropped, which
-    /// keeps the matrix positive definite and only slows Newton where gravity
-    /// destabilizes), into `diag` (n) and `off` (n - 1).
+    /// the evaluated point less its destabilizing gravity curvature (which
+    /// only slows Newton where gravity destabilizes), into `diag` (n) and
+    /// `off` (n - 1).
     fn iteration_matrix(&self, dt: f64, springs: bool, diag: &mut [f64], off: &mut [f64]) {
         let w = if springs { dt * dt } else { 0.0 };
-        for (d, h) in diag.iter_mut().zip(&self.ev.hessian_diag) {
-            *d = w * h.max(0.0);
-        }
         for (o, h) in off.iter_mut().zip(&self.ev.hessian_off) {
             *o = w * h;
         }
         for (chain, offset) in &self.chains {
+            // The springs' diagonal is kept whole; of the gravity curvature
+            // only the stabilizing part, so that the matrix stays positive
+            // definite (the tridiagonal spring part is itself semidefinite).
+            let k = chain.stiffness();
+            for j in 0..chain.len() {
+                let spring = k[j] + if j + 1 < chain.len() { k[j + 1] } else { 0.0 };
+                let gravity = self.ev.hessian_diag[offset + j] - spring;
+                diag[offset + j] = w * (spring + gravity.max(0.0));
+            }
             let d = chain.damping();
             for j in 0..chain.len() {
                 diag[offset + j] += dt * d[j];
@@ -857,6 +870,21 @@ pub fn simulate(
         positive("speed (m/s)", speed)?;
     }
     let mut body = robot.body(lengths[0], lengths[1])?;
+    let largest = body.chain_a().len().max(body.chain_b().len()).max(match actuation {
+        Actuation::Hold => 0,
+        Actuation::Step { to } | Actuation::Feed { to, .. } => {
+            let d = robot.model.discretization;
+            d.link_count(to[0], robot.tube.element_length_m).max(d.link_count(to[1], robot.tube.element_length_m))
+        }
+    });
+    if largest > MAX_SIMULATED_LINKS {
+        return Err(crate::error::InputError::invalid(
+            "links per chain",
+            largest as f64,
+            format!("at most {MAX_SIMULATED_LINKS} for dynamics (dense mass matrices)"),
+        )
+        .into());
+    }
     let q0 = match start {
         Start::Unloaded => {
             let mut unloaded = robot.clone();
@@ -869,10 +897,27 @@ pub fn simulate(
     let dt = match (options.dt, options.integrator) {
         (Some(dt), _) => positive("dt (s)", dt)?,
         (None, Integrator::Implicit) => 2e-3,
-        (None, _) => {
-            Simulator::new(&body).stable_step(&state.q).map_err(|source| SimulationError::Step { time: 0.0, source })?
+        (None, integrator) => {
+            let limit = Simulator::new(&body)
+                .stable_step(&state.q)
+                .map_err(|source| SimulationError::Step { time: 0.0, source })?;
+            // The midpoint's fixed-point iteration needs dt omega < 1, RK4 dt omega < 2.8.
+            if integrator == Integrator::Midpoint {
+                0.3 * limit
+            } else {
+                limit
+            }
         }
     };
+    let steps_needed = options.duration / dt;
+    if steps_needed > MAX_STEPS as f64 {
+        return Err(crate::error::InputError::invalid(
+            "duration / dt",
+            steps_needed,
+            format!("at most {MAX_STEPS} steps (a shorter duration or a larger dt)"),
+        )
+        .into());
+    }
     if let Actuation::Step { to } = actuation {
         let next = robot.body(to[0], to[1])?;
         state = State { q: next.carry_over(&body, &state.q), v: next.carry_over(&body, &state.v) };

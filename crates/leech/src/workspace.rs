@@ -22,9 +22,10 @@
 //! horizontal reach (largest `|x|`), and the reachable area (m^2): neighbouring
 //! grid points form triangles in the endpoint plane, which are rasterized onto
 //! a grid of `AREA_CELL_M` cells; the area is the number of cells covered times
-//! the cell area (overlaps count once). Triangles with an edge longer than
-//! `AREA_MAX_EDGE_M` (a snap between neighbours) or a corner that failed, is
-//! infeasible or unstable are left out.
+//! the cell area (overlaps count once). Triangles with a corner that failed,
+//! is infeasible or unstable are left out, and so are those whose longest
+//! edge exceeds `AREA_EDGE_FACTOR` times the median one (a jump between
+//! neighbours, not a region the endpoint sweeps).
 
 use rayon::prelude::*;
 
@@ -55,7 +56,8 @@ pub struct Grid {
 }
 
 impl Grid {
-    /// A checked grid: `0 < min <= max`, `step > 0`, at most 10 001 values.
+    /// A checked grid: `0 < min <= max`, `step > 0`, at most 2 001 values
+    /// (4 million grid points).
     pub fn new(min: f64, max: f64, step: f64) -> Result<Grid, InputError> {
         let min = positive("lengths range min", min)?;
         let max = positive("lengths range max", max)?;
@@ -64,8 +66,9 @@ impl Grid {
             return Err(InputError::invalid("lengths range max", max, format!("at least the min ({min})")));
         }
         let count = ((max - min) / step).floor() + 1.0;
-        if count > 10_001.0 {
-            return Err(InputError::invalid("lengths range step", step, "a step giving at most 10001 lengths"));
+        if count > 2_001.0 {
+            // Both tubes take every value: the grid has count^2 points.
+            return Err(InputError::invalid("lengths range step", step, "a step giving at most 2001 lengths per tube"));
         }
         Ok(Grid { min, max, step })
     }
