@@ -24,7 +24,13 @@ pub enum InputError {
 impl InputError {
     /// An [`InputError::Invalid`] for a number.
     pub fn invalid(field: impl Into<String>, value: f64, allowed: impl Into<String>) -> InputError {
-        InputError::Invalid { field: field.into(), value: format!("{value}"), allowed: allowed.into() }
+        // Plain notation unless that would print hundreds of digits.
+        let text = if value == 0.0 || !value.is_finite() || (1e-6..1e15).contains(&value.abs()) {
+            format!("{value}")
+        } else {
+            format!("{value:e}")
+        };
+        InputError::Invalid { field: field.into(), value: text, allowed: allowed.into() }
     }
 }
 
