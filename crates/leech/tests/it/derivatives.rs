@@ -118,8 +118,8 @@ proptest! {
 
     #[test]
     fn body_derivatives(
-        la in 0.01f64..0.075,
-        lb in 0.01f64..0.075,
+        la in 0.02f64..0.075,
+        lb in 0.02f64..0.075,
         clamp_deg in -180.0f64..180.0,
         d in discretization(),
         seed in prop::collection::vec(-4.0f64..7.0, 20),
