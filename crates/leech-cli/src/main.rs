@@ -720,7 +720,14 @@ fn simulate(args: SimulateArgs, out: &mut String) -> Result<(), Failure> {
                 ],
             })
             .collect();
-        let title = format!("{}: {:?}, {:?} integration", robot.name, actuation, integrator);
+        let motion = match actuation {
+            Actuation::Hold => "settling under gravity".to_string(),
+            Actuation::Step { to } => format!("step to LA {:.0} mm, LB {:.0} mm", to[0] * 1e3, to[1] * 1e3),
+            Actuation::Feed { to, speed } => {
+                format!("feeding to LA {:.0} mm, LB {:.0} mm at {:.0} mm/s", to[0] * 1e3, to[1] * 1e3, speed * 1e3)
+            }
+        };
+        let title = format!("LA {:.0} mm, LB {:.0} mm:\n{motion}", args.lengths[0] * 1e3, args.lengths[1] * 1e3);
         std::fs::write(path, leech_plot::animation::animated_svg(&title, &frames))
             .with_context(|| format!("writing {}", path.display()))?;
     }

@@ -41,28 +41,33 @@ pub fn animated_svg(title: &str, frames: &[Frame]) -> String {
     // SVG y grows downwards: plot -y.
     let (x0, y0, w, h) = (lo[0] - pad, -hi[1] - pad, hi[0] - lo[0] + 2.0 * pad, hi[1] - lo[1] + 2.0 * pad);
     let duration = frames.last().map_or(1.0, |f| f.time).max(1e-3);
-    let font = 0.035 * span;
+    let font = 0.03 * span;
+    let title_space = (title.lines().count() as f64 * 1.3 + 0.5) * font;
     let mut svg = String::new();
     let _ = writeln!(
         svg,
         r#"<svg xmlns="http://www.w3.org/2000/svg" width="760" height="{:.0}" viewBox="{x0:.3} {:.3} {w:.3} {:.3}">"#,
-        760.0 * (h + 2.0 * font) / w,
-        y0 - 2.0 * font,
-        h + 2.0 * font
+        760.0 * (h + title_space) / w,
+        y0 - title_space,
+        h + title_space
     );
     let _ = writeln!(
         svg,
         r#"<rect x="{x0:.3}" y="{:.3}" width="{w:.3}" height="{:.3}" fill="white"/>"#,
-        y0 - 2.0 * font,
-        h + 2.0 * font
+        y0 - title_space,
+        h + title_space
     );
-    let _ = writeln!(
-        svg,
-        r#"<text x="{:.3}" y="{:.3}" font-family="sans-serif" font-size="{font:.3}">{}</text>"#,
-        x0 + 0.02 * w,
-        y0 - 0.6 * font,
-        xml_escape(title)
-    );
+    // The title may have several lines ('\n'), stacked above the drawing.
+    let lines_of_title: Vec<&str> = title.lines().collect();
+    for (i, line) in lines_of_title.iter().enumerate() {
+        let _ = writeln!(
+            svg,
+            r#"<text x="{:.3}" y="{:.3}" font-family="sans-serif" font-size="{font:.3}">{}</text>"#,
+            x0 + 0.02 * w,
+            y0 - (lines_of_title.len() - i) as f64 * 1.3 * font + 0.7 * font,
+            xml_escape(line)
+        );
+    }
     // A 10 mm scale bar and the axes through the driving unit.
     let _ = writeln!(
         svg,
@@ -97,13 +102,21 @@ pub fn animated_svg(title: &str, frames: &[Frame]) -> String {
     }
     for (i, f) in frames.iter().enumerate() {
         let end = frames.get(i + 1).map(|n| format!(r#" end="{:.6}s""#, n.time)).unwrap_or_default();
+        // The first stamp is visible from the start, so that a still
+        // rendering (a viewer without SMIL) shows the initial state labelled.
+        let initial = if i == 0 { "visible" } else { "hidden" };
         let _ = writeln!(
             svg,
-            r#"<text x="{:.3}" y="{:.3}" font-family="sans-serif" font-size="{font:.3}" visibility="hidden">t = {:.3} s<set attributeName="visibility" to="visible" begin="{:.6}s"{end}/></text>"#,
-            x0 + 0.72 * w,
-            y0 - 0.6 * font,
+            r#"<text x="{:.3}" y="{:.3}" font-family="sans-serif" font-size="{font:.3}" visibility="{initial}">t = {:.3} s<set attributeName="visibility" to="visible" begin="{:.6}s"{end}/>{}</text>"#,
+            x0 + 0.02 * w,
+            y0 + 0.04 * h,
             f.time,
-            f.time
+            f.time,
+            if i == 0 && frames.len() > 1 {
+                format!(r#"<set attributeName="visibility" to="hidden" begin="{:.6}s"/>"#, frames[1].time)
+            } else {
+                String::new()
+            }
         );
     }
     svg.push_str("</svg>\n");
