@@ -39,7 +39,7 @@
 use crate::body::Body;
 use crate::cantilever::Cantilever;
 use crate::chain::Chain;
-use crate::kkt::MAX_CONSTRAINTS;
+use crate::kkt::{solve_small_symmetric, MAX_CONSTRAINTS};
 use crate::statics::{Evaluation, StaticSystem};
 
 /// A system of chains that the simulator can move.
@@ -250,7 +250,7 @@ impl<'a, S: Multibody> Simulator<'a, S> {
             let jx: f64 = (0..n).map(|i| self.ev.jacobian[i * MAX_CONSTRAINTS + r] * x[i]).sum();
             rhs[r] = target[r] - jx;
         }
-        let lambda = solve_small(s, rhs, m);
+        let lambda = solve_small_symmetric(s, rhs, m);
         for i in 0..n {
             for r in 0..m {
                 x[i] += self.y[i * MAX_CONSTRAINTS + r] * lambda[r];
@@ -345,7 +345,7 @@ impl<'a, S: Multibody> Simulator<'a, S> {
                 jjt[a][b] = (0..n).map(|i| jac[i * MAX_CONSTRAINTS + a] * jac[i * MAX_CONSTRAINTS + b]).sum();
             }
         }
-        let mu = solve_small(&jjt, r, m);
+        let mu = solve_small_symmetric(&jjt, r, m);
         for i in 0..n {
             for a in 0..m {
                 x[i] -= jac[i * MAX_CONSTRAINTS + a] * mu[a];
@@ -686,38 +686,6 @@ fn cholesky_solve(l: &[f64], k: usize, x: &mut [f64]) {
     }
 }
 
-/// Solves the small symmetric system `S x = b` (Gaussian elimination with pivoting).
-fn solve_small(
-    s: &[[f64; MAX_CONSTRAINTS]; MAX_CONSTRAINTS],
-    b: [f64; MAX_CONSTRAINTS],
-    m: usize,
-) -> [f64; MAX_CONSTRAINTS] {
-    let mut a = *s;
-    let mut x = b;
-    for c in 0..m {
-        let p = (c..m).max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs())).unwrap_or(c);
-        a.swap(c, p);
-        x.swap(c, p);
-        if a[c][c] == 0.0 {
-            continue;
-        }
-        for r in c + 1..m {
-            let f = a[r][c] / a[c][c];
-            for k in c..m {
-                a[r][k] -= f * a[c][k];
-            }
-            x[r] -= f * x[c];
-        }
-    }
-    for c in (0..m).rev() {
-        let mut v = x[c];
-        for k in c + 1..m {
-            v -= a[c][k] * x[k];
-        }
-        x[c] = if a[c][c] != 0.0 { v / a[c][c] } else { 0.0 };
-    }
-    x
-}
 
 /// How the tubes move during a simulation.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -395,6 +395,16 @@ impl Schur {
     }
 }
 
+/// Solves the small symmetric system `S x = b` (leading `m x m` block) with
+/// the same factorization the KKT solve uses for its Schur complement.
+pub(crate) fn solve_small_symmetric(
+    s: &[[f64; MAX_CONSTRAINTS]; MAX_CONSTRAINTS],
+    b: [f64; MAX_CONSTRAINTS],
+    m: usize,
+) -> [f64; MAX_CONSTRAINTS] {
+    Schur::factor(*s, m).solve(b, m)
+}
+
 /// Eigenvalues and eigenvectors (columns) of the leading `m x m` block of a
 /// symmetric matrix, by cyclic Jacobi rotations: robust for indefinite and
 /// nearly singular matrices, and cheap for `m <= 3`.
