@@ -309,30 +309,37 @@ impl<'a, S: Multibody> Simulator<'a, S> {
     /// Projects positions onto `C = 0` and velocities onto `J v = 0` by the
     /// least (Euclidean) change, `dx = -J^T (J J^T)^-1 r`: the corrections
     /// are at the level of the integrator's drift, so the metric does not
-    /// matter and this one needs no factorization.
-    pub fn project(&mut self, state: &mut State) -> Result<(), StepError> {
+    /// matter and this one needs no factorization. Returns the position
+    /// violation left (m or rad).
+    pub fn project(&mut self, state: &mut State) -> Result<f64, StepError> {
         if self.m == 0 {
-            return Ok(());
+            return Ok(0.0);
         }
         let mut violation = f64::INFINITY;
+        let mut current = false;
         for _ in 0..20 {
             violation = self.violation(&state.q);
+            current = true;
             if violation < 1e-13 {
                 break;
             }
             let target = self.ev.constraints;
             self.least_change(&mut state.q, target);
+            current = false;
         }
         if violation >= 1e-10 {
             return Err(StepError::Projection { violation });
         }
-        self.evaluate(&state.q);
+        // The loop usually ends having just evaluated at the projected point.
+        if !current {
+            violation = self.violation(&state.q);
+        }
         let mut jv = [0.0; MAX_CONSTRAINTS];
         for r in 0..self.m {
             jv[r] = (0..self.n).map(|i| self.ev.jacobian[i * MAX_CONSTRAINTS + r] * state.v[i]).sum::<f64>();
         }
         self.least_change(&mut state.v, jv);
-        Ok(())
+        Ok(violation)
     }
 
     /// `x -= J^T (J J^T)^-1 r` with the evaluated Jacobian.
@@ -472,7 +479,8 @@ impl<'a, S: Multibody> Simulator<'a, S> {
     }
 
     /// One step of `dt` (s), projected onto the constraints.
-    pub fn step(&mut self, state: &mut State, dt: f64, integrator: Integrator) -> Result<(), StepError> {
+    /// Returns the constraint violation left (m or rad).
+    pub fn step(&mut self, state: &mut State, dt: f64, integrator: Integrator) -> Result<f64, StepError> {
         match integrator {
             Integrator::Explicit => self.rk4(state, dt)?,
             Integrator::Implicit => self.backward_euler(state, dt)?,
@@ -919,10 +927,9 @@ pub fn simulate(
             }
         }
         sim.load = ramp_load(t + dt);
-        sim.step(&mut state, dt, options.integrator).map_err(fail(t))?;
+        let violation = sim.step(&mut state, dt, options.integrator).map_err(fail(t))?;
         t += dt;
         steps += 1;
-        let violation = sim.violation(&state.q);
         max_violation = max_violation.max(violation);
         let settled_inputs = current == target && sim.load == 1.0;
         let at_rest =
