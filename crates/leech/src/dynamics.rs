@@ -577,8 +577,12 @@ impl<'a, S: Multibody> Simulator<'a, S> {
                 chain.mass_matrix_from_trig(&self.ev.cos[range.clone()], &self.ev.sin[range.clone()], raw);
                 for i in 0..k {
                     let row = &raw[i * k..(i + 1) * k];
-                    sc.g[offset + i] =
-                        row.iter().zip(&sc.v1[range.clone()]).zip(&state.v[range.clone()]).map(|((m, a), b)| m * (a - b)).sum::<f64>();
+                    sc.g[offset + i] = row
+                        .iter()
+                        .zip(&sc.v1[range.clone()])
+                        .zip(&state.v[range.clone()])
+                        .map(|((m, a), b)| m * (a - b))
+                        .sum::<f64>();
                 }
                 if iteration == 0 {
                     let block = &mut self.mass[b];
@@ -693,7 +697,6 @@ fn cholesky_solve(l: &[f64], k: usize, x: &mut [f64]) {
         }
     }
 }
-
 
 /// How the tubes move during a simulation.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -216,7 +216,10 @@ impl Reacher {
                 down[k] = (down[k] - FD_STEP_M).max(self.range[0]);
                 let Some(a) = self.evaluate(up, &best.state, cold, solves) else { return best };
                 let Some(b) = self.evaluate(down, &best.state, cold, solves) else { return best };
-                let (ra, rb) = (self.residual(a.endpoint, a.angle, target, angle), self.residual(b.endpoint, b.angle, target, angle));
+                let (ra, rb) = (
+                    self.residual(a.endpoint, a.angle, target, angle),
+                    self.residual(b.endpoint, b.angle, target, angle),
+                );
                 for row in 0..3 {
                     jac[row][k] = (ra[row] - rb[row]) / (up[k] - down[k]);
                 }

@@ -9,8 +9,14 @@ fn leech() -> Command {
 }
 
 fn json_of(args: &[&str]) -> Value {
-    let out = leech().args(args).arg("--json").output().unwrap();
-    assert!(out.status.success(), "{args:?}: {}", String::from_utf8_lossy(&out.stderr));
+    succeeds(leech().args(args).arg("--json"))
+}
+
+/// Runs a prepared command (its arguments may be paths), checks it succeeded
+/// and parses its standard output as JSON.
+fn succeeds(command: &mut Command) -> Value {
+    let out = command.output().unwrap();
+    assert!(out.status.success(), "{command:?}: {}", String::from_utf8_lossy(&out.stderr));
     serde_json::from_slice(&out.stdout).expect("stdout is JSON")
 }
 
@@ -240,24 +246,22 @@ fn workspace_writes_every_point_and_a_summary() {
     let dir = std::env::temp_dir().join(format!("leech-cli-ws-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let (csv, svg) = (dir.join("ws.csv"), dir.join("ws.svg"));
-    let out = leech()
-        .args([
-            "workspace",
-            "--lengths-range",
-            "0.05:0.3:0.05",
-            "--shape-parameter",
-            "1000,5000",
-            "--left-longer",
-            "--json",
-            "--out",
-        ])
-        .arg(&csv)
-        .arg("--svg")
-        .arg(&svg)
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = succeeds(
+        leech()
+            .args([
+                "workspace",
+                "--lengths-range",
+                "0.05:0.3:0.05",
+                "--shape-parameter",
+                "1000,5000",
+                "--left-longer",
+                "--json",
+                "--out",
+            ])
+            .arg(&csv)
+            .arg("--svg")
+            .arg(&svg),
+    );
     assert_eq!(v["points"], 63);
     assert_eq!(v["failures"], 0);
     let summaries = v["summaries"].as_array().unwrap();
@@ -308,16 +312,14 @@ fn calibrate_writes_a_fitted_robot() {
     let dir = std::env::temp_dir().join(format!("leech-cli-cal-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let (toml, svg) = (dir.join("fitted.toml"), dir.join("fit.svg"));
-    let out = leech()
-        .args(["calibrate", "--sag", &example("tube_sag.csv"), "--shapes", &example("body_shapes.csv")])
-        .args(["--fit", "stiffness,mass", "--json", "--out"])
-        .arg(&toml)
-        .arg("--svg")
-        .arg(&svg)
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = succeeds(
+        leech()
+            .args(["calibrate", "--sag", &example("tube_sag.csv"), "--shapes", &example("body_shapes.csv")])
+            .args(["--fit", "stiffness,mass", "--json", "--out"])
+            .arg(&toml)
+            .arg("--svg")
+            .arg(&svg),
+    );
     for key in ["stiffness_nm_per_rad", "stiffness_std_error_nm_per_rad", "rms_residual_mm", "element_mass_kg"] {
         assert!(v.get(key).is_some(), "missing {key}");
     }
@@ -360,16 +362,24 @@ fn simulate_writes_series_animation_and_summary() {
     let dir = std::env::temp_dir().join(format!("leech-cli-sim-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let (csv, svg) = (dir.join("sim.csv"), dir.join("sim.svg"));
-    let out = leech()
-        .args(["simulate", "--lengths", "0.12,0.12", "--to", "0.15,0.11", "--until-rest", "--duration", "30", "--json"])
-        .arg("--csv")
-        .arg(&csv)
-        .arg("--svg")
-        .arg(&svg)
-        .output()
-        .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = succeeds(
+        leech()
+            .args([
+                "simulate",
+                "--lengths",
+                "0.12,0.12",
+                "--to",
+                "0.15,0.11",
+                "--until-rest",
+                "--duration",
+                "30",
+                "--json",
+            ])
+            .arg("--csv")
+            .arg(&csv)
+            .arg("--svg")
+            .arg(&svg),
+    );
     for key in ["time_to_rest_s", "steps", "max_constraint_violation", "final", "real_time_factor"] {
         assert!(v.get(key).is_some(), "missing {key}");
     }
