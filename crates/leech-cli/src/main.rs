@@ -380,7 +380,7 @@ fn figure(args: FigureArgs, out: &mut String) -> Result<(), Failure> {
 }
 
 fn workspace(args: WorkspaceArgs, out: &mut String) -> Result<(), Failure> {
-    use leech::workspace::{point_count, sweep, Grid, Model, SweepOptions};
+    use leech::sweep::{point_count, sweep, Grid, Model, SweepOptions};
     let mut robot = load_robot(args.robot.as_deref())?;
     if let Some(angle) = args.base_angle {
         robot.world.base_angle_deg = angle;
@@ -436,7 +436,7 @@ fn workspace(args: WorkspaceArgs, out: &mut String) -> Result<(), Failure> {
         .expect("writing to a String");
         for s in &result.summaries {
             let pi = s.shape_parameter.map_or("-".to_string(), |p| format!("{p:.0}"));
-            let mm = |e: &Option<leech::workspace::Extreme>, k: usize| e.map_or(f64::NAN, |e| e.endpoint_m[k] * 1e3);
+            let mm = |e: &Option<leech::sweep::Extreme>, k: usize| e.map_or(f64::NAN, |e| e.endpoint_m[k] * 1e3);
             writeln!(
                 out,
                 "{:<18} Pi {:>7}: highest y {:7.1} mm, lowest y {:7.1} mm, farthest |x| {:6.1} mm, area {:7.0} mm^2; infeasible {}, unstable {}, snapped {}, failures {}",
@@ -453,7 +453,7 @@ fn workspace(args: WorkspaceArgs, out: &mut String) -> Result<(), Failure> {
     Ok(())
 }
 
-fn write_sweep_csv(path: &Path, sweep: &leech::workspace::Sweep) -> anyhow::Result<()> {
+fn write_sweep_csv(path: &Path, sweep: &leech::sweep::Sweep) -> anyhow::Result<()> {
     let mut text = String::from(
         "model,shape_parameter,la_m,lb_m,status,stable,snapped,feasible,min_bend_radius_m,endpoint_x_m,endpoint_y_m,endpoint_angle_rad\n",
     );
@@ -493,7 +493,7 @@ fn reach(args: ReachArgs, out: &mut String) -> Result<(), Failure> {
         Some(a) => Some(leech::error::within("angle (deg)", a, -720.0, 720.0)?.to_radians()),
         None => None,
     };
-    let grid = leech::workspace::Grid::parse(&args.lengths_range)?;
+    let grid = leech::sweep::Grid::parse(&args.lengths_range)?;
     let reacher = Reacher::new(&robot, grid)?;
     let answer = reacher.reach(target, angle);
     if args.json {

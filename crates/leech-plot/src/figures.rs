@@ -391,10 +391,10 @@ fn workspace(robot: &Robot) -> Result<Output, FigureError> {
     Ok(Output { name: "workspace", figure: fig, table })
 }
 
-/// The endpoints of a [`leech::workspace::Sweep`]: one colour per model and
+/// The endpoints of a [`leech::sweep::Sweep`]: one colour per model and
 /// shape parameter, feasible converged points only; constant curvature grey.
-pub fn sweep_figure(title: &str, sweep: &leech::workspace::Sweep) -> Figure {
-    use leech::workspace::Model;
+pub fn sweep_figure(title: &str, sweep: &leech::sweep::Sweep) -> Figure {
+    use leech::sweep::Model;
     let mut fig = Figure::new(title);
     let mut colour = 0;
     for summary in &sweep.summaries {

@@ -3,7 +3,7 @@
 
 use leech::inverse_statics::Reacher;
 use leech::prelude::*;
-use leech::workspace::{sweep, Grid, Model, SweepOptions};
+use leech::sweep::{sweep, Grid, Model, SweepOptions};
 
 fn main() {
     divan::main();

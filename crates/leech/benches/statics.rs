@@ -1,7 +1,7 @@
 //! Benchmarks of the static solver (divan). Run with `cargo bench -p leech`.
 
 use leech::prelude::*;
-use leech::statics::Workspace;
+use leech::statics::Scratch;
 
 fn main() {
     divan::main();
@@ -24,7 +24,7 @@ fn shape_warm_30_28(bencher: divan::Bencher) {
     let solver = Solver::default();
     let neighbour = robot.body(0.30, 0.279).unwrap().solve(&solver).unwrap();
     let body = robot.body(0.30, 0.28).unwrap();
-    let mut ws = Workspace::for_system(&body);
+    let mut ws = Scratch::for_system(&body);
     bencher.bench_local(|| body.solve_from(&solver, divan::black_box(&neighbour.q), &mut ws).unwrap());
 }
 

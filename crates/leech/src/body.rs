@@ -36,7 +36,7 @@
 
 use crate::chain::{right_normal, Block, Chain};
 use crate::kkt::MAX_CONSTRAINTS;
-use crate::statics::{Equilibrium, Evaluation, SolveError, Solver, State, StaticSystem, Workspace};
+use crate::statics::{Equilibrium, Evaluation, Iterate, Scratch, SolveError, Solver, StaticSystem};
 
 /// Two chains welded at the endpoint plate, under gravity.
 #[derive(Clone, Debug, PartialEq)]
@@ -209,13 +209,13 @@ impl Body {
     /// assert!(body.constraints(&eq.q).iter().all(|c| c.abs() < 1e-12));
     /// ```
     pub fn solve(&self, solver: &Solver) -> Result<Equilibrium, SolveError> {
-        let mut ws = Workspace::for_system(self);
+        let mut ws = Scratch::for_system(self);
         self.solve_in(solver, &mut ws)
     }
 
     /// [`Body::solve`] with caller-provided scratch space.
-    pub fn solve_in(&self, solver: &Solver, ws: &mut Workspace) -> Result<Equilibrium, SolveError> {
-        let mut state = State::new(self.straight());
+    pub fn solve_in(&self, solver: &Solver, ws: &mut Scratch) -> Result<Equilibrium, SolveError> {
+        let mut state = Iterate::new(self.straight());
         let (la, lb) = (self.a.tube_length(), self.b.tube_length());
         let feed = Feeding::new(self, la, lb);
         let mut residual = if la == lb {
@@ -231,7 +231,7 @@ impl Body {
 
     /// The equilibrium reached from a given state (warm start) with gravity on,
     /// as sweeps and planners that follow the actuation history use it.
-    pub fn solve_from(&self, solver: &Solver, q0: &[f64], ws: &mut Workspace) -> Result<Equilibrium, SolveError> {
+    pub fn solve_from(&self, solver: &Solver, q0: &[f64], ws: &mut Scratch) -> Result<Equilibrium, SolveError> {
         solver.warm_start(self, q0, ws)
     }
 }

@@ -16,7 +16,7 @@
 
 use crate::chain::{right_normal, Block, Chain};
 use crate::kkt::MAX_CONSTRAINTS;
-use crate::statics::{Equilibrium, Evaluation, SolveError, Solver, State, StaticSystem, Workspace};
+use crate::statics::{Equilibrium, Evaluation, Iterate, Scratch, SolveError, Solver, StaticSystem};
 
 /// One clamped chain under gravity (m/s^2).
 #[derive(Clone, Debug, PartialEq)]
@@ -61,14 +61,14 @@ impl Cantilever {
     /// assert!(tip[1] < 0.0 && tip[0] > 0.19); // a stiff horizontal tube sags a little
     /// ```
     pub fn solve(&self, solver: &Solver) -> Result<Equilibrium, SolveError> {
-        let mut ws = Workspace::for_system(self);
-        let mut state = State::new(self.chain.straight());
+        let mut ws = Scratch::for_system(self);
+        let mut state = Iterate::new(self.chain.straight());
         let residual = solver.continuation(self, &mut state, 0.0, "load", &mut ws)?;
         Ok(solver.finish(self, state, residual, &mut ws))
     }
 
     /// The equilibrium reached from `q0` with gravity on (warm start).
-    pub fn solve_from(&self, solver: &Solver, q0: &[f64], ws: &mut Workspace) -> Result<Equilibrium, SolveError> {
+    pub fn solve_from(&self, solver: &Solver, q0: &[f64], ws: &mut Scratch) -> Result<Equilibrium, SolveError> {
         solver.warm_start(self, q0, ws)
     }
 }

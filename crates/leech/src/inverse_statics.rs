@@ -27,8 +27,8 @@
 use crate::body::Body;
 use crate::error::InputError;
 use crate::robot::Robot;
-use crate::statics::{Solver, Workspace};
-use crate::workspace::{Grid, State};
+use crate::statics::{Scratch, Solver};
+use crate::sweep::{Grid, Seed};
 use rayon::prelude::*;
 
 /// Weight of the angle error in the cost (m/rad).
@@ -87,7 +87,7 @@ impl Default for ReachTolerance {
 pub struct Reacher {
     robot: Robot,
     range: [f64; 2],
-    map: Vec<(State, [f64; 2], f64)>,
+    map: Vec<(Seed, [f64; 2], f64)>,
     tolerance: ReachTolerance,
 }
 
@@ -95,7 +95,7 @@ pub struct Reacher {
 #[derive(Clone)]
 struct Iterate {
     lengths: [f64; 2],
-    state: State,
+    state: Seed,
     endpoint: [f64; 2],
     angle: f64,
 }
@@ -107,7 +107,7 @@ impl Reacher {
     /// ```
     /// use leech::prelude::*;
     /// use leech::inverse_statics::{Reacher, ReachStatus};
-    /// use leech::workspace::Grid;
+    /// use leech::sweep::Grid;
     /// let reacher = Reacher::new(&Robot::builtin(), Grid::new(0.05, 0.3, 0.025).unwrap()).unwrap();
     /// let answer = reacher.reach([0.12, 0.15], None);
     /// assert_eq!(answer.status, ReachStatus::Reached);
@@ -165,14 +165,14 @@ impl Reacher {
 
     /// The equilibrium at `lengths`: warm-started from `from` (the tubes fed
     /// from the previous iterate), or the default cold solve when `cold`.
-    fn evaluate(&self, lengths: [f64; 2], from: &State, cold: bool, solves: &mut usize) -> Option<Iterate> {
+    fn evaluate(&self, lengths: [f64; 2], from: &Seed, cold: bool, solves: &mut usize) -> Option<Iterate> {
         *solves += 1;
         let body: Body = self.robot.body(lengths[0], lengths[1]).ok()?;
         let eq = if cold {
             body.solve(&Solver::default()).ok()?
         } else {
             let start = body.carry_over(&from.0, &from.1);
-            let mut ws = Workspace::for_system(&body);
+            let mut ws = Scratch::for_system(&body);
             body.solve_from(&Solver::default(), &start, &mut ws).ok()?
         };
         Some(Iterate {

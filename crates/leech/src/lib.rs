@@ -54,7 +54,7 @@
 //! * [`dynamics`]: constrained forward dynamics and integrators.
 //! * [`kkt`]: the O(n) bordered tridiagonal solve.
 //! * [`inverse_statics`]: tube lengths that put the endpoint on a target.
-//! * [`workspace`]: sweeps over tube lengths along the actuation path, reach metrics.
+//! * [`sweep`]: sweeps over tube lengths along the actuation path, reach metrics.
 //! * [`robot`]: robot files (TOML) and the built-in robot.
 //! * [`report`]: serializable results (what the command line prints).
 //! * [`error`]: input errors.
@@ -73,7 +73,7 @@ pub mod kkt;
 pub mod report;
 pub mod robot;
 pub mod statics;
-pub mod workspace;
+pub mod sweep;
 
 /// The types most programs need.
 pub mod prelude {
@@ -83,5 +83,5 @@ pub mod prelude {
     pub use crate::constant_curvature::{PlanarBody, TriTube};
     pub use crate::error::InputError;
     pub use crate::robot::Robot;
-    pub use crate::statics::{Equilibrium, Event, SolveError, Solver, SolverOptions, StaticSystem, Workspace};
+    pub use crate::statics::{Equilibrium, Event, Scratch, SolveError, Solver, SolverOptions, StaticSystem};
 }

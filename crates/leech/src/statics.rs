@@ -295,7 +295,7 @@ pub struct Equilibrium {
 
 /// Reusable scratch space for one problem size: the in-place API.
 #[derive(Clone, Debug)]
-pub struct Workspace {
+pub struct Scratch {
     n: usize,
     m: usize,
     split: usize,
@@ -313,15 +313,15 @@ pub struct Workspace {
     lambda_tangent: [f64; MAX_CONSTRAINTS],
 }
 
-impl Workspace {
+impl Scratch {
     /// Scratch for a system of `n` coordinates and `m` constraints.
-    pub fn new(n: usize, m: usize) -> Workspace {
-        Workspace::with_blocks(n, m, n)
+    pub fn new(n: usize, m: usize) -> Scratch {
+        Scratch::with_blocks(n, m, n)
     }
 
     /// Scratch for a system whose Hessian splits into two blocks at `split`.
-    pub fn with_blocks(n: usize, m: usize, split: usize) -> Workspace {
-        Workspace {
+    pub fn with_blocks(n: usize, m: usize, split: usize) -> Scratch {
+        Scratch {
             n,
             m,
             split,
@@ -341,8 +341,8 @@ impl Workspace {
     }
 
     /// Scratch sized for `system`.
-    pub fn for_system<S: StaticSystem + ?Sized>(system: &S) -> Workspace {
-        Workspace::with_blocks(system.dim(), system.constraint_count(), system.block_split())
+    pub fn for_system<S: StaticSystem + ?Sized>(system: &S) -> Scratch {
+        Scratch::with_blocks(system.dim(), system.constraint_count(), system.block_split())
     }
 
     /// Whether this scratch is sized for `system`.
@@ -353,7 +353,7 @@ impl Workspace {
 
 /// The state the solver carries: coordinates, multipliers and counters.
 #[derive(Clone, Debug)]
-pub struct State {
+pub struct Iterate {
     /// Coordinates (rad).
     pub q: Vec<f64>,
     /// Multipliers.
@@ -367,10 +367,10 @@ pub struct State {
     started: Instant,
 }
 
-impl State {
+impl Iterate {
     /// A state at `q` with zero multipliers.
-    pub fn new(q: Vec<f64>) -> State {
-        State {
+    pub fn new(q: Vec<f64>) -> Iterate {
+        Iterate {
             q,
             lambda: [0.0; MAX_CONSTRAINTS],
             iterations: 0,
@@ -475,7 +475,7 @@ impl Solver {
     /// `lambda`, adding the smallest shift (from a geometric sequence) that
     /// makes the reduced Hessian positive definite. Returns the unshifted
     /// inertia and the shift used.
-    fn factor<S: StaticSystem + ?Sized>(&self, sys: &S, lambda: &[f64; 3], ws: &mut Workspace) -> (Inertia, f64) {
+    fn factor<S: StaticSystem + ?Sized>(&self, sys: &S, lambda: &[f64; 3], ws: &mut Scratch) -> (Inertia, f64) {
         let (n, m) = (ws.n, ws.m);
         transposed_product(&ws.current.hessian_diag, &ws.current.curvature, lambda, &mut ws.lagrangian_diag);
         let _ = (n, m);
@@ -497,7 +497,7 @@ impl Solver {
         (first, f64::INFINITY)
     }
 
-    fn out_of_time(&self, state: &State) -> bool {
+    fn out_of_time(&self, state: &Iterate) -> bool {
         self.options.time_limit.is_some_and(|limit| state.started.elapsed() > limit)
     }
 
@@ -507,10 +507,10 @@ impl Solver {
     fn newton<S: StaticSystem + ?Sized>(
         &self,
         sys: &S,
-        state: &mut State,
+        state: &mut Iterate,
         t: f64,
         budget: Budget,
-        ws: &mut Workspace,
+        ws: &mut Scratch,
     ) -> Newton {
         let Budget { max_iter, tolerance, leash } = budget;
         let (n, m) = (ws.n, ws.m);
@@ -657,7 +657,7 @@ impl Solver {
 
     /// Tangent of the solution path `(dq/dt, dlambda/dt)` at a converged
     /// point: `ws.current` evaluated there and its unshifted factors in `ws.kkt`.
-    fn tangent(&self, state: &State, ws: &mut Workspace) {
+    fn tangent(&self, state: &Iterate, ws: &mut Scratch) {
         let (n, m) = (ws.n, ws.m);
         let ev = &ws.current;
         transposed_product(&ev.param_gradient, &ev.param_jacobian, &state.lambda, &mut ws.tangent);
@@ -675,7 +675,7 @@ impl Solver {
         }
     }
 
-    fn fail(&self, stage: &'static str, state: &State, out: Newton) -> SolveError {
+    fn fail(&self, stage: &'static str, state: &Iterate, out: Newton) -> SolveError {
         match self.options.time_limit {
             Some(limit) if out.reason == "time limit reached" => {
                 SolveError::TimeLimit { limit, iterations: state.iterations, residual: out.residual }
@@ -695,10 +695,10 @@ impl Solver {
     pub fn minimize<S: StaticSystem + ?Sized>(
         &self,
         sys: &S,
-        state: &mut State,
+        state: &mut Iterate,
         t: f64,
         stage: &'static str,
-        ws: &mut Workspace,
+        ws: &mut Scratch,
     ) -> Result<f64, SolveError> {
         assert!(ws.fits(sys), "workspace sized for another system");
         let (residual, escaped) = self.settle(sys, state, t, stage, ws)?;
@@ -713,10 +713,10 @@ impl Solver {
     fn settle<S: StaticSystem + ?Sized>(
         &self,
         sys: &S,
-        state: &mut State,
+        state: &mut Iterate,
         t: f64,
         stage: &'static str,
-        ws: &mut Workspace,
+        ws: &mut Scratch,
     ) -> Result<(f64, bool), SolveError> {
         let out = self.newton(sys, state, t, self.free_budget(), ws);
         if !out.converged {
@@ -734,10 +734,10 @@ impl Solver {
     fn escape<S: StaticSystem + ?Sized>(
         &self,
         sys: &S,
-        state: &mut State,
+        state: &mut Iterate,
         t: f64,
         stage: &'static str,
-        ws: &mut Workspace,
+        ws: &mut Scratch,
     ) -> Result<f64, SolveError> {
         let (n, m) = (ws.n, ws.m);
         // A shift below every eigenvalue (Gershgorin) makes H - sigma I positive
@@ -792,10 +792,10 @@ impl Solver {
     pub fn continuation<S: StaticSystem + ?Sized>(
         &self,
         sys: &S,
-        state: &mut State,
+        state: &mut Iterate,
         from: f64,
         stage: &'static str,
-        ws: &mut Workspace,
+        ws: &mut Scratch,
     ) -> Result<f64, SolveError> {
         assert!(ws.fits(sys), "workspace sized for another system");
         let n = ws.n;
@@ -892,9 +892,9 @@ impl Solver {
     pub fn finish<S: StaticSystem + ?Sized>(
         &self,
         sys: &S,
-        state: State,
+        state: Iterate,
         residual: f64,
-        ws: &mut Workspace,
+        ws: &mut Scratch,
     ) -> Equilibrium {
         ws.current.clear();
         sys.evaluate(&state.q, 1.0, &mut ws.current);
@@ -918,10 +918,10 @@ impl Solver {
         &self,
         sys: &S,
         q0: &[f64],
-        ws: &mut Workspace,
+        ws: &mut Scratch,
     ) -> Result<Equilibrium, SolveError> {
         Solver::check_start(sys, q0)?;
-        let mut state = State::new(q0.to_vec());
+        let mut state = Iterate::new(q0.to_vec());
         let residual = self.minimize(sys, &mut state, 1.0, "warm start", ws)?;
         Ok(self.finish(sys, state, residual, ws))
     }
@@ -947,10 +947,10 @@ mod tests {
         let robot = Robot::builtin();
         let body = robot.body(0.30, 0.28).unwrap();
         let solver = Solver::default();
-        let mut ws = Workspace::for_system(&body);
+        let mut ws = Scratch::for_system(&body);
         let base = body.solve(&solver).unwrap();
         for t in [0.3, 0.7] {
-            let mut state = State::new(base.q.clone());
+            let mut state = Iterate::new(base.q.clone());
             solver.minimize(&body, &mut state, t, "test", &mut ws).unwrap();
             solver.tangent(&state, &mut ws);
             let tangent = ws.tangent.clone();

@@ -99,7 +99,7 @@ fn settling_from_the_unloaded_body_reaches_the_static_equilibrium() {
             sim.run_to_rest(&mut sudden, 2e-3, Integrator::Implicit, 0.0, 60.0).unwrap().unwrap();
             let other = body.endpoint(&sudden.q);
             assert!((other[0] - e[0]).hypot(other[1] - e[1]) > 1e-2);
-            let mut ws = leech::statics::Workspace::for_system(&body);
+            let mut ws = leech::statics::Scratch::for_system(&body);
             let eq = body.solve_from(&Solver::default(), &sudden.q, &mut ws).unwrap();
             assert!(eq.stable && body.energy(&eq.q) < body.energy(&state.q));
         }

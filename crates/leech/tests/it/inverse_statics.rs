@@ -3,7 +3,7 @@
 
 use leech::inverse_statics::{ReachStatus, Reacher};
 use leech::prelude::*;
-use leech::workspace::Grid;
+use leech::sweep::Grid;
 
 fn lcg(seed: &mut u64) -> f64 {
     *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);

@@ -10,7 +10,7 @@ mod limits;
 mod references;
 mod robot_file;
 mod solver;
-mod workspace;
+mod sweep;
 
 use leech::prelude::*;
 

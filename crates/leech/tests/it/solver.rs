@@ -1,7 +1,7 @@
 //! The solver's contract: honest status, bounded work, warm starts.
 
 use leech::prelude::*;
-use leech::statics::Workspace;
+use leech::statics::Scratch;
 
 #[test]
 fn too_few_iterations_is_an_error_not_a_shape() {
@@ -30,7 +30,7 @@ fn warm_start_from_the_solution_stays_there() {
     let body = Robot::builtin().body(0.27, 0.22).unwrap();
     let solver = Solver::default();
     let eq = body.solve(&solver).unwrap();
-    let mut ws = Workspace::for_system(&body);
+    let mut ws = Scratch::for_system(&body);
     let again = body.solve_from(&solver, &eq.q, &mut ws).unwrap();
     assert!(again.iterations <= 1);
     for (a, b) in eq.q.iter().zip(&again.q) {
@@ -48,7 +48,7 @@ fn warm_start_from_the_solution_stays_there() {
 #[test]
 fn bad_warm_start_is_rejected() {
     let body = Robot::builtin().body(0.1, 0.1).unwrap();
-    let mut ws = Workspace::for_system(&body);
+    let mut ws = Scratch::for_system(&body);
     let solver = Solver::default();
     assert!(matches!(body.solve_from(&solver, &[0.0; 3], &mut ws), Err(SolveError::BadStart { .. })));
     let mut q = body.straight();

@@ -33,7 +33,7 @@ use crate::body::Body;
 use crate::constant_curvature::PlanarBody;
 use crate::error::{positive, InputError};
 use crate::robot::{Robot, MAX_LINKS};
-use crate::statics::{Solver, Workspace};
+use crate::statics::{Scratch, Solver};
 
 /// A warm start moving some angle by more than this (rad) is a snap.
 pub const SNAP_RAD: f64 = 0.5;
@@ -294,7 +294,7 @@ struct Solved {
     body: Option<(Body, Vec<f64>)>,
 }
 
-fn solve_point(robot: &Robot, la: f64, lb: f64, seed: Option<&(Body, Vec<f64>)>, ws: &mut Option<Workspace>) -> Solved {
+fn solve_point(robot: &Robot, la: f64, lb: f64, seed: Option<&(Body, Vec<f64>)>, ws: &mut Option<Scratch>) -> Solved {
     let solver = Solver::default();
     let failed = |reason: String| Solved {
         point: Point {
@@ -317,7 +317,7 @@ fn solve_point(robot: &Robot, la: f64, lb: f64, seed: Option<&(Body, Vec<f64>)>,
     };
     let scratch = match ws {
         Some(w) if w.fits(&body) => w,
-        _ => ws.insert(Workspace::for_system(&body)),
+        _ => ws.insert(Scratch::for_system(&body)),
     };
     let (result, snapped) = match seed {
         Some((previous, q)) => {
@@ -360,7 +360,7 @@ fn two_chain_points(robot: &Robot, values: &[f64], left_longer: bool, progress: 
 }
 
 /// A grid point's equilibrium: the body and its angles.
-pub(crate) type State = (Body, Vec<f64>);
+pub(crate) type Seed = (Body, Vec<f64>);
 
 /// Walks the grid along the actuation path (see the module doc), returning
 /// every point in row order (`LA` major) and, when `keep` is set, its state.
@@ -370,7 +370,7 @@ pub(crate) fn walk(
     left_longer: bool,
     keep: bool,
     progress: &(dyn Fn(usize) + Sync),
-) -> Vec<(Point, Option<State>)> {
+) -> Vec<(Point, Option<Seed>)> {
     let n = values.len();
     // The first column, fed upwards in LA from the cold corner.
     let mut column: Vec<Solved> = Vec::with_capacity(n);
@@ -382,7 +382,7 @@ pub(crate) fn walk(
     }
     progress(n);
     // Each row fed in LB from its first column, rows in parallel.
-    let rows: Vec<Vec<(Point, Option<State>)>> = column
+    let rows: Vec<Vec<(Point, Option<Seed>)>> = column
         .into_par_iter()
         .enumerate()
         .map(|(i, first)| {

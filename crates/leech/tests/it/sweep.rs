@@ -1,7 +1,7 @@
 //! Workspace sweeps follow the actuation path and agree with single solves.
 
 use leech::prelude::*;
-use leech::workspace::{sweep, Grid, Model, SweepOptions};
+use leech::sweep::{sweep, Grid, Model, SweepOptions};
 
 fn options(models: Vec<Model>, left_longer: bool) -> SweepOptions {
     SweepOptions { grid: Grid::new(0.05, 0.30, 0.025).unwrap(), shape_parameters: vec![], models, left_longer }
@@ -36,7 +36,7 @@ fn sweep_points_equal_independent_solves() {
             if (ni, nj) != (i, j) {
                 let neighbour = robot.body(values[ni], values[nj]).unwrap();
                 let seed = replay(&robot, &values, ni, nj);
-                let mut ws = leech::statics::Workspace::for_system(&body);
+                let mut ws = leech::statics::Scratch::for_system(&body);
                 let warm = body.solve_from(&solver, &body.carry_over(&neighbour, &seed), &mut ws).unwrap();
                 let e = body.endpoint(&warm.q);
                 assert!((e[0] - p.endpoint_m[0]).abs() < 1e-9 && (e[1] - p.endpoint_m[1]).abs() < 1e-9);
@@ -67,7 +67,7 @@ fn replay(robot: &Robot, values: &[f64], i: usize, j: usize) -> Vec<f64> {
     let mut q = body.solve(&solver).unwrap().q;
     for &(a, b) in &path[1..] {
         let next = robot.body(values[a], values[b]).unwrap();
-        let mut ws = leech::statics::Workspace::for_system(&next);
+        let mut ws = leech::statics::Scratch::for_system(&next);
         q = next.solve_from(&solver, &next.carry_over(&body, &q), &mut ws).unwrap().q;
         body = next;
     }
