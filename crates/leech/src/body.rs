@@ -35,8 +35,10 @@
 //! [`Event`](crate::statics::Event)s.
 
 use crate::chain::{right_normal, Block, Chain};
-use crate::kkt::MAX_CONSTRAINTS;
-use crate::statics::{Equilibrium, Evaluation, Iterate, Scratch, SolveError, Solver, StaticSystem};
+use crate::statics::{
+    Constraints, Equilibrium, Evaluation, Iterate, Path, PathTerms, Potential, Row, RowKind, Scratch, SolveError,
+    Solver, Stage, StaticSystem,
+};
 
 /// Two chains welded at the endpoint plate, under gravity.
 #[derive(Clone, Debug, PartialEq)]
@@ -133,16 +135,14 @@ impl Body {
         q
     }
 
-    /// Fills `ev` at gravity `load * gravity` with link lengths scaled by
-    /// `scale` (A, B) that move along the path at rate `rate` (A, B).
-    fn evaluate_with(&self, q: &[f64], gravity: f64, load: f64, scale: [f64; 2], rate: [f64; 2], ev: &mut Evaluation) {
+    /// Adds the potential at gravity `load * gravity` with link lengths
+    /// scaled by `scale` (A, B) to `ev`, with the links' trigonometry.
+    fn potential_with(&self, q: &[f64], gravity: f64, load: f64, scale: [f64; 2], ev: &mut Evaluation) {
         let na = self.a.len();
-        let n = q.len();
         let (qa, qb) = self.split(q);
         let (cos_a, cos_b) = ev.cos.split_at_mut(na);
         let (sin_a, sin_b) = ev.sin.split_at_mut(na);
         let (grad_a, grad_b) = ev.gradient.split_at_mut(na);
-        let (pg_a, pg_b) = ev.param_gradient.split_at_mut(na);
         let (diag_a, diag_b) = ev.hessian_diag.split_at_mut(na);
         let (off_a, off_b) = ev.hessian_off.split_at_mut(na);
         let ea = self.a.evaluate_block(
@@ -150,51 +150,65 @@ impl Body {
             gravity,
             load,
             scale[0],
-            Block { cos: cos_a, sin: sin_a, grad: grad_a, param_grad: pg_a, diag: diag_a, off: off_a },
+            Block { cos: cos_a, sin: sin_a, grad: grad_a, diag: diag_a, off: off_a },
         );
         let eb = self.b.evaluate_block(
             qb,
             gravity,
             load,
             scale[1],
-            Block { cos: cos_b, sin: sin_b, grad: grad_b, param_grad: pg_b, diag: diag_b, off: off_b },
+            Block { cos: cos_b, sin: sin_b, grad: grad_b, diag: diag_b, off: off_b },
         );
         // off_a's last entry couples A's last link with B's first: no spring there.
         ev.energy = ea + eb;
+    }
+
+    /// The weld's rows, Jacobian and curvature with link lengths scaled by
+    /// `scale` (A, B), from the trigonometry in `ev`.
+    fn weld_with(&self, q: &[f64], scale: [f64; 2], ev: &mut Evaluation) {
+        let na = self.a.len();
+        let n = q.len();
         let pa = self.a.tip_from_trig(&ev.cos[..na], &ev.sin[..na], scale[0]);
         let pb = self.b.tip_from_trig(&ev.cos[na..], &ev.sin[na..], scale[1]);
         let (ca, sa) = (ev.cos[na - 1], ev.sin[na - 1]);
         let c = self.tip_spacing;
-        ev.constraints = [pb[0] - pa[0] - c * sa, pb[1] - pa[1] + c * ca, qa[na - 1] - qb[qb.len() - 1]];
-        const M: usize = MAX_CONSTRAINTS;
-        let mut dc = [0.0; 2];
-        for (i, (l, sign, side)) in self
-            .a
-            .lengths()
-            .iter()
-            .map(|l| (l, -1.0, 0))
-            .chain(self.b.lengths().iter().map(|l| (l, 1.0, 1)))
-            .enumerate()
-        {
-            let (co, si) = (ev.cos[i], ev.sin[i]);
-            let (ls, lr) = (sign * l * scale[side], sign * l * rate[side]);
-            ev.jacobian[i * M] = -ls * si;
-            ev.jacobian[i * M + 1] = ls * co;
-            ev.curvature[i * M] = -ls * co;
-            ev.curvature[i * M + 1] = -ls * si;
-            ev.param_jacobian[i * M] = -lr * si;
-            ev.param_jacobian[i * M + 1] = lr * co;
-            dc[0] += lr * co;
-            dc[1] += lr * si;
-        }
-        let last_a = (na - 1) * M;
+        ev.constraints.copy_from_slice(&[pb[0] - pa[0] - c * sa, pb[1] - pa[1] + c * ca, q[na - 1] - q[n - 1]]);
+        self.weld_columns(scale, &ev.cos, &ev.sin, &mut ev.jacobian, Some(&mut ev.curvature));
+        let last_a = (na - 1) * WELD_ROWS;
         ev.jacobian[last_a] -= c * ca;
         ev.jacobian[last_a + 1] -= c * sa;
         ev.curvature[last_a] += c * sa;
         ev.curvature[last_a + 1] -= c * ca;
         ev.jacobian[last_a + 2] = 1.0;
-        ev.jacobian[(n - 1) * M + 2] = -1.0;
-        ev.param_constraints = [dc[0], dc[1], 0.0];
+        ev.jacobian[(n - 1) * WELD_ROWS + 2] = -1.0;
+    }
+
+    /// The position rows' Jacobian columns `-+ l_j s e'(phi_j)` for link
+    /// lengths times `s` (A, B) and, if asked, their curvature `-+ l_j s e(phi_j)`
+    /// (the tip spacing's terms left out); returns `sum -+ l_j s e(phi_j)`.
+    fn weld_columns(
+        &self,
+        s: [f64; 2],
+        cos: &[f64],
+        sin: &[f64],
+        jac: &mut [f64],
+        mut curvature: Option<&mut [f64]>,
+    ) -> [f64; 2] {
+        let mut sum = [0.0; 2];
+        let lengths = self.a.lengths().iter().map(|l| (l, -1.0, 0)).chain(self.b.lengths().iter().map(|l| (l, 1.0, 1)));
+        for (i, (l, sign, side)) in lengths.enumerate() {
+            let (co, si) = (cos[i], sin[i]);
+            let ls = sign * l * s[side];
+            jac[i * WELD_ROWS] = -ls * si;
+            jac[i * WELD_ROWS + 1] = ls * co;
+            if let Some(curvature) = curvature.as_deref_mut() {
+                curvature[i * WELD_ROWS] = -ls * co;
+                curvature[i * WELD_ROWS + 1] = -ls * si;
+            }
+            sum[0] += ls * co;
+            sum[1] += ls * si;
+        }
+        sum
     }
 
     /// The equilibrium on the default path: tubes fed from equal lengths at
@@ -219,12 +233,12 @@ impl Body {
         let (la, lb) = (self.a.tube_length(), self.b.tube_length());
         let feed = Feeding::new(self, la, lb);
         let mut residual = if la == lb {
-            solver.minimize(&feed, &mut state, 1.0, "feed", ws)?
+            solver.minimize(&feed, &mut state, 1.0, Stage::Feed, ws)?
         } else {
-            solver.continuation(&feed, &mut state, 0.0, "feed", ws)?
+            solver.continuation(&feed, &mut state, 0.0, Stage::Feed, ws)?
         };
         if self.gravity != 0.0 {
-            residual = solver.continuation(self, &mut state, 0.0, "load", ws)?;
+            residual = solver.continuation(self, &mut state, 0.0, Stage::Load, ws)?;
         }
         Ok(solver.finish(self, state, residual, ws))
     }
@@ -236,37 +250,59 @@ impl Body {
     }
 }
 
-impl StaticSystem for Body {
+/// Rows of the endpoint weld: `C_x`, `C_y` (m) and `C_phi` (rad).
+const WELD_ROWS: usize = 3;
+
+impl Potential for Body {
     fn dim(&self) -> usize {
         self.a.len() + self.b.len()
     }
 
-    fn constraint_count(&self) -> usize {
-        3
+    fn blocks(&self) -> Vec<usize> {
+        vec![self.a.len(), self.b.len()]
     }
 
     fn moment_scale(&self) -> f64 {
         self.moment_scale
     }
 
-    fn constraint_scales(&self) -> [f64; MAX_CONSTRAINTS] {
-        let l = self.a.lengths()[0];
-        [l, l, 1.0]
-    }
-
     /// `t` is the fraction of gravity applied.
-    fn evaluate(&self, q: &[f64], t: f64, ev: &mut Evaluation) {
-        self.evaluate_with(q, self.gravity, t, [1.0; 2], [0.0; 2], ev);
+    fn potential(&self, q: &[f64], t: f64, ev: &mut Evaluation) {
+        self.potential_with(q, self.gravity, t, [1.0; 2], ev);
+    }
+}
+
+impl Constraints for Body {
+    fn rows(&self) -> usize {
+        WELD_ROWS
     }
 
-    fn block_split(&self) -> usize {
-        self.a.len()
+    fn row(&self, r: usize) -> Row {
+        // Positions in element lengths, the angle in radians.
+        let scale = if r < 2 { self.a.lengths()[0] } else { 1.0 };
+        Row { kind: RowKind::Equality, scale }
     }
 
-    fn lateral_displacement(&self, q: &[f64], dq: &[f64]) -> f64 {
+    fn constraints(&self, q: &[f64], _t: f64, ev: &mut Evaluation) {
+        self.weld_with(q, [1.0; 2], ev);
+    }
+}
+
+impl StaticSystem for Body {
+    fn side_measure(&self, q: &[f64], dq: &[f64]) -> f64 {
         let (qa, _) = self.split(q);
         let nu = right_normal(self.a.clamp_angle());
         self.a.tip_jacobian(qa).iter().zip(dq).map(|(col, d)| (col[0] * nu[0] + col[1] * nu[1]) * d).sum()
+    }
+}
+
+/// The load path: gravity raised from 0 (`t = 0`) to `g` (`t = 1`).
+impl Path for Body {
+    fn path(&self, _q: &[f64], _t: f64, ev: &Evaluation, out: &mut PathTerms) {
+        let na = self.a.len();
+        let (out_a, out_b) = out.gradient.split_at_mut(na);
+        self.a.load_gradient(&ev.cos[..na], self.gravity, out_a);
+        self.b.load_gradient(&ev.cos[na..], self.gravity, out_b);
     }
 }
 
@@ -281,6 +317,17 @@ struct Feeding<'a> {
 }
 
 impl<'a> Feeding<'a> {
+    /// The link scale factors (A, B) at `t`.
+    fn scale(&self, t: f64) -> [f64; 2] {
+        let rate = self.rate();
+        [self.start_a + t * rate[0], self.start_b + t * rate[1]]
+    }
+
+    /// `d scale / dt` (A, B).
+    fn rate(&self) -> [f64; 2] {
+        [1.0 - self.start_a, 1.0 - self.start_b]
+    }
+
     fn new(body: &'a Body, la: f64, lb: f64) -> Feeding<'a> {
         let short = la.min(lb);
         let flexible = |chain: &Chain, length: f64| {
@@ -302,35 +349,50 @@ impl<'a> Feeding<'a> {
     }
 }
 
-impl StaticSystem for Feeding<'_> {
+impl Potential for Feeding<'_> {
     fn dim(&self) -> usize {
         self.body.dim()
     }
 
-    fn constraint_count(&self) -> usize {
-        3
+    fn blocks(&self) -> Vec<usize> {
+        self.body.blocks()
     }
 
     fn moment_scale(&self) -> f64 {
         self.body.moment_scale()
     }
 
-    fn constraint_scales(&self) -> [f64; MAX_CONSTRAINTS] {
-        self.body.constraint_scales()
+    fn potential(&self, q: &[f64], t: f64, ev: &mut Evaluation) {
+        self.body.potential_with(q, 0.0, 0.0, self.scale(t), ev);
+    }
+}
+
+impl Constraints for Feeding<'_> {
+    fn rows(&self) -> usize {
+        self.body.rows()
     }
 
-    fn evaluate(&self, q: &[f64], t: f64, ev: &mut Evaluation) {
-        let rate = [1.0 - self.start_a, 1.0 - self.start_b];
-        let scale = [self.start_a + t * rate[0], self.start_b + t * rate[1]];
-        self.body.evaluate_with(q, 0.0, 0.0, scale, rate, ev);
+    fn row(&self, r: usize) -> Row {
+        self.body.row(r)
     }
 
-    fn lateral_displacement(&self, q: &[f64], dq: &[f64]) -> f64 {
-        self.body.lateral_displacement(q, dq)
+    fn constraints(&self, q: &[f64], t: f64, ev: &mut Evaluation) {
+        self.body.weld_with(q, self.scale(t), ev);
     }
+}
 
-    fn block_split(&self) -> usize {
-        self.body.block_split()
+impl StaticSystem for Feeding<'_> {
+    fn side_measure(&self, q: &[f64], dq: &[f64]) -> f64 {
+        self.body.side_measure(q, dq)
+    }
+}
+
+/// The links grow at the rate `1 - start` along `t`: only the weld's
+/// position rows move (at `g = 0` the potential does not depend on lengths).
+impl Path for Feeding<'_> {
+    fn path(&self, _q: &[f64], _t: f64, ev: &Evaluation, out: &mut PathTerms) {
+        let dc = self.body.weld_columns(self.rate(), &ev.cos, &ev.sin, &mut out.jacobian, None);
+        out.constraints.copy_from_slice(&[dc[0], dc[1], 0.0]);
     }
 
     fn first_step(&self) -> f64 {

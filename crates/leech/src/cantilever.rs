@@ -15,8 +15,10 @@
 //! elements, as its masses sit at the element tips).
 
 use crate::chain::{right_normal, Block, Chain};
-use crate::kkt::MAX_CONSTRAINTS;
-use crate::statics::{Equilibrium, Evaluation, Iterate, Scratch, SolveError, Solver, StaticSystem};
+use crate::statics::{
+    Constraints, Equilibrium, Evaluation, Iterate, Path, PathTerms, Potential, Row, Scratch, SolveError, Solver, Stage,
+    StaticSystem,
+};
 
 /// One clamped chain under gravity (m/s^2).
 #[derive(Clone, Debug, PartialEq)]
@@ -63,7 +65,7 @@ impl Cantilever {
     pub fn solve(&self, solver: &Solver) -> Result<Equilibrium, SolveError> {
         let mut ws = Scratch::for_system(self);
         let mut state = Iterate::new(self.chain.straight());
-        let residual = solver.continuation(self, &mut state, 0.0, "load", &mut ws)?;
+        let residual = solver.continuation(self, &mut state, 0.0, Stage::Load, &mut ws)?;
         Ok(solver.finish(self, state, residual, &mut ws))
     }
 
@@ -73,25 +75,17 @@ impl Cantilever {
     }
 }
 
-impl StaticSystem for Cantilever {
+impl Potential for Cantilever {
     fn dim(&self) -> usize {
         self.chain.len()
-    }
-
-    fn constraint_count(&self) -> usize {
-        0
     }
 
     fn moment_scale(&self) -> f64 {
         self.chain.nominal_stiffness()
     }
 
-    fn constraint_scales(&self) -> [f64; MAX_CONSTRAINTS] {
-        [1.0; MAX_CONSTRAINTS]
-    }
-
     /// `t` is the fraction of gravity applied.
-    fn evaluate(&self, q: &[f64], t: f64, ev: &mut Evaluation) {
+    fn potential(&self, q: &[f64], t: f64, ev: &mut Evaluation) {
         ev.energy = self.chain.evaluate_block(
             q,
             self.gravity,
@@ -101,16 +95,37 @@ impl StaticSystem for Cantilever {
                 cos: &mut ev.cos,
                 sin: &mut ev.sin,
                 grad: &mut ev.gradient,
-                param_grad: &mut ev.param_gradient,
                 diag: &mut ev.hessian_diag,
                 off: &mut ev.hessian_off,
             },
         );
     }
+}
 
-    fn lateral_displacement(&self, q: &[f64], dq: &[f64]) -> f64 {
+/// A clamped tube alone has no constraint rows.
+impl Constraints for Cantilever {
+    fn rows(&self) -> usize {
+        0
+    }
+
+    fn row(&self, r: usize) -> Row {
+        unreachable!("a cantilever has no constraint rows (asked for row {r})")
+    }
+
+    fn constraints(&self, _q: &[f64], _t: f64, _ev: &mut Evaluation) {}
+}
+
+impl StaticSystem for Cantilever {
+    fn side_measure(&self, q: &[f64], dq: &[f64]) -> f64 {
         let nu = right_normal(self.chain.clamp_angle());
         self.chain.tip_jacobian(q).iter().zip(dq).map(|(col, d)| (col[0] * nu[0] + col[1] * nu[1]) * d).sum()
+    }
+}
+
+/// The load path: gravity raised from 0 to `g`.
+impl Path for Cantilever {
+    fn path(&self, _q: &[f64], _t: f64, ev: &Evaluation, out: &mut PathTerms) {
+        self.chain.load_gradient(&ev.cos, self.gravity, &mut out.gradient);
     }
 }
 

@@ -123,7 +123,6 @@ pub(crate) struct Block<'a> {
     pub cos: &'a mut [f64],
     pub sin: &'a mut [f64],
     pub grad: &'a mut [f64],
-    pub param_grad: &'a mut [f64],
     pub diag: &'a mut [f64],
     pub off: &'a mut [f64],
 }
@@ -357,16 +356,14 @@ impl Chain {
 
     /// Fused statics evaluation for the solver: fills `cos`/`sin` of every
     /// link, adds the potential's gradient and Hessian (springs and gravity
-    /// `load * gravity`) to the block, writes the gradient's derivative with
-    /// respect to `load` to `param_grad`, and returns the potential (J). Link
+    /// `load * gravity`) to the block and returns the potential (J). Link
     /// lengths are multiplied by `scale` (the feeding homotopy; 1 otherwise).
     pub(crate) fn evaluate_block(&self, q: &[f64], gravity: f64, load: f64, scale: f64, b: Block<'_>) -> f64 {
         // One fused pass: this is the solver's hot loop, called once per Newton trial.
         let n = self.len();
         let (q, k) = (&q[..n], &self.stiffness[..n]);
         let (levers, masses, offsets) = (&self.levers[..n], &self.masses[..n], &self.mass_offsets[..n]);
-        let (cos, sin, grad, param_grad, diag) =
-            (&mut b.cos[..n], &mut b.sin[..n], &mut b.grad[..n], &mut b.param_grad[..n], &mut b.diag[..n]);
+        let (cos, sin, grad, diag) = (&mut b.cos[..n], &mut b.sin[..n], &mut b.grad[..n], &mut b.diag[..n]);
         let off = &mut b.off[..n - 1];
         let weight_scale = gravity * scale;
         let mut prev = self.clamp_angle;
@@ -392,12 +389,20 @@ impl Chain {
             weight += masses[j] * (y + offsets[j] * scale * s);
             y += self.lengths[j] * scale * s;
             let moment = weight_scale * levers[j] * c;
-            param_grad[j] = moment;
             diag[j] -= load * weight_scale * levers[j] * s;
             grad[j] += load * moment;
         }
         grad[n - 1] += previous_torque;
         spring + load * gravity * (weight + self.tip_mass * y)
+    }
+
+    /// The gravity moments `g W_j cos(phi_j)` (N m) from the links' cosines
+    /// into `out`: the derivative of the gradient with respect to the
+    /// fraction of gravity applied (the load path).
+    pub(crate) fn load_gradient(&self, cos: &[f64], gravity: f64, out: &mut [f64]) {
+        for ((o, w), c) in out.iter_mut().zip(&self.levers).zip(cos) {
+            *o = gravity * w * c;
+        }
     }
 
     /// Tip of the last link from precomputed trigonometry, with link lengths

@@ -161,7 +161,7 @@ impl<'a, S: Multibody> Simulator<'a, S> {
     /// A simulator for `sys`.
     pub fn new(sys: &'a S) -> Simulator<'a, S> {
         let chains = sys.chains();
-        let (n, m) = (sys.dim(), sys.constraint_count());
+        let (n, m) = (sys.dim(), sys.rows());
         Simulator {
             sys,
             mass: chains.iter().map(|(c, _)| vec![0.0; c.len() * c.len()]).collect(),
@@ -323,7 +323,8 @@ impl<'a, S: Multibody> Simulator<'a, S> {
             if violation < 1e-13 {
                 break;
             }
-            let target = self.ev.constraints;
+            let mut target = [0.0; MAX_CONSTRAINTS];
+            target[..self.m].copy_from_slice(&self.ev.constraints);
             self.least_change(&mut state.q, target);
             current = false;
         }

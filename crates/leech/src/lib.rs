@@ -83,5 +83,7 @@ pub mod prelude {
     pub use crate::constant_curvature::{PlanarBody, TriTube};
     pub use crate::error::InputError;
     pub use crate::robot::Robot;
-    pub use crate::statics::{Equilibrium, Event, Scratch, SolveError, Solver, SolverOptions, StaticSystem};
+    pub use crate::statics::{
+        Constraints, Equilibrium, Event, Path, Potential, Scratch, SolveError, Solver, SolverOptions, StaticSystem,
+    };
 }

@@ -2,17 +2,22 @@
 //! configurations (property tests).
 
 use leech::chain::{ChainSpec, Discretization};
-use leech::kkt::MAX_CONSTRAINTS;
 use leech::prelude::*;
-use leech::statics::Evaluation;
+use leech::statics::{Evaluation, PathTerms};
 use proptest::prelude::*;
 
 const H: f64 = 1e-6;
 
 fn evaluate<S: StaticSystem>(sys: &S, q: &[f64], t: f64) -> Evaluation {
-    let mut ev = Evaluation::new(sys.dim(), sys.constraint_count());
+    let mut ev = Evaluation::new(sys.dim(), sys.rows());
     sys.evaluate(q, t, &mut ev);
     ev
+}
+
+fn path<S: Path>(sys: &S, q: &[f64], t: f64) -> PathTerms {
+    let mut out = PathTerms::new(sys.dim(), sys.rows());
+    sys.path(q, t, &evaluate(sys, q, t), &mut out);
+    out
 }
 
 fn shifted(q: &[f64], i: usize, h: f64) -> Vec<f64> {
@@ -33,9 +38,9 @@ fn close(analytic: f64, numeric: f64, scale: f64, what: &str) -> Result<(), Test
 
 /// Checks gradient, Hessian (tridiagonal), constraint Jacobian and constraint
 /// curvature (diagonal), and the path derivatives, of any static system.
-fn check_system<S: StaticSystem>(sys: &S, q: &[f64], t: f64) -> Result<(), TestCaseError> {
+fn check_system<S: Path>(sys: &S, q: &[f64], t: f64) -> Result<(), TestCaseError> {
     let n = sys.dim();
-    let m = sys.constraint_count();
+    let m = sys.rows();
     let ev = evaluate(sys, q, t);
     let k = sys.moment_scale();
     // Differencing loses the rounding of what is differenced (1e-16 of its
@@ -60,29 +65,25 @@ fn check_system<S: StaticSystem>(sys: &S, q: &[f64], t: f64) -> Result<(), TestC
         }
         for r in 0..m {
             let fd = (plus.constraints[r] - minus.constraints[r]) / (2.0 * H);
-            close(ev.jacobian[i * MAX_CONSTRAINTS + r], fd, 1.0, "dC/dq")?;
+            close(ev.jacobian[i * m + r], fd, 1.0, "dC/dq")?;
             for j in 0..n {
-                let fd = (plus.jacobian[j * MAX_CONSTRAINTS + r] - minus.jacobian[j * MAX_CONSTRAINTS + r]) / (2.0 * H);
-                let analytic = if i == j { ev.curvature[i * MAX_CONSTRAINTS + r] } else { 0.0 };
+                let fd = (plus.jacobian[j * m + r] - minus.jacobian[j * m + r]) / (2.0 * H);
+                let analytic = if i == j { ev.curvature[i * m + r] } else { 0.0 };
                 close(analytic, fd, 1.0, "d2C/dq2")?;
             }
         }
     }
     let (ahead, behind) = (evaluate(sys, q, t + H), evaluate(sys, q, t - H));
+    let along = path(sys, q, t);
     for i in 0..n {
-        close(ev.param_gradient[i], (ahead.gradient[i] - behind.gradient[i]) / (2.0 * H), k_gradient, "d(dV/dq)/dt")?;
+        close(along.gradient[i], (ahead.gradient[i] - behind.gradient[i]) / (2.0 * H), k_gradient, "d(dV/dq)/dt")?;
         for r in 0..m {
-            let idx = i * MAX_CONSTRAINTS + r;
-            close(
-                ev.param_jacobian[idx],
-                (ahead.jacobian[idx] - behind.jacobian[idx]) / (2.0 * H),
-                1.0,
-                "d(dC/dq)/dt",
-            )?;
+            let idx = i * m + r;
+            close(along.jacobian[idx], (ahead.jacobian[idx] - behind.jacobian[idx]) / (2.0 * H), 1.0, "d(dC/dq)/dt")?;
         }
     }
     for r in 0..m {
-        close(ev.param_constraints[r], (ahead.constraints[r] - behind.constraints[r]) / (2.0 * H), 1.0, "dC/dt")?;
+        close(along.constraints[r], (ahead.constraints[r] - behind.constraints[r]) / (2.0 * H), 1.0, "dC/dt")?;
     }
     Ok(())
 }

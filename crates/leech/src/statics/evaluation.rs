@@ -1,0 +1,89 @@
+//! Values and derivatives of a static system at one configuration.
+
+/// What [`StaticSystem::evaluate`](super::StaticSystem::evaluate) fills: the
+/// potential's terms and the constraints' terms at one `(q, t)`.
+#[derive(Clone, Debug, Default)]
+pub struct Evaluation {
+    /// Potential `V` (J).
+    pub energy: f64,
+    /// `dV/dq` (N m).
+    pub gradient: Vec<f64>,
+    /// Diagonal of `d2V/dq2` (N m/rad).
+    pub hessian_diag: Vec<f64>,
+    /// Off-diagonal of the tridiagonal `d2V/dq2`; entry `i` couples `i` and
+    /// `i + 1` (zero between chains).
+    pub hessian_off: Vec<f64>,
+    /// Constraint values `C` (m for positions, rad for angles), `m` of them.
+    pub constraints: Vec<f64>,
+    /// Constraint Jacobian, interleaved by coordinate: `dC_r/dq_i` at `i m + r`.
+    pub jacobian: Vec<f64>,
+    /// Diagonals of the constraint Hessians `d2C_r/dq_i2`, laid out as `jacobian`.
+    pub curvature: Vec<f64>,
+    /// Cosines of the coordinates (for systems of link angles).
+    pub cos: Vec<f64>,
+    /// Sines of the coordinates.
+    pub sin: Vec<f64>,
+}
+
+impl Evaluation {
+    /// Zeroed storage for `n` coordinates and `m` constraint rows.
+    pub fn new(n: usize, m: usize) -> Evaluation {
+        Evaluation {
+            energy: 0.0,
+            gradient: vec![0.0; n],
+            hessian_diag: vec![0.0; n],
+            hessian_off: vec![0.0; n.saturating_sub(1)],
+            constraints: vec![0.0; m],
+            jacobian: vec![0.0; n * m],
+            curvature: vec![0.0; n * m],
+            cos: vec![0.0; n],
+            sin: vec![0.0; n],
+        }
+    }
+
+    /// Number of constraint rows `m`.
+    pub fn rows(&self) -> usize {
+        self.constraints.len()
+    }
+
+    /// Sets every accumulated quantity to zero before an evaluation.
+    pub fn clear(&mut self) {
+        self.energy = 0.0;
+        for v in [
+            &mut self.gradient,
+            &mut self.hessian_diag,
+            &mut self.hessian_off,
+            &mut self.constraints,
+            &mut self.jacobian,
+            &mut self.curvature,
+        ] {
+            v.fill(0.0);
+        }
+    }
+}
+
+/// Derivatives along the continuation parameter `t` at fixed `q`
+/// ([`Path::path`](super::Path::path)).
+#[derive(Clone, Debug, Default)]
+pub struct PathTerms {
+    /// `d(dV/dq)/dt` (N m).
+    pub gradient: Vec<f64>,
+    /// `d(dC/dq)/dt`, laid out as [`Evaluation::jacobian`].
+    pub jacobian: Vec<f64>,
+    /// `dC/dt`.
+    pub constraints: Vec<f64>,
+}
+
+impl PathTerms {
+    /// Zeroed storage for `n` coordinates and `m` constraint rows.
+    pub fn new(n: usize, m: usize) -> PathTerms {
+        PathTerms { gradient: vec![0.0; n], jacobian: vec![0.0; n * m], constraints: vec![0.0; m] }
+    }
+
+    /// Sets everything to zero.
+    pub fn clear(&mut self) {
+        self.gradient.fill(0.0);
+        self.jacobian.fill(0.0);
+        self.constraints.fill(0.0);
+    }
+}

@@ -1,0 +1,370 @@
+//! Newton's method on the KKT conditions of the working set, with inertia
+//! correction, Levenberg damping, a trust radius and merit-based acceptance
+//! (see the module doc of [`crate::statics`]).
+
+use super::evaluation::Evaluation;
+use super::iterate::{Iterate, Verdict};
+use super::outcome::StopReason;
+use super::scratch::{Inertia, Scratch};
+use super::system::{Row, RowKind, StaticSystem};
+use super::Solver;
+
+/// Outcome of one Newton run.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Newton {
+    pub residual: f64,
+    pub result: Result<bool, StopReason>,
+}
+
+impl Newton {
+    fn failed(residual: f64, reason: StopReason) -> Newton {
+        Newton { residual, result: Err(reason) }
+    }
+
+    /// Whether it converged to a stable equilibrium.
+    pub fn stable(&self) -> bool {
+        self.result == Ok(true)
+    }
+}
+
+/// Limits of one Newton run: iterations, tolerance, and how far (rad, sup
+/// norm) the iterates may wander from the starting point.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Budget {
+    pub max_iter: usize,
+    pub tolerance: f64,
+    pub leash: f64,
+}
+
+pub(super) fn sup_norm(v: &[f64]) -> f64 {
+    v.iter().fold(0.0f64, |a, x| a.max(x.abs()))
+}
+
+pub(super) fn distance(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).fold(0.0f64, |acc, (x, y)| acc.max((x - y).abs()))
+}
+
+/// `out = base - J_A^T lambda` for an interleaved Jacobian of stride `m`
+/// (inactive rows carry zero multipliers, so they drop out).
+pub(super) fn transposed_product(base: &[f64], jac: &[f64], lambda: &[f64], out: &mut [f64]) {
+    let m = lambda.len();
+    if m == 0 {
+        out.copy_from_slice(base);
+        return;
+    }
+    for ((o, b), j) in out.iter_mut().zip(base).zip(jac.chunks_exact(m)) {
+        *o = j.iter().zip(lambda).fold(*b, |acc, (a, l)| acc - a * l);
+    }
+}
+
+/// What a trial step found.
+enum Trial {
+    Accepted,
+    Rejected,
+    TooLong,
+}
+
+impl Solver {
+    /// The budget of a free minimization (no leash).
+    pub(super) fn free_budget(&self) -> Budget {
+        Budget {
+            max_iter: self.options.max_minimization_iterations,
+            tolerance: self.options.tolerance,
+            leash: f64::INFINITY,
+        }
+    }
+
+    /// Writes `r = grad V - J^T lambda` into `r` and returns the scaled sup
+    /// norm of `(r, C_A)`.
+    fn residual(ev: &Evaluation, rows: &[Row], it: &Iterate, k: f64, r: &mut [f64]) -> f64 {
+        transposed_product(&ev.gradient, &ev.jacobian, &it.lambda, r);
+        let mut norm = sup_norm(r) / k;
+        for (row, spec) in rows.iter().enumerate() {
+            if it.active[row] {
+                norm = norm.max((ev.constraints[row] / spec.scale).abs());
+            }
+        }
+        norm
+    }
+
+    /// Scaled Euclidean norm of `(grad V - J^T lambda, C_A)`, for step acceptance.
+    fn residual_l2(ev: &Evaluation, rows: &[Row], lambda: &[f64], active: &[bool], k: f64) -> f64 {
+        let m = rows.len();
+        let mut s = 0.0;
+        for (i, g) in ev.gradient.iter().enumerate() {
+            let j = &ev.jacobian[i * m..i * m + m];
+            let ri = j.iter().zip(lambda).fold(*g, |acc, (a, l)| acc - a * l);
+            s += (ri / k) * (ri / k);
+        }
+        Self::infeasibility(s, ev, rows, active, 2)
+    }
+
+    /// `start + sum |C_r / s_r|^p` over the active rows (p = 1 or 2).
+    fn infeasibility(start: f64, ev: &Evaluation, rows: &[Row], active: &[bool], p: i32) -> f64 {
+        let terms = rows.iter().enumerate().filter(|(r, _)| active[*r]);
+        terms.fold(start, |acc, (r, spec)| acc + (ev.constraints[r] / spec.scale).abs().powi(p))
+    }
+
+    /// The exact-penalty merit `V/k + rho |C_A|_1`.
+    fn merit(ev: &Evaluation, rows: &[Row], active: &[bool], rho: f64, k: f64) -> f64 {
+        ev.energy / k + rho * Self::infeasibility(0.0, ev, rows, active, 1)
+    }
+
+    /// Factors the Lagrangian Hessian of `ws.current` with multipliers
+    /// `lambda`, adding the smallest shift (from a geometric sequence) that
+    /// makes the reduced Hessian positive definite. Returns the unshifted
+    /// inertia and the shift used.
+    pub(super) fn factor(&self, k: f64, it: &Iterate, ws: &mut Scratch) -> (Inertia, f64) {
+        let tuning = &self.options.tuning;
+        transposed_product(&ws.current.hessian_diag, &ws.current.curvature, &it.lambda, &mut ws.lagrangian_diag);
+        let tiny = tuning.tiny_pivot * k;
+        let ev = &ws.current;
+        let first = ws.kkt.factor(&ws.lagrangian_diag, &ev.hessian_off, 0.0, &ev.jacobian, &it.active, tiny);
+        if first == Inertia::Minimum {
+            return (first, 0.0);
+        }
+        let mut shift = tuning.first_shift * k;
+        for _ in 0..tuning.max_shift_tries {
+            if ws.kkt.factor(&ws.lagrangian_diag, &ev.hessian_off, shift, &ev.jacobian, &it.active, tiny)
+                == Inertia::Minimum
+            {
+                return (first, shift);
+            }
+            shift *= tuning.shift_growth;
+        }
+        (first, f64::INFINITY)
+    }
+
+    fn out_of_time(&self, it: &Iterate) -> bool {
+        self.options.time_limit.is_some_and(|limit| it.started.elapsed() > limit)
+    }
+
+    /// Newton's method from `it` at parameter `t` on the working set, then
+    /// the active-set test of the inequality rows, repeated until both hold.
+    /// Leaves `ws.current` evaluated at the final point and, when converged,
+    /// the KKT factors of its unshifted Lagrangian Hessian.
+    pub(super) fn newton<S: StaticSystem + ?Sized>(
+        &self,
+        sys: &S,
+        it: &mut Iterate,
+        t: f64,
+        budget: Budget,
+        ws: &mut Scratch,
+    ) -> Newton {
+        it.fit_rows(&ws.rows);
+        it.verdict = None;
+        let inequalities = ws.rows.iter().filter(|r| r.kind == RowKind::Inequality).count();
+        let mut changes = 0;
+        loop {
+            let out = self.newton_on_working_set(sys, it, t, budget, ws);
+            if out.result.is_err() || inequalities == 0 || !self.update_active_set(it, ws, budget.tolerance) {
+                if let Ok(stable) = out.result {
+                    it.verdict = Some(Verdict { fingerprint: it.fingerprint(), t, stable, energy: ws.current.energy });
+                }
+                return out;
+            }
+            changes += 1;
+            if changes > self.options.tuning.active_set_changes_per_row * inequalities {
+                return Newton::failed(out.residual, StopReason::ActiveSetCycling);
+            }
+        }
+    }
+
+    /// Releases active inequality rows that pull (`lambda_r < 0`) and
+    /// activates inactive ones that are violated (`C_r < 0`), beyond the
+    /// tolerance. Returns whether the set changed.
+    fn update_active_set(&self, it: &mut Iterate, ws: &Scratch, tolerance: f64) -> bool {
+        let k = ws.rows.len();
+        let mut changed = false;
+        for row in 0..k {
+            let spec = ws.rows[row];
+            if spec.kind != RowKind::Inequality {
+                continue;
+            }
+            let c = ws.current.constraints[row] / spec.scale;
+            if it.active[row] && it.lambda[row] < 0.0 {
+                it.active[row] = false;
+                it.lambda[row] = 0.0;
+                changed = true;
+            } else if !it.active[row] && c < -tolerance {
+                it.active[row] = true;
+                changed = true;
+            }
+        }
+        changed
+    }
+
+    /// Newton's method with the working set fixed.
+    fn newton_on_working_set<S: StaticSystem + ?Sized>(
+        &self,
+        sys: &S,
+        it: &mut Iterate,
+        t: f64,
+        budget: Budget,
+        ws: &mut Scratch,
+    ) -> Newton {
+        let Budget { max_iter, tolerance, leash } = budget;
+        let tuning = &self.options.tuning;
+        let k = sys.moment_scale();
+        ws.q_predicted.copy_from_slice(&it.q);
+        sys.evaluate(&it.q, t, &mut ws.current);
+        let mut state = Damping::default();
+        let (mut iter, mut best, mut best_at) = (0, f64::INFINITY, 0);
+        // After a tiny unshifted step from a minimum, the last factors still
+        // give the stability verdict and a tangent good enough for a predictor.
+        let mut factors_fresh = false;
+        loop {
+            let res = Self::residual(&ws.current, &ws.rows, it, k, &mut ws.residual);
+            if !res.is_finite() {
+                return Newton::failed(res, StopReason::NonFinite);
+            }
+            // A residual that stalls within a few orders of the tolerance is at
+            // the rounding floor of an ill-conditioned point (near a fold):
+            // converged, with the residual reported as is.
+            if res < 0.5 * best {
+                best = res;
+                best_at = iter;
+            }
+            let stalled = iter >= best_at + tuning.stall_iterations
+                && res <= self.options.rounding_slack * tolerance
+                && sup_norm(&ws.step) < tuning.stall_step;
+            if res <= tolerance || stalled {
+                let stable = factors_fresh || self.factor(k, it, ws).0 == Inertia::Minimum;
+                return Newton { residual: res, result: Ok(stable) };
+            }
+            if iter >= max_iter || it.iterations >= self.options.max_iterations {
+                return Newton::failed(res, StopReason::IterationLimit);
+            }
+            if self.out_of_time(it) {
+                return Newton::failed(res, StopReason::TimeLimit);
+            }
+            iter += 1;
+            it.iterations += 1;
+            let (inertia, min_shift) = self.factor(k, it, ws);
+            if !min_shift.is_finite() {
+                return Newton::failed(res, StopReason::SingularJacobian);
+            }
+            match self.take_step(sys, it, t, ws, &mut state, min_shift) {
+                Some(shift) => {
+                    factors_fresh =
+                        inertia == Inertia::Minimum && shift == 0.0 && sup_norm(&ws.step) < tuning.reuse_factors_step;
+                }
+                None => {
+                    // Within a few orders of the tolerance no step can improve on
+                    // rounding: that is convergence, with the residual reported as is.
+                    if res <= self.options.rounding_slack * tolerance {
+                        let stable = self.factor(k, it, ws).0 == Inertia::Minimum;
+                        return Newton { residual: res, result: Ok(stable) };
+                    }
+                    return Newton::failed(res, StopReason::NoDescent);
+                }
+            }
+            if leash.is_finite() && distance(&it.q, &ws.q_predicted) > leash {
+                return Newton::failed(res, StopReason::LeftBranch);
+            }
+        }
+    }
+
+    /// Tries steps with growing Levenberg shifts from `min_shift` until one
+    /// is accepted; returns the shift used, or `None` when every trial failed.
+    /// On success `it` and `ws.current` hold the new point.
+    fn take_step<S: StaticSystem + ?Sized>(
+        &self,
+        sys: &S,
+        it: &mut Iterate,
+        t: f64,
+        ws: &mut Scratch,
+        state: &mut Damping,
+        min_shift: f64,
+    ) -> Option<f64> {
+        let tuning = &self.options.tuning;
+        let k = sys.moment_scale();
+        // Levenberg-style damping on top of the inertia correction: a
+        // rejected full step raises the shift (shorter steps turning towards
+        // steepest descent), an accepted one lets it relax. In negative
+        // curvature this walks downhill much faster than backtracking along
+        // a fixed direction. Where the curvature is right, the plain Newton
+        // step comes first: that keeps quadratic convergence.
+        let mut shift = if min_shift == 0.0 { 0.0 } else { min_shift.max(state.damping) };
+        for attempt in 0..tuning.max_trials {
+            if attempt > 0 || shift != min_shift {
+                let tiny = tuning.tiny_pivot * k;
+                let ev = &ws.current;
+                ws.kkt.factor(&ws.lagrangian_diag, &ev.hessian_off, shift, &ev.jacobian, &it.active, tiny);
+            }
+            match self.trial(sys, it, t, ws, state, min_shift) {
+                Trial::Accepted => {
+                    state.damping = if shift > min_shift { tuning.damping_memory * shift } else { 0.0 };
+                    return Some(shift);
+                }
+                Trial::Rejected | Trial::TooLong => {}
+            }
+            shift = (tuning.damping_growth * shift).max(tuning.min_damping * k);
+        }
+        None
+    }
+
+    /// One trial step with the current factors: solve, evaluate, accept or not.
+    fn trial<S: StaticSystem + ?Sized>(
+        &self,
+        sys: &S,
+        it: &mut Iterate,
+        t: f64,
+        ws: &mut Scratch,
+        state: &mut Damping,
+        min_shift: f64,
+    ) -> Trial {
+        let tuning = &self.options.tuning;
+        let k = sys.moment_scale();
+        let m = ws.rows.len();
+        // The step solves (H + shift I) dq + J_A^T y = -r, J_A dq = -C_A.
+        ws.residual.iter_mut().for_each(|x| *x = -*x);
+        for row in 0..m {
+            ws.rhs[row] = -ws.current.constraints[row];
+        }
+        ws.kkt.solve(&ws.current.jacobian, &ws.residual, &ws.rhs, &mut ws.step, &mut ws.dual_step);
+        ws.residual.iter_mut().for_each(|x| *x = -*x);
+        // Where the curvature is corrected the quadratic model is not the
+        // energy: keep such steps short, so that the descent follows the
+        // valley a damped motion would and cannot hop into a distant basin.
+        if min_shift > 0.0 && sup_norm(&ws.step) > self.options.trust_radius {
+            return Trial::TooLong;
+        }
+        for row in 0..m {
+            ws.lambda_trial[row] = if it.active[row] { it.lambda[row] - ws.dual_step[row] } else { 0.0 };
+            let scaled = (ws.lambda_trial[row] * ws.rows[row].scale / k).abs();
+            state.rho = state.rho.max(2.0 * scaled + tuning.penalty_margin);
+        }
+        let phi0 = Self::merit(&ws.current, &ws.rows, &it.active, state.rho, k);
+        let slope = ws.current.gradient.iter().zip(&ws.step).map(|(g, d)| g * d).sum::<f64>() / k
+            - state.rho * Self::infeasibility(0.0, &ws.current, &ws.rows, &it.active, 1);
+        let r0 = Self::residual_l2(&ws.current, &ws.rows, &it.lambda, &it.active, k).sqrt();
+        for i in 0..ws.n {
+            ws.q_trial[i] = it.q[i] + ws.step[i];
+        }
+        sys.evaluate(&ws.q_trial, t, &mut ws.trial);
+        let phi = Self::merit(&ws.trial, &ws.rows, &it.active, state.rho, k);
+        let r_trial = Self::residual_l2(&ws.trial, &ws.rows, &ws.lambda_trial, &it.active, k).sqrt();
+        // A decrease lost in rounding is no progress: accepting it would
+        // spend the iteration budget on null steps.
+        let measurable = phi0 - phi > tuning.measurable_decrease * phi0.abs().max(1.0);
+        let armijo = slope < 0.0 && phi <= phi0 + tuning.armijo * slope && measurable;
+        // Where the curvature needed correcting, only energy descent counts:
+        // a falling residual may be heading for a saddle.
+        let decrease = min_shift == 0.0 && r_trial <= (1.0 - tuning.residual_decrease) * r0;
+        if phi.is_finite() && (armijo || decrease) {
+            it.q.copy_from_slice(&ws.q_trial);
+            it.lambda.copy_from_slice(&ws.lambda_trial);
+            std::mem::swap(&mut ws.current, &mut ws.trial);
+            return Trial::Accepted;
+        }
+        Trial::Rejected
+    }
+}
+
+/// The Levenberg shift remembered between iterations and the penalty weight.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Damping {
+    damping: f64,
+    rho: f64,
+}

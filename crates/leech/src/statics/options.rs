@@ -1,0 +1,159 @@
+//! The solver's bounds, tolerances and tuning knobs.
+
+use std::time::Duration;
+
+/// Which way the solver leaves a symmetric bifurcation (an unstable
+/// equilibrium on a path, such as a vertical tube past its buckling load).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BranchRule {
+    /// To the side where [`StaticSystem::side_measure`](super::StaticSystem::side_measure)
+    /// is positive (for the robot: the endpoint to the right of the clamp
+    /// direction, towards chain B).
+    #[default]
+    Right,
+    /// To the other side.
+    Left,
+    /// Not at all: an unstable equilibrium is an error.
+    Refuse,
+}
+
+/// Bounds and tolerances of the static solver.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SolverOptions {
+    /// Converged when the scaled residual's sup norm is below this.
+    pub tolerance: f64,
+    /// Looser tolerance for the intermediate points of a continuation path,
+    /// which only seed the next step.
+    pub path_tolerance: f64,
+    /// Newton iterations allowed for one whole solve, all stages together.
+    pub max_iterations: usize,
+    /// Newton iterations allowed for one continuation corrector.
+    pub max_corrector_iterations: usize,
+    /// Newton iterations allowed for a free minimization (snap, escape, warm start).
+    pub max_minimization_iterations: usize,
+    /// Continuation steps allowed for one path.
+    pub max_steps: usize,
+    /// Smallest continuation step before a persisting jump counts as a fold.
+    pub min_step: f64,
+    /// Largest distance (rad, sup norm) between predictor and corrector
+    /// that still counts as following the same branch.
+    pub jump_tolerance: f64,
+    /// Longest step (rad, sup norm) taken where the curvature is corrected.
+    pub trust_radius: f64,
+    /// A residual that no step can reduce counts as converged up to this
+    /// multiple of the tolerance (the rounding floor near folds).
+    pub rounding_slack: f64,
+    /// A settle after a failed step moving some angle by more than this
+    /// (rad) is reported as a snap.
+    pub snap_threshold: f64,
+    /// Which way to leave a symmetric bifurcation.
+    pub branch: BranchRule,
+    /// Optional wall-clock limit for one solve.
+    pub time_limit: Option<Duration>,
+    /// The algorithm's internal constants.
+    pub tuning: Tuning,
+}
+
+impl Default for SolverOptions {
+    fn default() -> Self {
+        SolverOptions {
+            tolerance: 1e-11,
+            path_tolerance: 1e-6,
+            max_iterations: 20000,
+            max_corrector_iterations: 8,
+            max_minimization_iterations: 5000,
+            max_steps: 500,
+            min_step: 1e-4,
+            jump_tolerance: 0.5,
+            trust_radius: 0.1,
+            rounding_slack: 1e3,
+            snap_threshold: 0.05,
+            branch: BranchRule::Right,
+            time_limit: None,
+            tuning: Tuning::default(),
+        }
+    }
+}
+
+/// The constants inside the algorithm, named and documented in one place.
+/// The defaults were tuned on the LEeCH body (30 to 3000 links per chain);
+/// shifts are relative to the moment scale `k` (N m/rad).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Tuning {
+    /// Pivots below this times `k` count as zero (singular).
+    pub tiny_pivot: f64,
+    /// First inertia-correcting shift tried, times `k`.
+    pub first_shift: f64,
+    /// Growth of the inertia-correcting shift between tries.
+    pub shift_growth: f64,
+    /// Inertia-correcting shifts tried before the Jacobian counts as singular.
+    pub max_shift_tries: usize,
+    /// Smallest Levenberg shift after a rejected step, times `k`.
+    pub min_damping: f64,
+    /// Growth of the Levenberg shift after a rejected step.
+    pub damping_growth: f64,
+    /// Share of the last shift kept as damping after an accepted step.
+    pub damping_memory: f64,
+    /// Trial steps per Newton iteration before giving up.
+    pub max_trials: usize,
+    /// Armijo's sufficient-decrease fraction.
+    pub armijo: f64,
+    /// Relative decrease of the merit below which it counts as rounding.
+    pub measurable_decrease: f64,
+    /// Relative decrease of the residual that accepts a step where the
+    /// curvature needed no correction.
+    pub residual_decrease: f64,
+    /// Margin of the penalty weight over the largest scaled multiplier.
+    pub penalty_margin: f64,
+    /// Steps (rad, sup norm) under which the last factors still serve for the
+    /// stability verdict and the next tangent.
+    pub reuse_factors_step: f64,
+    /// Iterations without halving the residual after which a residual within
+    /// `rounding_slack` counts as stalled at rounding.
+    pub stall_iterations: usize,
+    /// Step size (rad, sup norm) that counts as a null step when stalled.
+    pub stall_step: f64,
+    /// Inverse iterations for the most negative curvature direction.
+    pub escape_iterations: usize,
+    /// Gap below the Gershgorin bound of the inverse-iteration shift, times `k`.
+    pub escape_gap: f64,
+    /// Size of the kick (rad, sup norm) off an unstable equilibrium.
+    pub escape_kick: f64,
+    /// Most the predictor of a first continuation step may turn a coordinate
+    /// (rad): the first step is `min(first_step, first_step_angle / |dq/dt|)`.
+    /// Long, soft chains respond strongly to the load; trying the whole path
+    /// at once then costs corrector retries.
+    pub first_step_angle: f64,
+    /// Continuation step after a snap or a bifurcation.
+    pub step_after_event: f64,
+    /// Active-set changes allowed in one Newton run per inequality row.
+    pub active_set_changes_per_row: usize,
+}
+
+impl Default for Tuning {
+    fn default() -> Self {
+        Tuning {
+            tiny_pivot: 1e-13,
+            first_shift: 1e-6,
+            shift_growth: 8.0,
+            max_shift_tries: 40,
+            min_damping: 1e-8,
+            damping_growth: 4.0,
+            damping_memory: 0.25,
+            max_trials: 80,
+            armijo: 1e-4,
+            measurable_decrease: 1e-14,
+            residual_decrease: 1e-4,
+            penalty_margin: 1e-3,
+            reuse_factors_step: 1e-5,
+            stall_iterations: 20,
+            stall_step: 1e-10,
+            escape_iterations: 200,
+            escape_gap: 1e-3,
+            escape_kick: 0.01,
+            first_step_angle: f64::INFINITY,
+            step_after_event: 1e-3,
+            active_set_changes_per_row: 4,
+        }
+    }
+}
