@@ -12,7 +12,7 @@ use anyhow::Context;
 use clap::Parser;
 use leech::constant_curvature::PlanarBody;
 use leech::prelude::*;
-use leech::report::{BodyReport, CantileverReport, ConstantCurvatureReport};
+use leech::report::{BodyReport, CantileverReport, ConstantCurvatureReport, SampleRow, SolveTiming, SweepRow};
 use leech_plot::Figure;
 
 use flags::{
@@ -270,10 +270,10 @@ fn shape(args: ShapeArgs, out: &mut String) -> Result<(), Failure> {
     };
     let timing = match (args.repeat, &two_chain) {
         (Some(n), Some(_)) => {
-            if n == 0 || n > 100_000 {
-                return Err(Failure::Input(format!("--repeat: got {n}, expected 1 to 100000")));
-            }
-            Some(time_solves(&body, &solver(args.max_iterations, args.time_limit)?, n))
+            let n = std::num::NonZeroUsize::new(n)
+                .filter(|n| n.get() <= 100_000)
+                .ok_or_else(|| Failure::Input(format!("--repeat: got {n}, expected 1 to 100000")))?;
+            Some(SolveTiming::measure(&body, &solver(args.max_iterations, args.time_limit)?, n))
         }
         _ => None,
     };
@@ -338,27 +338,6 @@ fn shape(args: ShapeArgs, out: &mut String) -> Result<(), Failure> {
     })
 }
 
-/// Wall-clock statistics of repeated cold solves (s).
-#[derive(serde::Serialize)]
-struct Timing {
-    solves: usize,
-    median: f64,
-    min: f64,
-}
-
-fn time_solves(body: &leech::body::Body, solver: &Solver, n: usize) -> Timing {
-    let mut times: Vec<f64> = (0..n)
-        .map(|_| {
-            let start = std::time::Instant::now();
-            // The first solve succeeded, and a solve is deterministic.
-            let _ = std::hint::black_box(body.solve(solver));
-            start.elapsed().as_secs_f64()
-        })
-        .collect();
-    times.sort_by(f64::total_cmp);
-    Timing { solves: n, median: times[n / 2], min: times[0] }
-}
-
 fn figure(args: FigureArgs, out: &mut String) -> Result<(), Failure> {
     use leech_plot::figures::{build, FigureError, NAMES};
     let robot = load_tuned(&args.robot)?;
@@ -409,8 +388,7 @@ fn workspace(args: WorkspaceArgs, out: &mut String) -> Result<(), Failure> {
     let result = sweep(&robot, &options, &|n| bar.inc(n as u64))?;
     bar.finish_and_clear();
     let elapsed = started.elapsed().as_secs_f64();
-    write_sweep_csv(&args.out, &result)
-        .map_err(|e| Failure::Other(e.context(format!("writing {}", args.out.display()))))?;
+    write_csv(&args.out, result.points.iter().map(SweepRow::from))?;
     if let Some(svg) = &args.svg {
         let title = format!("{}: endpoints over LA, LB in {}", robot.name, args.lengths_range);
         leech_plot::figures::sweep_figure(&title, &result).write_svg(svg).map_err(|e| Failure::Other(e.into()))?;
@@ -453,33 +431,18 @@ fn workspace(args: WorkspaceArgs, out: &mut String) -> Result<(), Failure> {
     Ok(())
 }
 
-fn write_sweep_csv(path: &Path, sweep: &leech::sweep::Sweep) -> anyhow::Result<()> {
-    let mut text = String::from(
-        "model,shape_parameter,la_m,lb_m,status,stable,snapped,feasible,min_bend_radius_m,endpoint_x_m,endpoint_y_m,endpoint_angle_rad\n",
-    );
-    for p in &sweep.points {
-        let pi = p.shape_parameter.map_or(String::new(), |v| v.to_string());
-        let status = if p.failure.is_some() { "failed" } else { "converged" };
-        writeln!(
-            text,
-            "{},{},{},{},{},{},{},{},{},{},{},{}",
-            p.model.name(),
-            pi,
-            p.lengths_m[0],
-            p.lengths_m[1],
-            status,
-            p.stable,
-            p.snapped,
-            p.feasible,
-            p.min_bend_radius_m,
-            p.endpoint_m[0],
-            p.endpoint_m[1],
-            p.endpoint_angle_rad
-        )
-        .expect("writing to a String");
-    }
-    std::fs::write(path, text)?;
-    Ok(())
+/// One CSV record per row, the header from the rows' field names; the csv
+/// writer quotes fields with commas or quotes.
+fn write_csv<T: serde::Serialize>(path: &Path, rows: impl IntoIterator<Item = T>) -> anyhow::Result<()> {
+    let write = || -> anyhow::Result<()> {
+        let mut writer = csv::Writer::from_path(path)?;
+        for row in rows {
+            writer.serialize(row)?;
+        }
+        writer.flush()?;
+        Ok(())
+    };
+    write().with_context(|| format!("writing {}", path.display()))
 }
 
 fn reach(args: ReachArgs, out: &mut String) -> Result<(), Failure> {
@@ -679,28 +642,7 @@ fn simulate(args: SimulateArgs, out: &mut String) -> Result<(), Failure> {
     let wall = started.elapsed().as_secs_f64();
     let last = result.samples.last().expect("a simulation records its start");
     if let Some(path) = &args.csv {
-        let mut text = String::from(
-            "time_s,la_m,lb_m,endpoint_x_m,endpoint_y_m,kinetic_j,potential_j,constraint_violation,angles_a_rad,angles_b_rad\n",
-        );
-        let list = |v: &[f64]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" ");
-        for s in &result.samples {
-            writeln!(
-                text,
-                "{},{},{},{},{},{},{},{},{},{}",
-                s.time_s,
-                s.lengths_m[0],
-                s.lengths_m[1],
-                s.endpoint_m[0],
-                s.endpoint_m[1],
-                s.kinetic_j,
-                s.potential_j,
-                s.violation,
-                list(&s.angles_a_rad),
-                list(&s.angles_b_rad)
-            )
-            .expect("writing to a String");
-        }
-        std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
+        write_csv(path, result.samples.iter().map(SampleRow::from))?;
     }
     if let Some(path) = &args.svg {
         // At most about 250 frames keeps the file small and the playback smooth.
