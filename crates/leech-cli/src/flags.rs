@@ -1,5 +1,5 @@
-//! Command-line flags. Parsing only: checks of values live in the library,
-//! which names the offending field.
+//! Command-line flags. Parsing only: values are checked by the library, which
+//! names the offending field, or in [`crate::args`] for flags it never sees.
 
 use std::path::PathBuf;
 
@@ -276,15 +276,6 @@ pub enum DiscretizationArg {
     Paper,
     /// Joints at element midpoints (second order in the element length).
     Midpoint,
-}
-
-impl From<DiscretizationArg> for leech::chain::Discretization {
-    fn from(d: DiscretizationArg) -> Self {
-        match d {
-            DiscretizationArg::Paper => leech::chain::Discretization::Paper,
-            DiscretizationArg::Midpoint => leech::chain::Discretization::Midpoint,
-        }
-    }
 }
 
 /// `leech chain`.

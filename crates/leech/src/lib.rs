@@ -56,7 +56,7 @@
 //! * [`inverse_statics`]: tube lengths that put the endpoint on a target.
 //! * [`sweep`]: sweeps over tube lengths along the actuation path, reach metrics.
 //! * [`robot`]: robot files (TOML) and the built-in robot.
-//! * [`report`]: serializable results (what the command line prints).
+//! * [`report`]: serializable results (what the command line prints and writes).
 //! * [`error`]: input errors.
 
 #![warn(missing_docs)]

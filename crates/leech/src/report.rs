@@ -1,11 +1,16 @@
-//! Machine-readable results: what `leech ... --json` prints, as serde types
-//! with units in the key names.
+//! Machine-readable results: what `leech ... --json` prints and the rows of
+//! the CSV files it writes, as serde types with units in the key names.
 
-use serde::Serialize;
+use std::num::NonZeroUsize;
+use std::time::Instant;
+
+use serde::{Serialize, Serializer};
 
 use crate::body::Body;
 use crate::cantilever::Cantilever;
-use crate::statics::{Equilibrium, Event};
+use crate::dynamics::Sample;
+use crate::statics::{Equilibrium, Event, Solver};
+use crate::sweep::{Model, Point};
 
 /// How the solve went.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -183,5 +188,237 @@ impl ConstantCurvatureReport {
             endpoint_angle_rad: pose.endpoint_angle,
             chains: ArcChains { a, b },
         }
+    }
+}
+
+/// Wall-clock time of repeated cold solves of one body (s): what
+/// `leech shape --repeat` reports as `solve_time_s`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct SolveTiming {
+    /// Solves timed.
+    pub solves: usize,
+    /// Median time (s); the upper of the two middle times for an even count.
+    pub median: f64,
+    /// Fastest time (s).
+    pub min: f64,
+}
+
+impl SolveTiming {
+    /// Solves `body` from scratch `n` times with `solver` and times each solve.
+    /// A failed solve is timed like a converged one: the solve is
+    /// deterministic, so time the body once it is known to converge.
+    pub fn measure(body: &Body, solver: &Solver, n: NonZeroUsize) -> SolveTiming {
+        let mut times: Vec<f64> = (0..n.get())
+            .map(|_| {
+                let start = Instant::now();
+                // black_box: the result is unused, and the solve must not be optimized away.
+                let _ = std::hint::black_box(body.solve(solver));
+                start.elapsed().as_secs_f64()
+            })
+            .collect();
+        times.sort_by(f64::total_cmp);
+        SolveTiming { solves: times.len(), median: times[times.len() / 2], min: times[0] }
+    }
+}
+
+/// One row of the sweep CSV (`leech workspace --out`): a grid point, with
+/// units in the column names.
+///
+/// Meant for CSV: numbers are written as text in Rust's plain decimal
+/// notation (every digit, no exponent, `0` not `0.0`), as the sweep files
+/// have always been; a missing shape parameter is an empty field.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SweepRow {
+    /// Model (`two-chain` or `constant-curvature`).
+    pub model: Model,
+    /// Shape parameter (empty for the constant-curvature model).
+    #[serde(serialize_with = "optional_decimal")]
+    pub shape_parameter: Option<f64>,
+    /// Tube length LA (m).
+    #[serde(serialize_with = "decimal")]
+    pub la_m: f64,
+    /// Tube length LB (m).
+    #[serde(serialize_with = "decimal")]
+    pub lb_m: f64,
+    /// `converged` or `failed`.
+    pub status: &'static str,
+    /// Stable equilibrium.
+    pub stable: bool,
+    /// The actuation path snapped to reach this point.
+    pub snapped: bool,
+    /// Not bent tighter than the tube allows.
+    pub feasible: bool,
+    /// Smallest bending radius of the tubes (m).
+    #[serde(serialize_with = "decimal")]
+    pub min_bend_radius_m: f64,
+    /// Endpoint x (m); NaN for a failure.
+    #[serde(serialize_with = "decimal")]
+    pub endpoint_x_m: f64,
+    /// Endpoint y (m); NaN for a failure.
+    #[serde(serialize_with = "decimal")]
+    pub endpoint_y_m: f64,
+    /// Endpoint plate angle (rad); NaN for a failure.
+    #[serde(serialize_with = "decimal")]
+    pub endpoint_angle_rad: f64,
+}
+
+impl From<&Point> for SweepRow {
+    fn from(p: &Point) -> SweepRow {
+        SweepRow {
+            model: p.model,
+            shape_parameter: p.shape_parameter,
+            la_m: p.lengths_m[0],
+            lb_m: p.lengths_m[1],
+            status: if p.failure.is_some() { "failed" } else { "converged" },
+            stable: p.stable,
+            snapped: p.snapped,
+            feasible: p.feasible,
+            min_bend_radius_m: p.min_bend_radius_m,
+            endpoint_x_m: p.endpoint_m[0],
+            endpoint_y_m: p.endpoint_m[1],
+            endpoint_angle_rad: p.endpoint_angle_rad,
+        }
+    }
+}
+
+/// One row of the simulation CSV (`leech simulate --csv`): a sample, with
+/// units in the column names. Numbers are written as in [`SweepRow`]; each
+/// chain's angles are one field, separated by spaces.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SampleRow<'a> {
+    /// Time (s).
+    #[serde(serialize_with = "decimal")]
+    pub time_s: f64,
+    /// Tube length LA (m).
+    #[serde(serialize_with = "decimal")]
+    pub la_m: f64,
+    /// Tube length LB (m).
+    #[serde(serialize_with = "decimal")]
+    pub lb_m: f64,
+    /// Endpoint x (m).
+    #[serde(serialize_with = "decimal")]
+    pub endpoint_x_m: f64,
+    /// Endpoint y (m).
+    #[serde(serialize_with = "decimal")]
+    pub endpoint_y_m: f64,
+    /// Kinetic energy (J).
+    #[serde(serialize_with = "decimal")]
+    pub kinetic_j: f64,
+    /// Potential energy (J).
+    #[serde(serialize_with = "decimal")]
+    pub potential_j: f64,
+    /// Largest constraint violation (m or rad).
+    #[serde(serialize_with = "decimal")]
+    pub constraint_violation: f64,
+    /// Chain A's angles (rad).
+    #[serde(serialize_with = "spaced")]
+    pub angles_a_rad: &'a [f64],
+    /// Chain B's angles (rad).
+    #[serde(serialize_with = "spaced")]
+    pub angles_b_rad: &'a [f64],
+}
+
+impl<'a> From<&'a Sample> for SampleRow<'a> {
+    fn from(s: &'a Sample) -> SampleRow<'a> {
+        SampleRow {
+            time_s: s.time_s,
+            la_m: s.lengths_m[0],
+            lb_m: s.lengths_m[1],
+            endpoint_x_m: s.endpoint_m[0],
+            endpoint_y_m: s.endpoint_m[1],
+            kinetic_j: s.kinetic_j,
+            potential_j: s.potential_j,
+            constraint_violation: s.violation,
+            angles_a_rad: &s.angles_a_rad,
+            angles_b_rad: &s.angles_b_rad,
+        }
+    }
+}
+
+// Serializers write numbers through `Display`: CSV writers would otherwise
+// pick their own float format (the csv crate's shortest form uses exponents
+// and writes `0.0`), which changes the files byte for byte.
+fn decimal<S: Serializer>(x: &f64, s: S) -> Result<S::Ok, S::Error> {
+    s.collect_str(x)
+}
+
+fn optional_decimal<S: Serializer>(x: &Option<f64>, s: S) -> Result<S::Ok, S::Error> {
+    match x {
+        Some(x) => s.collect_str(x),
+        None => s.serialize_none(),
+    }
+}
+
+fn spaced<S: Serializer>(values: &&[f64], s: S) -> Result<S::Ok, S::Error> {
+    s.collect_str(&Spaced(values))
+}
+
+/// Numbers separated by single spaces.
+struct Spaced<'a>(&'a [f64]);
+
+impl std::fmt::Display for Spaced<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        for (i, x) in self.0.iter().enumerate() {
+            if i > 0 {
+                f.write_str(" ")?;
+            }
+            write!(f, "{x}")?;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn csv_of<T: Serialize>(rows: impl IntoIterator<Item = T>) -> String {
+        let mut writer = csv::Writer::from_writer(vec![]);
+        for row in rows {
+            writer.serialize(row).unwrap();
+        }
+        String::from_utf8(writer.into_inner().unwrap()).unwrap()
+    }
+
+    #[test]
+    fn sweep_rows_keep_plain_decimals_and_empty_shape_parameters() {
+        let point = Point {
+            model: Model::ConstantCurvature,
+            shape_parameter: None,
+            lengths_m: [0.05, 0.1],
+            failure: Some("diverged".into()),
+            stable: true,
+            snapped: false,
+            min_bend_radius_m: 0.0,
+            feasible: true,
+            endpoint_m: [f64::NAN, 2.7755575615628914e-17],
+            endpoint_angle_rad: 1.0,
+        };
+        assert_eq!(
+            csv_of([SweepRow::from(&point)]),
+            "model,shape_parameter,la_m,lb_m,status,stable,snapped,feasible,min_bend_radius_m,endpoint_x_m,endpoint_y_m,endpoint_angle_rad\n\
+             constant-curvature,,0.05,0.1,failed,true,false,true,0,NaN,0.000000000000000027755575615628914,1\n"
+        );
+    }
+
+    #[test]
+    fn sample_rows_put_each_chain_in_one_field() {
+        let sample = Sample {
+            time_s: 0.0,
+            lengths_m: [0.2, 0.18],
+            angles_a_rad: vec![1.5, 1.25],
+            angles_b_rad: vec![],
+            points_a_m: vec![],
+            points_b_m: vec![],
+            endpoint_m: [0.1, -0.2],
+            kinetic_j: 0.0,
+            potential_j: 0.125,
+            violation: 1e-3,
+        };
+        assert_eq!(
+            csv_of([SampleRow::from(&sample)]),
+            "time_s,la_m,lb_m,endpoint_x_m,endpoint_y_m,kinetic_j,potential_j,constraint_violation,angles_a_rad,angles_b_rad\n\
+             0,0.2,0.18,0.1,-0.2,0,0.125,0.001,1.5 1.25,\n"
+        );
     }
 }

@@ -1,0 +1,391 @@
+//! Flags resolved once into what a command needs: the robot, the solver,
+//! checked numbers, library enums and where the results go.
+//!
+//! The library checks most values itself and names the field; the checks
+//! here are those of flags the library never sees (`--time-limit`,
+//! `--repeat`, `--speed`, ...). Values are resolved in the order the commands
+//! always met them, so input with two mistakes still names the same one.
+
+use std::num::NonZeroUsize;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use leech::calibration::{read_sag, read_shapes, BodyShape, Fit, SagTube};
+use leech::chain::Discretization;
+use leech::dynamics::{Actuation, Integrator, SimulationOptions, Start};
+use leech::error::{positive, within};
+use leech::inverse_statics::check_target;
+use leech::prelude::*;
+use leech::sweep::{Grid, Model, SweepOptions};
+
+use crate::failure::Failure;
+use crate::flags::{self, Command, DiscretizationArg, FitArg, IntegratorArg, ModelArg, RobotChoice, StartArg};
+
+/// A command with its resolved arguments.
+// One value per run, moved once: boxing the large variants would buy nothing.
+#[allow(clippy::large_enum_variant)]
+pub enum Args {
+    /// `leech robot`: `None` prints the built-in robot file with its comments.
+    Robot {
+        robot: Option<Robot>,
+        json: bool,
+    },
+    Chain(Chain),
+    Shape(Shape),
+    Figure(Figure),
+    Workspace(Workspace),
+    Reach(Reach),
+    Calibrate(Calibrate),
+    Compare(Compare),
+    Simulate(Simulate),
+}
+
+/// Where results go: JSON or text on standard output, and the files asked for.
+#[derive(Default)]
+pub struct Outputs {
+    /// JSON instead of text on standard output.
+    pub json: bool,
+    /// A picture (an animation for `leech simulate`).
+    pub svg: Option<PathBuf>,
+    pub png: Option<PathBuf>,
+    /// A time series (`leech simulate`).
+    pub csv: Option<PathBuf>,
+}
+
+/// `leech chain`: a built tube.
+pub struct Chain {
+    pub tube: Cantilever,
+    pub elements: usize,
+    pub shape_parameter: f64,
+    pub solver: Solver,
+    pub outputs: Outputs,
+}
+
+/// `leech shape`.
+pub struct Shape {
+    pub robot: Robot,
+    pub lengths: [f64; 2],
+    pub body: Body,
+    /// The models to evaluate, the two-chain model first.
+    pub models: Vec<Model>,
+    /// The two-chain model's solver; `None` when only the constant-curvature model runs.
+    pub solver: Option<Solver>,
+    /// Cold solves to time (with the two-chain model only).
+    pub repeat: Option<NonZeroUsize>,
+    pub outputs: Outputs,
+}
+
+/// `leech figure`.
+pub struct Figure {
+    pub robot: Robot,
+    pub names: Vec<String>,
+    pub dir: PathBuf,
+}
+
+/// `leech workspace`.
+pub struct Workspace {
+    pub robot: Robot,
+    pub options: SweepOptions,
+    /// The range as given, for the picture's title.
+    pub range: String,
+    /// The CSV of every grid point (`--out`).
+    pub csv: PathBuf,
+    pub outputs: Outputs,
+}
+
+/// `leech reach`.
+pub struct Reach {
+    pub robot: Robot,
+    pub target: [f64; 2],
+    /// Target plate angle (rad).
+    pub angle: Option<f64>,
+    pub grid: Grid,
+    pub json: bool,
+}
+
+/// A measurement file's contents and its name as the user gave it.
+pub struct Measured<T> {
+    pub name: String,
+    pub rows: Vec<T>,
+}
+
+/// `leech calibrate`.
+pub struct Calibrate {
+    pub robot: Robot,
+    pub sag: Measured<SagTube>,
+    pub shapes: Option<Measured<BodyShape>>,
+    pub fit: Fit,
+    /// The fitted robot file.
+    pub out: PathBuf,
+    pub outputs: Outputs,
+}
+
+/// `leech compare`.
+pub struct Compare {
+    pub robot: Robot,
+    pub shapes: Vec<BodyShape>,
+    pub json: bool,
+}
+
+/// `leech simulate`: the animation is `outputs.svg`.
+pub struct Simulate {
+    pub robot: Robot,
+    pub lengths: [f64; 2],
+    pub start: Start,
+    pub actuation: Actuation,
+    pub options: SimulationOptions,
+    pub outputs: Outputs,
+}
+
+impl Args {
+    /// Checks the flags and loads what they name.
+    pub fn resolve(command: Command) -> Result<Args, Failure> {
+        Ok(match command {
+            Command::Robot { robot, json } => {
+                Args::Robot { robot: robot.as_deref().map(load_robot).transpose()?, json }
+            }
+            Command::Chain(a) => Args::Chain(chain(a)?),
+            Command::Shape(a) => Args::Shape(shape(a)?),
+            Command::Figure(a) => Args::Figure(Figure {
+                robot: tuned(&a.robot, |_| {})?,
+                names: match a.name.as_str() {
+                    "all" => leech_plot::figures::NAMES.iter().map(|n| n.to_string()).collect(),
+                    _ => vec![a.name],
+                },
+                dir: a.out,
+            }),
+            Command::Workspace(a) => Args::Workspace(workspace(a)?),
+            Command::Reach(a) => Args::Reach(reach(a)?),
+            Command::Calibrate(a) => Args::Calibrate(Calibrate {
+                robot: tuned(&a.robot, |_| {})?,
+                sag: measured(&a.sag, "--sag", read_sag)?,
+                shapes: a.shapes.as_deref().map(|p| measured(p, "--shapes", read_shapes)).transpose()?,
+                fit: a.fit.into(),
+                out: a.out,
+                outputs: Outputs { json: a.json, svg: a.svg, ..Outputs::default() },
+            }),
+            Command::Compare(a) => Args::Compare(Compare {
+                robot: tuned(&a.robot, |_| {})?,
+                shapes: measured(&a.shapes, "--shapes", read_shapes)?.rows,
+                json: a.json,
+            }),
+            Command::Simulate(a) => Args::Simulate(simulate(a)?),
+        })
+    }
+
+    /// Whether standard output is JSON (a failed solve then prints its status as JSON).
+    pub fn json(&self) -> bool {
+        match self {
+            Args::Robot { json, .. } | Args::Reach(Reach { json, .. }) | Args::Compare(Compare { json, .. }) => *json,
+            Args::Chain(Chain { outputs, .. })
+            | Args::Shape(Shape { outputs, .. })
+            | Args::Workspace(Workspace { outputs, .. })
+            | Args::Calibrate(Calibrate { outputs, .. })
+            | Args::Simulate(Simulate { outputs, .. }) => outputs.json,
+            Args::Figure(_) => false,
+        }
+    }
+}
+
+fn chain(a: flags::ChainArgs) -> Result<Chain, Failure> {
+    let stiffness = match (a.stiffness, a.shape_parameter) {
+        (Some(k), _) => k,
+        (None, pi) => {
+            let pi = positive("shape parameter", pi.unwrap_or(f64::NAN))?;
+            positive("gravity_m_per_s2 (the shape parameter needs gravity)", a.gravity)?;
+            pi * a.element_mass * a.gravity * a.element_length
+        }
+    };
+    let spec = CantileverSpec {
+        elements: a.elements,
+        element_length_m: a.element_length,
+        element_mass_kg: a.element_mass,
+        joint_stiffness_nm_per_rad: stiffness,
+        tip_mass_kg: a.tip_mass,
+        base_angle_deg: a.base_angle,
+        gravity_m_per_s2: a.gravity,
+        discretization: a.discretization.into(),
+    };
+    Ok(Chain {
+        tube: spec.build()?,
+        elements: spec.elements,
+        shape_parameter: spec.shape_parameter(),
+        solver: solver(a.max_iterations, a.time_limit)?,
+        outputs: a.output.into(),
+    })
+}
+
+fn shape(a: flags::ShapeArgs) -> Result<Shape, Failure> {
+    // Overrides first: the shape parameter sets the stiffness from gravity.
+    let robot = tuned(&a.robot, |robot| {
+        override_base_angle(robot, a.base_angle);
+        if let Some(g) = a.gravity {
+            robot.world.gravity_m_per_s2 = g;
+        }
+        if let Some(d) = a.discretization {
+            robot.model.discretization = d.into();
+        }
+    })?;
+    let [la, lb] = a.lengths;
+    // The body checks the lengths for both models.
+    let body = robot.body(la, lb)?;
+    let models = models(a.model);
+    let (solver, repeat) = match models.contains(&Model::TwoChain) {
+        true => (Some(solver(a.max_iterations, a.time_limit)?), a.repeat.map(repeat).transpose()?),
+        false => (None, None),
+    };
+    Ok(Shape { robot, lengths: a.lengths, body, models, solver, repeat, outputs: a.output.into() })
+}
+
+fn repeat(n: usize) -> Result<NonZeroUsize, Failure> {
+    NonZeroUsize::new(n)
+        .filter(|n| n.get() <= 100_000)
+        .ok_or_else(|| Failure::Input(format!("--repeat: got {n}, expected 1 to 100000")))
+}
+
+fn workspace(a: flags::WorkspaceArgs) -> Result<Workspace, Failure> {
+    let mut robot = load_robot_or_builtin(a.robot.as_deref())?;
+    override_base_angle(&mut robot, a.base_angle);
+    let options = SweepOptions {
+        grid: Grid::parse(&a.lengths_range)?,
+        shape_parameters: a.shape_parameter,
+        models: models(a.model),
+        left_longer: a.left_longer,
+    };
+    for pi in &options.shape_parameters {
+        positive("shape parameter", *pi)?;
+    }
+    let outputs = Outputs { json: a.json, svg: a.svg, ..Outputs::default() };
+    Ok(Workspace { robot, options, range: a.lengths_range, csv: a.out, outputs })
+}
+
+fn reach(a: flags::ReachArgs) -> Result<Reach, Failure> {
+    let mut robot = tuned(&a.robot, |_| {})?;
+    override_base_angle(&mut robot, a.base_angle);
+    let target = [check_target("target x", a.target[0])?, check_target("target y", a.target[1])?];
+    let angle = a.angle.map(|deg| within("angle (deg)", deg, -720.0, 720.0).map(f64::to_radians)).transpose()?;
+    Ok(Reach { robot, target, angle, grid: Grid::parse(&a.lengths_range)?, json: a.json })
+}
+
+fn simulate(a: flags::SimulateArgs) -> Result<Simulate, Failure> {
+    let robot = tuned(&a.robot, |_| {})?;
+    let actuation = match (a.to, a.step) {
+        (None, _) => Actuation::Hold,
+        (Some(to), true) => Actuation::Step { to },
+        (Some(to), false) => Actuation::Feed { to, speed: positive("--speed (mm/s)", a.speed)? / 1e3 },
+    };
+    // Without --to there is nothing to move to: the body settles from its unloaded shape.
+    let start = match (a.start, a.to) {
+        (Some(StartArg::Unloaded), _) | (None, None) => Start::Unloaded,
+        _ => Start::Static,
+    };
+    let integrator = a.integrator.into();
+    let duration = within("--duration (s)", a.duration, 1e-6, 3600.0)?;
+    let dt = match (a.dt, integrator) {
+        (Some(dt), _) => Some(within("--dt (s)", dt, 1e-9, duration)?),
+        (None, Integrator::Implicit) => Some(5e-3_f64.min(duration)),
+        (None, _) => None,
+    };
+    let options = SimulationOptions {
+        integrator,
+        dt,
+        duration,
+        until_rest: a.until_rest,
+        gravity_ramp: a.ramp,
+        sample_interval: (duration / 500.0).max(1e-4),
+        rest_rate: a.rest_rate,
+    };
+    let outputs = Outputs { json: a.json, svg: a.svg, csv: a.csv, ..Outputs::default() };
+    Ok(Simulate { robot, lengths: a.lengths, start, actuation, options, outputs })
+}
+
+/// The solver with the command line's bounds.
+fn solver(max_iterations: usize, time_limit: f64) -> Result<Solver, Failure> {
+    let seconds = positive("--time-limit (s)", time_limit)?;
+    let time_limit = Duration::try_from_secs_f64(seconds)
+        .map_err(|_| Failure::Input(format!("--time-limit: got {seconds}, expected a number of seconds")))?;
+    Ok(Solver::new(SolverOptions { max_iterations, time_limit: Some(time_limit), ..SolverOptions::default() }))
+}
+
+/// The chosen robot, edited by the command's overrides, then at the shape parameter asked for.
+fn tuned(choice: &RobotChoice, edit: impl FnOnce(&mut Robot)) -> Result<Robot, Failure> {
+    let mut robot = load_robot_or_builtin(choice.file.as_deref())?;
+    edit(&mut robot);
+    match choice.shape_parameter {
+        Some(pi) => Ok(robot.with_shape_parameter(pi)?),
+        None => Ok(robot),
+    }
+}
+
+fn override_base_angle(robot: &mut Robot, angle: Option<f64>) {
+    if let Some(angle) = angle {
+        robot.world.base_angle_deg = angle;
+    }
+}
+
+fn load_robot_or_builtin(path: Option<&Path>) -> Result<Robot, Failure> {
+    path.map_or_else(|| Ok(Robot::builtin()), load_robot)
+}
+
+fn load_robot(path: &Path) -> Result<Robot, Failure> {
+    let text = read(path, "--robot")?;
+    Robot::from_toml_str(&text).map_err(|e| Failure::Input(format!("{}: {e}", path.display())))
+}
+
+/// A measurement file read by the library's reader, which names the file in its errors.
+fn measured<T>(
+    path: &Path,
+    flag: &str,
+    parse: impl FnOnce(&str, &str) -> Result<Vec<T>, InputError>,
+) -> Result<Measured<T>, Failure> {
+    let name = path.display().to_string();
+    let rows = parse(&read(path, flag)?, &name)?;
+    Ok(Measured { name, rows })
+}
+
+fn read(path: &Path, flag: &str) -> Result<String, Failure> {
+    std::fs::read_to_string(path).map_err(|e| Failure::Input(format!("{flag}: cannot read '{}': {e}", path.display())))
+}
+
+/// The models a `--model` choice evaluates, the two-chain model first.
+fn models(model: ModelArg) -> Vec<Model> {
+    match model {
+        ModelArg::TwoChain => vec![Model::TwoChain],
+        ModelArg::ConstantCurvature => vec![Model::ConstantCurvature],
+        ModelArg::Both => vec![Model::TwoChain, Model::ConstantCurvature],
+    }
+}
+
+impl From<flags::Output> for Outputs {
+    fn from(o: flags::Output) -> Outputs {
+        Outputs { json: o.json, svg: o.svg, png: o.png, csv: None }
+    }
+}
+
+impl From<DiscretizationArg> for Discretization {
+    fn from(d: DiscretizationArg) -> Discretization {
+        match d {
+            DiscretizationArg::Paper => Discretization::Paper,
+            DiscretizationArg::Midpoint => Discretization::Midpoint,
+        }
+    }
+}
+
+impl From<FitArg> for Fit {
+    fn from(f: FitArg) -> Fit {
+        match f {
+            FitArg::Stiffness => Fit::Stiffness,
+            FitArg::StiffnessMass => Fit::StiffnessAndMass,
+        }
+    }
+}
+
+impl From<IntegratorArg> for Integrator {
+    fn from(i: IntegratorArg) -> Integrator {
+        match i {
+            IntegratorArg::Explicit => Integrator::Explicit,
+            IntegratorArg::Implicit => Integrator::Implicit,
+            IntegratorArg::Midpoint => Integrator::Midpoint,
+        }
+    }
+}

@@ -1,0 +1,73 @@
+//! Why a command stopped, sorted by exit code; the library's errors map here
+//! once, so every command reports them alike.
+
+use leech::calibration::CalibrationError;
+use leech::dynamics::SimulationError;
+use leech::prelude::*;
+use leech_plot::figures::FigureError;
+use leech_plot::PlotError;
+
+/// Why the command stopped.
+pub enum Failure {
+    /// Bad input (exit 2): one line naming the field, the value and what is allowed.
+    Input(String),
+    /// A solve that did not converge (exit 3; its status is printed with --json).
+    Solve(SolveError),
+    /// Another computation that did not converge (exit 3): a fit, a simulation step.
+    Unsolved(String),
+    /// Anything else (exit 1).
+    Other(anyhow::Error),
+}
+
+impl From<InputError> for Failure {
+    fn from(e: InputError) -> Self {
+        Failure::Input(e.to_string())
+    }
+}
+
+impl From<SolveError> for Failure {
+    fn from(e: SolveError) -> Self {
+        Failure::Solve(e)
+    }
+}
+
+impl From<anyhow::Error> for Failure {
+    fn from(e: anyhow::Error) -> Self {
+        Failure::Other(e)
+    }
+}
+
+impl From<PlotError> for Failure {
+    fn from(e: PlotError) -> Self {
+        Failure::Other(e.into())
+    }
+}
+
+impl From<FigureError> for Failure {
+    fn from(e: FigureError) -> Self {
+        match e {
+            FigureError::Input(e) => e.into(),
+            FigureError::Solve { source, .. } => source.into(),
+            FigureError::Plot(e) => e.into(),
+        }
+    }
+}
+
+impl From<CalibrationError> for Failure {
+    fn from(e: CalibrationError) -> Self {
+        match e {
+            CalibrationError::Model(message) => Failure::Unsolved(format!("fit failed: {message}")),
+            other => Failure::Input(other.to_string()),
+        }
+    }
+}
+
+impl From<SimulationError> for Failure {
+    fn from(e: SimulationError) -> Self {
+        match e {
+            SimulationError::Input(e) => e.into(),
+            SimulationError::Start(e) => e.into(),
+            other => Failure::Unsolved(format!("simulation failed: {other}")),
+        }
+    }
+}

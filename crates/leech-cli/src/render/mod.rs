@@ -1,0 +1,221 @@
+//! The one place that prints: each command's result as JSON or text on
+//! standard output, the files it writes ([`files`]) and progress bars.
+//!
+//! Standard output is gathered in a `String` and written once by [`emit`],
+//! so a command that fails half-way still prints what it had.
+
+mod files;
+mod text;
+
+use std::path::Path;
+
+use anyhow::Context;
+use leech::calibration::{Calibration, ShapeComparison};
+use leech::constant_curvature::PlanarBody;
+use leech::dynamics::Simulation;
+use leech::inverse_statics::Reach;
+use leech::prelude::*;
+use leech::report::{BodyReport, CantileverReport, ConstantCurvatureReport, SampleRow, SolveTiming, SweepRow};
+use leech::sweep::{Model, Sweep};
+use leech_plot::figures::Output;
+use serde::Serialize;
+use serde_json::json;
+
+use crate::args::{Calibrate, Chain, Shape, Simulate, Workspace};
+use crate::failure::Failure;
+
+/// Writes to standard output; a closed pipe (`leech ... | head`) is not an error.
+pub fn emit(text: &str) {
+    use std::io::Write;
+    let mut stdout = std::io::stdout().lock();
+    let _ = stdout.write_all(text.as_bytes()).and_then(|()| stdout.flush());
+}
+
+/// The status of a failed solve, one JSON line.
+pub fn solve_failure(e: &SolveError) -> String {
+    let value = match e {
+        SolveError::NotConverged { stage, iterations, residual, reason } => json!({
+            "status": "not_converged", "stage": stage, "iterations": iterations,
+            "residual": residual, "reason": reason,
+        }),
+        SolveError::TimeLimit { iterations, residual, .. } => json!({
+            "status": "time_limit", "iterations": iterations, "residual": residual,
+        }),
+        SolveError::BadStart { .. } => json!({ "status": "bad_start", "reason": e.to_string() }),
+    };
+    format!("{value}\n")
+}
+
+/// A bar of `len` `unit` on a terminal; indicatif draws nothing when stderr is piped.
+pub fn progress(len: u64, unit: &str) -> indicatif::ProgressBar {
+    let bar = indicatif::ProgressBar::new(len);
+    let template = format!("{{bar:40}} {{pos}}/{{len}} {unit}, {{elapsed}} ({{eta}} left)");
+    bar.set_style(indicatif::ProgressStyle::with_template(&template).expect("a valid template"));
+    bar
+}
+
+fn json(out: &mut String, value: &impl Serialize) -> Result<(), Failure> {
+    out.push_str(&serde_json::to_string_pretty(value).context("serializing the result")?);
+    out.push('\n');
+    Ok(())
+}
+
+/// `leech robot`: the built-in robot's file keeps its comments.
+pub fn robot(out: &mut String, robot: Option<&Robot>, as_json: bool) -> Result<(), Failure> {
+    match (robot, as_json) {
+        (None, false) => out.push_str(leech::robot::BUILTIN_TOML),
+        (Some(robot), false) => out.push_str(&robot.to_toml_string()),
+        (robot, true) => json(out, robot.unwrap_or(&Robot::builtin()))?,
+    }
+    Ok(())
+}
+
+pub fn chain(out: &mut String, a: &Chain, eq: &Equilibrium) -> Result<(), Failure> {
+    let report = CantileverReport::new(a.shape_parameter, &a.tube, eq);
+    if a.outputs.json {
+        json(out, &report)?;
+    } else {
+        text::chain(out, a.elements, &report);
+    }
+    let title = format!("single tube: {} elements, Pi = {:.3}", a.elements, report.shape_parameter);
+    files::pictures(&a.outputs, || leech_plot::shape::cantilever_figure(&title, &a.tube, &eq.q))
+}
+
+/// `leech shape`; `solved` is the two-chain model's equilibrium and timing when it ran.
+pub fn shape(out: &mut String, a: &Shape, solved: Option<&(Equilibrium, Option<SolveTiming>)>) -> Result<(), Failure> {
+    let [la, lb] = a.lengths;
+    let cc = PlanarBody::of(&a.robot);
+    let cc_report = ConstantCurvatureReport::new(&cc, la, lb, 60);
+    let two_chain = solved.map(|(eq, timing)| {
+        (eq, BodyReport::new(&a.robot.name, a.robot.shape_parameter(), &a.body, eq), timing.as_ref())
+    });
+    let with_cc = a.models.contains(&Model::ConstantCurvature);
+    if a.outputs.json {
+        match (&two_chain, with_cc) {
+            // The timing joins the report's keys (sorted, as serde_json's maps are).
+            (Some((_, report, Some(timing))), false) => {
+                let mut v = serde_json::to_value(report).context("serializing the result")?;
+                v["solve_time_s"] = serde_json::to_value(timing).context("serializing the timing")?;
+                json(out, &v)?
+            }
+            (Some((_, report, None)), false) => json(out, report)?,
+            (Some((_, report, _)), true) => json(out, &json!({ "models": [report, cc_report] }))?,
+            (None, _) => json(out, &cc_report)?,
+        }
+    } else {
+        text::shape(
+            out,
+            &a.robot,
+            a.lengths,
+            two_chain.as_ref().map(|(_, r, t)| (r, *t)),
+            with_cc.then_some(&cc_report),
+        );
+    }
+    files::pictures(&a.outputs, || match (&two_chain, with_cc) {
+        (Some((eq, ..)), true) => leech_plot::shape::comparison_figure(&a.robot.name, &a.body, &eq.q, &cc),
+        (Some((eq, ..)), false) => leech_plot::shape::body_figure(&a.robot.name, &a.body, &eq.q),
+        (None, _) => leech_plot::shape::constant_curvature_figure(&a.robot.name, &cc, la, lb),
+    })
+}
+
+/// One figure of `leech figure`: its picture and table in `dir`.
+pub fn figure(out: &mut String, dir: &Path, output: &Output) -> Result<(), Failure> {
+    let (svg, csv) = (dir.join(format!("{}.svg", output.name)), dir.join(format!("{}.csv", output.name)));
+    output.figure.write_svg(&svg)?;
+    files::csv_table(&csv, &output.table)?;
+    text::wrote(out, &svg, &csv);
+    Ok(())
+}
+
+/// `leech workspace`: every point to CSV, the endpoints to SVG, the summaries printed.
+pub fn workspace(out: &mut String, a: &Workspace, sweep: &Sweep, elapsed_s: f64) -> Result<(), Failure> {
+    files::csv_rows(&a.csv, sweep.points.iter().map(SweepRow::from))?;
+    if let Some(svg) = &a.outputs.svg {
+        let title = format!("{}: endpoints over LA, LB in {}", a.robot.name, a.range);
+        leech_plot::figures::sweep_figure(&title, sweep).write_svg(svg)?;
+    }
+    let failures: usize = sweep.summaries.iter().map(|s| s.failures.len()).sum();
+    if a.outputs.json {
+        let summary = json!({
+            "points": sweep.points.len(),
+            "failures": failures,
+            "elapsed_s": elapsed_s,
+            "summaries": sweep.summaries,
+        });
+        return json(out, &summary);
+    }
+    text::workspace(out, sweep, failures, elapsed_s, &a.csv);
+    Ok(())
+}
+
+pub fn reach(out: &mut String, answer: &Reach, as_json: bool) -> Result<(), Failure> {
+    if as_json {
+        return json(out, answer);
+    }
+    text::reach(out, answer);
+    Ok(())
+}
+
+/// `leech calibrate`: the fitted robot file, its picture, the fit printed.
+pub fn calibration(out: &mut String, a: &Calibrate, result: &Calibration, fitted: &Robot) -> Result<(), Failure> {
+    files::fitted_robot(a, result, fitted)?;
+    if let Some(svg) = &a.outputs.svg {
+        let title =
+            format!("Fit: k = {:.4} N m/rad, RMS {:.2} mm", result.stiffness_nm_per_rad, result.rms_residual_mm);
+        let shapes = a.shapes.as_ref().map_or(&[][..], |s| &s.rows);
+        leech_plot::shape::calibration_figure(&title, fitted, &a.sag.rows, shapes).write_svg(svg)?;
+    }
+    if a.outputs.json {
+        return json(out, result);
+    }
+    text::calibration(out, result, &a.out);
+    Ok(())
+}
+
+pub fn comparison(out: &mut String, rows: &[ShapeComparison], as_json: bool) -> Result<(), Failure> {
+    if as_json {
+        return json(out, &json!({ "shapes": rows }));
+    }
+    text::comparison(out, rows);
+    Ok(())
+}
+
+/// `leech simulate`: the series to CSV, the animation to SVG, a summary printed.
+pub fn simulation(out: &mut String, a: &Simulate, result: &Simulation, wall_s: f64) -> Result<(), Failure> {
+    if let Some(path) = &a.outputs.csv {
+        files::csv_rows(path, result.samples.iter().map(SampleRow::from))?;
+    }
+    if let Some(path) = &a.outputs.svg {
+        files::animation(path, a.lengths, &a.actuation, &result.samples)?;
+    }
+    let last = result.samples.last().expect("a simulation records its start");
+    let real_time_factor = last.time_s / wall_s.max(1e-12);
+    if !a.outputs.json {
+        text::simulation(out, result, real_time_factor);
+        return Ok(());
+    }
+    json(
+        out,
+        &json!({
+            "integrator": a.options.integrator,
+            "dt_s": result.dt,
+            "steps": result.steps,
+            "simulated_s": last.time_s,
+            "wall_s": wall_s,
+            "real_time_factor": real_time_factor,
+            "time_to_rest_s": result.time_to_rest,
+            "max_constraint_violation": result.max_violation,
+            "final": {
+                "lengths_m": last.lengths_m,
+                "endpoint_m": last.endpoint_m,
+                "endpoint_angle_rad": last.angles_a_rad.last(),
+                "kinetic_j": last.kinetic_j,
+                "potential_j": last.potential_j,
+                "chains": {
+                    "a": {"points_m": last.points_a_m, "angles_rad": last.angles_a_rad},
+                    "b": {"points_m": last.points_b_m, "angles_rad": last.angles_b_rad},
+                },
+            },
+        }),
+    )
+}

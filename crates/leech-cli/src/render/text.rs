@@ -1,0 +1,188 @@
+//! Text summaries: what each command prints without --json.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use leech::calibration::{Calibration, ShapeComparison, ShapeError};
+use leech::dynamics::Simulation;
+use leech::inverse_statics::{Reach, ReachStatus};
+use leech::prelude::*;
+use leech::report::{BodyReport, CantileverReport, ConstantCurvatureReport, Solution, SolveTiming};
+use leech::sweep::{Extreme, Sweep};
+
+/// `writeln!` into a `String`, which cannot fail.
+macro_rules! say {
+    ($out:expr, $($format:tt)*) => {{
+        let _ = writeln!($out, $($format)*);
+    }};
+}
+
+/// The status lines of a solve.
+fn solution(out: &mut String, s: &Solution) {
+    let stability = if s.stable { "stable" } else { "UNSTABLE" };
+    say!(out, "converged in {} iterations (residual {:.1e}), {stability}", s.iterations, s.residual);
+    for event in &s.events {
+        match event {
+            Event::Snap { stage, at, jump_rad } => say!(
+                out,
+                "note: the body snapped through a fold on the {stage} path at {:.1} % (largest angle change {jump_rad:.2} rad)",
+                at * 100.0
+            ),
+            Event::Bifurcation { stage, at, side, jump_rad } => say!(
+                out,
+                "note: the {stage} path crossed a symmetric bifurcation at {:.1} %; the body went to the {side} of the clamp direction (largest angle change {jump_rad:.2} rad)",
+                at * 100.0
+            ),
+        }
+    }
+}
+
+pub fn chain(out: &mut String, elements: usize, r: &CantileverReport) {
+    say!(out, "tube of {elements} elements, {:.4} m, shape parameter Pi = {:.4}", r.length_m, r.shape_parameter);
+    say!(out, "tip at ({:.3}, {:.3}) mm", r.tip_m[0] * 1e3, r.tip_m[1] * 1e3);
+    solution(out, &r.solution);
+}
+
+/// `leech shape`: the two-chain model's report (with its timing) and the
+/// constant-curvature model's, for those that ran.
+pub fn shape(
+    out: &mut String,
+    robot: &Robot,
+    [la, lb]: [f64; 2],
+    two_chain: Option<(&BodyReport, Option<&SolveTiming>)>,
+    constant_curvature: Option<&ConstantCurvatureReport>,
+) {
+    say!(out, "{}: LA = {la:.4} m, LB = {lb:.4} m (Pi = {:.0})", robot.name, robot.shape_parameter());
+    if let Some((r, timing)) = two_chain {
+        let links = format_args!("{} + {} links", r.links[0], r.links[1]);
+        endpoint(out, "two-chain", r.endpoint_m, r.endpoint_angle_rad, links);
+        solution(out, &r.solution);
+        if let Some(t) = timing {
+            say!(
+                out,
+                "solve time over {} cold solves: median {:.1} us, fastest {:.1} us",
+                t.solves,
+                t.median * 1e6,
+                t.min * 1e6
+            );
+        }
+    }
+    if let Some(r) = constant_curvature {
+        let bend = format_args!("bend {:.3} rad", r.bend_rad);
+        endpoint(out, "constant curvature", r.endpoint_m, r.endpoint_angle_rad, bend);
+    }
+}
+
+/// A model's endpoint and plate angle, then `detail` in parentheses.
+fn endpoint(out: &mut String, model: &str, [x, y]: [f64; 2], angle_rad: f64, detail: std::fmt::Arguments) {
+    let angle_deg = angle_rad.to_degrees();
+    say!(out, "{model}: endpoint at ({:.3}, {:.3}) mm, plate angle {angle_deg:.3} deg ({detail})", x * 1e3, y * 1e3);
+}
+
+/// The files a figure was written to.
+pub fn wrote(out: &mut String, svg: &Path, csv: &Path) {
+    say!(out, "wrote {} and {}", svg.display(), csv.display());
+}
+
+pub fn workspace(out: &mut String, sweep: &Sweep, failures: usize, elapsed_s: f64, csv: &Path) {
+    say!(
+        out,
+        "{} points in {elapsed_s:.2} s, {failures} failures; every point in {}",
+        sweep.points.len(),
+        csv.display()
+    );
+    let mm = |e: &Option<Extreme>, k: usize| e.map_or(f64::NAN, |e| e.endpoint_m[k] * 1e3);
+    for s in &sweep.summaries {
+        let pi = s.shape_parameter.map_or("-".to_string(), |p| format!("{p:.0}"));
+        say!(
+            out,
+            "{:<18} Pi {:>7}: highest y {:7.1} mm, lowest y {:7.1} mm, farthest |x| {:6.1} mm, area {:7.0} mm^2; infeasible {}, unstable {}, snapped {}, failures {}",
+            s.model.name(), pi, mm(&s.highest, 1), mm(&s.lowest, 1), mm(&s.farthest, 0).abs(), s.area_m2 * 1e6,
+            s.infeasible, s.unstable, s.snapped, s.failures.len()
+        );
+        for f in &s.failures {
+            say!(out, "  failed at LA = {} m, LB = {} m: {}", f.lengths_m[0], f.lengths_m[1], f.reason);
+        }
+    }
+}
+
+pub fn reach(out: &mut String, answer: &Reach) {
+    let verdict = match answer.status {
+        ReachStatus::Reached => "reached",
+        ReachStatus::Unreachable => "UNREACHABLE; nearest point found",
+    };
+    say!(
+        out,
+        "{verdict}: LA = {:.6} m, LB = {:.6} m, endpoint ({:.4}, {:.4}) mm, error {:.2e} m, plate angle {:.3} deg",
+        answer.lengths_m[0],
+        answer.lengths_m[1],
+        answer.endpoint_m[0] * 1e3,
+        answer.endpoint_m[1] * 1e3,
+        answer.error_m,
+        answer.endpoint_angle_rad.to_degrees()
+    );
+}
+
+pub fn calibration(out: &mut String, r: &Calibration, fitted_file: &Path) {
+    say!(out, "k = {:.6} +- {:.6} N m/rad", r.stiffness_nm_per_rad, r.stiffness_std_error_nm_per_rad);
+    if let Some(se) = r.element_mass_std_error_kg {
+        say!(out, "m = {:.6e} +- {se:.2e} kg", r.element_mass_kg);
+    }
+    say!(
+        out,
+        "Pi = {:.1}; RMS residual {:.3} mm, largest {:.3} mm over {} points ({} iterations); wrote {}",
+        r.shape_parameter,
+        r.rms_residual_mm,
+        r.max_residual_mm,
+        r.points,
+        r.iterations,
+        fitted_file.display()
+    );
+}
+
+pub fn comparison(out: &mut String, rows: &[ShapeComparison]) {
+    say!(
+        out,
+        "{:<16} {:>7} {:>7} | {:>27} | {:>27}",
+        "shape",
+        "LA mm",
+        "LB mm",
+        "two-chain rms/max/end mm",
+        "constant curv. rms/max/end mm"
+    );
+    let cell = |e: &ShapeError| {
+        format!("{:7.2} {:7.2} {:>9}", e.rms_mm, e.max_mm, e.endpoint_mm.map_or("-".into(), |v| format!("{v:.2}")))
+    };
+    for r in rows {
+        say!(
+            out,
+            "{:<16} {:>7.1} {:>7.1} | {} | {}",
+            r.shape,
+            r.lengths_m[0] * 1e3,
+            r.lengths_m[1] * 1e3,
+            cell(&r.two_chain),
+            cell(&r.constant_curvature)
+        );
+    }
+}
+
+pub fn simulation(out: &mut String, result: &Simulation, real_time_factor: f64) {
+    let last = result.samples.last().expect("a simulation records its start");
+    let rest = result.time_to_rest.map_or("not at rest".to_string(), |t| format!("at rest after {t:.3} s"));
+    say!(
+        out,
+        "{:.3} s simulated in {} steps of {:.2e} s ({real_time_factor:.3}x real time); {rest}; largest constraint violation {:.1e}",
+        last.time_s,
+        result.steps,
+        result.dt,
+        result.max_violation
+    );
+    say!(
+        out,
+        "final endpoint ({:.3}, {:.3}) mm at LA = {:.4} m, LB = {:.4} m",
+        last.endpoint_m[0] * 1e3,
+        last.endpoint_m[1] * 1e3,
+        last.lengths_m[0],
+        last.lengths_m[1]
+    );
+}
