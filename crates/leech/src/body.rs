@@ -5,7 +5,7 @@
 //! chain B at `p0 + b nu(phi_0)`, both along `phi_0`. The payload `ms` hangs at
 //! chain B's tip. The coordinates are `q = (phi^A_1..phi^A_nA, phi^B_1..phi^B_nB)`.
 //!
-//! The endpoint plate is a weld (the MODEL's equivalent, better conditioned
+//! The endpoint plate is a weld (docs/model.md section 6: an equivalent, better conditioned
 //! form of the paper's parallel, distance and perpendicular constraints):
 //!
 //! ```text

@@ -59,8 +59,8 @@ use serde::{Deserialize, Serialize};
 ///   each carrying its own mass at its centre. With whole elements the end
 ///   pieces are `l/2` long. Second-order accurate in `l`.
 ///
-/// Scaling the last joint's spring with `l / l_n` (MODEL.md section 8 keeps
-/// `k`) makes shapes continuous in `L` even when the tip is loaded or welded
+/// Scaling the last joint's spring with `l / l_n` (a constant `k`, as the
+/// paper has it, does not: docs/model.md section 4) makes shapes continuous in `L` even when the tip is loaded or welded
 /// to the plate: a new element appears rigid and softens as it grows. With a
 /// constant `k` the endpoint of the built-in body jumps by several
 /// millimetres each time a tube crosses a whole number of elements.

@@ -1,11 +1,11 @@
 //! The constant-curvature model: kinematics only, no mass, no gravity
-//! (MODEL.md section 9).
+//! (docs/model.md section 10).
 //!
 //! # Planar, two tubes
 //!
 //! Chain A (length `LA`, m) and chain B (`LB`) are concentric arcs a width `w`
 //! apart (m); with different spacings at the base and the tip `w = (b + c)/2`
-//! (the MODEL's choice). The bending angle (rad, counter-clockwise positive,
+//! (docs/model.md section 10). The bending angle (rad, counter-clockwise positive,
 //! towards chain A) and chain A's curvature (1/m) are
 //!
 //! ```text

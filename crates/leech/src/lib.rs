@@ -2,7 +2,7 @@
 //!
 //! A LEeCH-type robot pushes three flexible tubes through a driving unit; their
 //! free lengths `L1, L2, L3` set the body's shape, and gravity bends it. In the
-//! plane of a climb the body is two chains of rigid links (MODEL.md): chain A,
+//! plane of a climb the body is two chains of rigid links (docs/model.md section 3): chain A,
 //! the centre tube, and chain B, the two side tubes lumped (twice the stiffness
 //! and mass), clamped `b` apart at the driving unit and welded `c` apart at the
 //! endpoint plate, which carries the payload `ms`.

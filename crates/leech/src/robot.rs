@@ -5,7 +5,7 @@
 //! `k = EI / l` and `m = rho l`), the body's spacings `b`, `c` (m) and payload
 //! `ms` (kg), gravity (m/s^2), the clamp angle (deg) and the discretization.
 //! Every key is SI and checked; unknown keys are errors. The shape parameter
-//! of the tube is `Pi = k / (m g l)` (MODEL.md section 7).
+//! of the tube is `Pi = k / (m g l)` (docs/model.md section 8).
 //!
 //! ```
 //! use leech::robot::Robot;
@@ -231,7 +231,7 @@ impl Robot {
     }
 
     /// The robot scaled in size by `factor` with the same shape parameter and
-    /// payload ratio (MODEL.md section 7): lengths `l, b, c` times `s`, the
+    /// payload ratio (docs/model.md section 8): lengths `l, b, c` times `s`, the
     /// tube's mass per length kept (`m` and `ms` times `s`), so `k` times `s^2`
     /// keeps `Pi = k/(m g l)`; damping times `s^2.5` keeps the damping ratio.
     /// Tube lengths must be scaled by `s` too for the same shape: the angles

@@ -1,5 +1,5 @@
 //! The continuum limit: with k = EI/l and m = rho l both discretizations
-//! converge to the heavy cantilever elastica (MODEL.md section 8), `paper` at
+//! converge to the heavy cantilever elastica (docs/model.md section 9), `paper` at
 //! first order and `midpoint` at second, against a boundary-value solution
 //! computed independently (SciPy shooting, `validation/references.py`).
 

@@ -43,8 +43,8 @@ fn unloaded_body_is_bent_by_the_constraints_only() {
     assert!(body.endpoint_angle(&other.q) < 80f64.to_radians());
 }
 
-/// A large length difference has several unloaded shapes (MODEL.md section
-/// 6): feeding from equal lengths lands on the low-energy one with chain A
+/// A large length difference has several unloaded shapes (docs/model.md
+/// section 7.4): feeding from equal lengths lands on the low-energy one with chain A
 /// bowing out (about 0.13 J for 30 + 20 elements), not on the tightly bent
 /// one a constant-curvature guess converges to (about 0.19 J).
 #[test]
@@ -107,7 +107,7 @@ fn vertical_tube_buckles_at_the_greenhill_load() {
 }
 
 /// Equal tubes with b != c and weak springs meet a fold on the load path
-/// (MODEL.md section 6): the solver reports the snap and lands on a stable
+/// (docs/model.md section 7.5): the solver reports the snap and lands on a stable
 /// equilibrium far from the branch it left.
 #[test]
 fn weak_s_shaped_body_snaps_through() {
@@ -126,7 +126,7 @@ fn weak_s_shaped_body_snaps_through() {
 }
 
 /// Scaling l, b, c by s with Pi and ms/m fixed gives the same angles
-/// (MODEL.md section 7, paper Fig. 9), for one tube and for the body.
+/// (docs/model.md section 8, paper Fig. 9), for one tube and for the body.
 #[test]
 fn shape_parameter_scaling_keeps_angles() {
     let base = Robot::builtin();
