@@ -7,7 +7,7 @@ Writes three JSON fixtures that the Rust tests read:
   crates/leech/tests/data/two_chain.json     two chains welded at the endpoint (SciPy + MuJoCo)
   crates/leech/tests/data/elastica.json      continuous heavy cantilever (SciPy shooting + solve_bvp)
 
-The model is the one in the project's model notes (links with point masses, torsional springs,
+The model is the one in docs/model.md (links with point masses, torsional springs,
 absolute link angles phi_j from +x, counter-clockwise positive, y up, gravity (0, -g)).
 Everything here is written from the equations, not from the Rust code, so that the
 fixtures are a real second implementation:
