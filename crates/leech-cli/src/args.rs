@@ -147,7 +147,7 @@ impl Args {
             Command::Chain(a) => Args::Chain(chain(a)?),
             Command::Shape(a) => Args::Shape(shape(a)?),
             Command::Figure(a) => Args::Figure(Figure {
-                robot: tuned(&a.robot, |_| {})?,
+                robot: tuned(&a.robot, Ok)?,
                 names: match a.name.as_str() {
                     "all" => leech_plot::figures::NAMES.iter().map(|n| n.to_string()).collect(),
                     _ => vec![a.name],
@@ -157,7 +157,7 @@ impl Args {
             Command::Workspace(a) => Args::Workspace(workspace(a)?),
             Command::Reach(a) => Args::Reach(reach(a)?),
             Command::Calibrate(a) => Args::Calibrate(Calibrate {
-                robot: tuned(&a.robot, |_| {})?,
+                robot: tuned(&a.robot, Ok)?,
                 sag: measured(&a.sag, "--sag", read_sag)?,
                 shapes: a.shapes.as_deref().map(|p| measured(p, "--shapes", read_shapes)).transpose()?,
                 fit: a.fit.into(),
@@ -165,7 +165,7 @@ impl Args {
                 outputs: Outputs { json: a.json, svg: a.svg, ..Outputs::default() },
             }),
             Command::Compare(a) => Args::Compare(Compare {
-                robot: tuned(&a.robot, |_| {})?,
+                robot: tuned(&a.robot, Ok)?,
                 shapes: measured(&a.shapes, "--shapes", read_shapes)?.rows,
                 json: a.json,
             }),
@@ -218,13 +218,14 @@ fn chain(a: flags::ChainArgs) -> Result<Chain, Failure> {
 fn shape(a: flags::ShapeArgs) -> Result<Shape, Failure> {
     // Overrides first: the shape parameter sets the stiffness from gravity.
     let robot = tuned(&a.robot, |robot| {
-        override_base_angle(robot, a.base_angle);
+        let mut robot = at_base_angle(robot, a.base_angle)?;
         if let Some(g) = a.gravity {
-            robot.world.gravity_m_per_s2 = g;
+            robot = robot.with_gravity(g)?;
         }
         if let Some(d) = a.discretization {
-            robot.model.discretization = d.into();
+            robot = robot.with_discretization(d.into());
         }
+        Ok(robot)
     })?;
     let [la, lb] = a.lengths;
     // The body checks the lengths for both models.
@@ -244,8 +245,7 @@ fn repeat(n: usize) -> Result<NonZeroUsize, Failure> {
 }
 
 fn workspace(a: flags::WorkspaceArgs) -> Result<Workspace, Failure> {
-    let mut robot = load_robot_or_builtin(a.robot.as_deref())?;
-    override_base_angle(&mut robot, a.base_angle);
+    let robot = at_base_angle(load_robot_or_builtin(a.robot.as_deref())?, a.base_angle)?;
     let options = SweepOptions {
         grid: Grid::parse(&a.lengths_range)?,
         shape_parameters: a.shape_parameter,
@@ -260,15 +260,14 @@ fn workspace(a: flags::WorkspaceArgs) -> Result<Workspace, Failure> {
 }
 
 fn reach(a: flags::ReachArgs) -> Result<Reach, Failure> {
-    let mut robot = tuned(&a.robot, |_| {})?;
-    override_base_angle(&mut robot, a.base_angle);
+    let robot = at_base_angle(tuned(&a.robot, Ok)?, a.base_angle)?;
     let target = [check_target("target x", a.target[0])?, check_target("target y", a.target[1])?];
     let angle = a.angle.map(|deg| within("angle (deg)", deg, -720.0, 720.0).map(f64::to_radians)).transpose()?;
     Ok(Reach { robot, target, angle, grid: Grid::parse(&a.lengths_range)?, json: a.json })
 }
 
 fn simulate(a: flags::SimulateArgs) -> Result<Simulate, Failure> {
-    let robot = tuned(&a.robot, |_| {})?;
+    let robot = tuned(&a.robot, Ok)?;
     let actuation = match (a.to, a.step) {
         (None, _) => Actuation::Hold,
         (Some(to), true) => Actuation::Step { to },
@@ -308,18 +307,19 @@ fn solver(max_iterations: usize, time_limit: f64) -> Result<Solver, Failure> {
 }
 
 /// The chosen robot, edited by the command's overrides, then at the shape parameter asked for.
-fn tuned(choice: &RobotChoice, edit: impl FnOnce(&mut Robot)) -> Result<Robot, Failure> {
-    let mut robot = load_robot_or_builtin(choice.file.as_deref())?;
-    edit(&mut robot);
+fn tuned(choice: &RobotChoice, edit: impl FnOnce(Robot) -> Result<Robot, InputError>) -> Result<Robot, Failure> {
+    let robot = edit(load_robot_or_builtin(choice.file.as_deref())?)?;
     match choice.shape_parameter {
         Some(pi) => Ok(robot.with_shape_parameter(pi)?),
         None => Ok(robot),
     }
 }
 
-fn override_base_angle(robot: &mut Robot, angle: Option<f64>) {
-    if let Some(angle) = angle {
-        robot.world.base_angle_deg = angle;
+/// The robot with the clamp angle the command line asks for, if it does.
+fn at_base_angle(robot: Robot, angle: Option<f64>) -> Result<Robot, InputError> {
+    match angle {
+        Some(angle) => robot.with_base_angle(angle),
+        None => Ok(robot),
     }
 }
 

@@ -126,7 +126,7 @@ fn run(args: Args, out: &mut String) -> Result<(), Failure> {
         Args::Calibrate(a) => {
             let shapes = a.shapes.as_ref().map_or(&[][..], |s| &s.rows);
             let result = leech::calibration::calibrate(&a.robot, &a.sag.rows, shapes, a.fit)?;
-            render::calibration(out, &a, &result, &fitted(&a.robot, &result))
+            render::calibration(out, &a, &result, &fitted(&a.robot, &result)?)
         }
         Args::Compare(a) => render::comparison(out, &leech::calibration::compare(&a.robot, &a.shapes)?, a.json),
         Args::Simulate(a) => {
@@ -141,12 +141,10 @@ fn run(args: Args, out: &mut String) -> Result<(), Failure> {
 }
 
 /// The starting robot with the fitted stiffness and mass, named as fitted.
-fn fitted(robot: &Robot, result: &Calibration) -> Robot {
-    let mut fitted = robot.clone();
-    fitted.tube.joint_stiffness_nm_per_rad = result.stiffness_nm_per_rad;
-    fitted.tube.element_mass_kg = result.element_mass_kg;
-    if !fitted.name.contains("fitted") {
-        fitted.name = format!("{} (fitted)", fitted.name);
+fn fitted(robot: &Robot, result: &Calibration) -> Result<Robot, InputError> {
+    let fitted = robot.with_tube(result.stiffness_nm_per_rad, result.element_mass_kg)?;
+    if fitted.name.contains("fitted") {
+        return Ok(fitted);
     }
-    fitted
+    Ok(fitted.with_name(format!("{} (fitted)", fitted.name)))
 }

@@ -130,8 +130,7 @@ fn pi_label(pi: f64) -> String {
 
 /// Fig. 3a: tubes of 50 to 300 mm clamped horizontally.
 fn tube_sag(robot: &Robot) -> Result<Output, FigureError> {
-    let mut horizontal = robot.clone();
-    horizontal.world.base_angle_deg = 0.0;
+    let horizontal = robot.with_base_angle(0.0).expect("a valid robot with another angle");
     let mut fig = Figure::new(format!(
         "Single tubes sagging under gravity, horizontal clamp (Pi = {})",
         pi_label(robot.shape_parameter())
@@ -154,8 +153,7 @@ fn tube_sag(robot: &Robot) -> Result<Output, FigureError> {
 
 /// Figs. 3b and 7: the two models side by side on a vertical wall.
 fn model_comparison(robot: &Robot) -> Result<Output, FigureError> {
-    let mut wall = robot.clone();
-    wall.world.base_angle_deg = 90.0;
+    let wall = robot.with_base_angle(90.0).expect("a valid robot with another angle");
     let cc = PlanarBody::of(&wall);
     let mut fig = Figure::new("Two-chain model (solid) vs constant curvature (dashed)");
     let mut table = Table::new(&["la_m", "lb_m", "model", "chain", "point", "x_m", "y_m"]);
@@ -261,8 +259,7 @@ pub const SWEEP_PIS: [f64; 5] = [1e2, 1e3, 1e4, 1e5, 1e6];
 /// horizontal line 150 mm above the driving unit of a robot on a vertical
 /// wall (x from -100 to 100 mm), solved with the two-chain model for each Pi.
 pub fn pi_sweep_data(robot: &Robot) -> Result<Vec<SweepPoint>, FigureError> {
-    let mut wall = robot.clone();
-    wall.world.base_angle_deg = 90.0;
+    let wall = robot.with_base_angle(90.0).expect("a valid robot with another angle");
     let cc = PlanarBody::of(&wall);
     let mut out = Vec::new();
     for pi in SWEEP_PIS {
@@ -321,8 +318,7 @@ pub const WORKSPACE_PIS: [f64; 4] = [300.0, 1000.0, 3000.0, 10000.0];
 
 /// Fig. 12's data: LA >= LB in 0.05..0.30 m at `step` m, payload on, wall.
 pub fn workspace_data(robot: &Robot, step: f64) -> Result<Vec<ReachPoint>, FigureError> {
-    let mut wall = robot.clone();
-    wall.world.base_angle_deg = 90.0;
+    let wall = robot.with_base_angle(90.0).expect("a valid robot with another angle");
     let count = ((0.30 - 0.05) / step).round() as usize;
     let mut out = Vec::new();
     for pi in WORKSPACE_PIS {
@@ -347,8 +343,7 @@ pub const REACH_CELL: f64 = 0.005;
 /// endpoints are less than a cell apart where the bend is large). Large bends wrap the arcs round the
 /// clamp, so the reach is not the image of the domain's boundary.
 pub fn constant_curvature_reach(robot: &Robot) -> Vec<[f64; 2]> {
-    let mut wall = robot.clone();
-    wall.world.base_angle_deg = 90.0;
+    let wall = robot.with_base_angle(90.0).expect("a valid robot with another angle");
     let cc = PlanarBody::of(&wall);
     let mut cells = std::collections::BTreeSet::new();
     for i in 0..=1000 {

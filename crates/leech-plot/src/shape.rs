@@ -31,7 +31,7 @@ pub fn cantilever_figure(title: &str, tube: &Cantilever, q: &[f64]) -> Figure {
     let chain = tube.chain();
     let mut fig = Figure::new(title);
     let clamp = chain.clamp_point();
-    let back = leech::chain::unit(chain.clamp_angle() + std::f64::consts::PI);
+    let back = leech::geom::unit(chain.clamp_angle() + std::f64::consts::PI);
     let stub = 0.05 * chain.tube_length();
     fig.push("clamp", vec![[clamp[0] + stub * back[0], clamp[1] + stub * back[1]], clamp], SeriesStyle::Thick, GREY);
     fig.push("tube", chain.points(q), SeriesStyle::LineAndDots, PALETTE[0]);
@@ -73,11 +73,10 @@ pub fn calibration_figure(
     let mut fig = Figure::new(title);
     let mut colour = 0;
     for tube in sag {
-        let mut r = robot.clone();
-        r.world.base_angle_deg = tube.base_angle_deg;
+        let r = robot.with_base_angle(tube.base_angle_deg);
         let color = PALETTE[colour % PALETTE.len()];
         colour += 1;
-        if let Ok(c) = r.cantilever(tube.length, tube.tip_mass) {
+        if let Ok(c) = r.and_then(|r| r.cantilever(tube.length, tube.tip_mass)) {
             if let Ok(eq) = c.solve(&Solver::default()) {
                 fig.push(
                     format!("tube {:.0} mm (fit)", tube.length * 1e3),
@@ -90,11 +89,10 @@ pub fn calibration_figure(
         fig.push("", tube.points.clone(), SeriesStyle::Dots, color);
     }
     for shape in shapes {
-        let mut r = robot.clone();
-        r.world.base_angle_deg = shape.base_angle_deg;
+        let r = robot.with_base_angle(shape.base_angle_deg);
         let color = PALETTE[colour % PALETTE.len()];
         colour += 1;
-        if let Ok(body) = r.body(shape.lengths[0], shape.lengths[1]) {
+        if let Ok(body) = r.and_then(|r| r.body(shape.lengths[0], shape.lengths[1])) {
             if let Ok(eq) = body.solve(&Solver::default()) {
                 let (qa, qb) = body.split(&eq.q);
                 fig.push(format!("{} (fit)", shape.name), body.chain_a().points(qa), SeriesStyle::Line, color);

@@ -38,8 +38,8 @@ fn reach_one_target(bencher: divan::Bencher) {
 #[divan::bench]
 fn calibrate_five_sag_curves(bencher: divan::Bencher) {
     use leech::calibration::{calibrate, synthetic, Fit};
-    let mut truth = Robot::builtin();
-    truth.tube.joint_stiffness_nm_per_rad = 0.42;
+    let builtin = Robot::builtin();
+    let truth = builtin.with_tube(0.42, builtin.tube.element_mass_kg).unwrap();
     let sag = synthetic::sag(&truth, &[0.10, 0.15, 0.20, 0.25, 0.30], 0.0, 0.02, 0.0005, 1);
     let start = Robot::builtin();
     bencher.bench_local(|| calibrate(&start, &sag, &[], Fit::Stiffness).unwrap());

@@ -39,8 +39,7 @@ fn shape_cold(bencher: divan::Bencher, lengths: (f64, f64)) {
 /// A single 30-element tube held horizontally.
 #[divan::bench]
 fn chain_cold_30(bencher: divan::Bencher) {
-    let mut robot = Robot::builtin();
-    robot.world.base_angle_deg = 0.0;
+    let robot = Robot::builtin().with_base_angle(0.0).unwrap();
     let tube = robot.cantilever(0.30, 0.0).unwrap();
     let solver = Solver::default();
     bencher.bench_local(|| tube.solve(&solver).unwrap());

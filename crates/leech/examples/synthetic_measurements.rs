@@ -18,9 +18,7 @@ const SEED: u64 = 1;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let dir = std::env::args().nth(1).unwrap_or_else(|| "examples/data".into());
     std::fs::create_dir_all(&dir)?;
-    let mut truth = Robot::builtin();
-    truth.tube.joint_stiffness_nm_per_rad = STIFFNESS;
-    truth.tube.element_mass_kg = MASS;
+    let truth = Robot::builtin().with_tube(STIFFNESS, MASS)?;
     let provenance = format!(
         "# SYNTHETIC DATA, not measurements: made by crates/leech/examples/synthetic_measurements.rs\n\
          # from the built-in robot with k = {STIFFNESS} N m/rad, m = {MASS} kg per element,\n\

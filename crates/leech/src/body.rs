@@ -34,7 +34,8 @@
 //! (load continuation). Folds and bifurcations on both paths are reported as
 //! [`Event`](crate::statics::Event)s.
 
-use crate::chain::{right_normal, Block, Chain};
+use crate::chain::{Block, Chain};
+use crate::geom::right_normal;
 use crate::statics::{
     Constraints, Equilibrium, Evaluation, Iterate, Path, PathTerms, Potential, Row, RowKind, Scratch, SolveError,
     Solver, Stage, StaticSystem,

@@ -14,7 +14,8 @@
 //! (`midpoint` within 0.1 % at 40 elements, `paper` lower, about 7.2 at 35
 //! elements, as its masses sit at the element tips).
 
-use crate::chain::{right_normal, Block, Chain};
+use crate::chain::{Block, Chain};
+use crate::geom::right_normal;
 use crate::statics::{
     Constraints, Equilibrium, Evaluation, Iterate, Path, PathTerms, Potential, Row, Scratch, SolveError, Solver, Stage,
     StaticSystem,
@@ -133,7 +134,7 @@ impl Path for Cantilever {
 /// command line. [`CantileverSpec::build`] checks every value.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CantileverSpec {
-    /// Number of elements `n` (1 to [`crate::robot::MAX_LINKS`]).
+    /// Number of elements `n` (1 to [`crate::chain::MAX_LINKS`]).
     pub elements: usize,
     /// Element length `l` (m).
     pub element_length_m: f64,
@@ -155,11 +156,11 @@ impl CantileverSpec {
     /// Validates the values and builds the tube (length `n l`).
     pub fn build(&self) -> Result<Cantilever, crate::error::InputError> {
         use crate::error::{non_negative, positive, within, InputError};
-        if self.elements == 0 || self.elements > crate::robot::MAX_LINKS {
+        if self.elements == 0 || self.elements > crate::chain::MAX_LINKS {
             return Err(InputError::invalid(
                 "elements",
                 self.elements as f64,
-                format!("a whole number from 1 to {}", crate::robot::MAX_LINKS),
+                format!("a whole number from 1 to {}", crate::chain::MAX_LINKS),
             ));
         }
         let l = positive("element_length_m", self.element_length_m)?;

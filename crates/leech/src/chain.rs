@@ -42,6 +42,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::geom::unit;
+
 /// How a continuous tube is cut into rigid links.
 ///
 /// A tube of length `L` is cut into `n = ceil(L / l)` elements of length `l`,
@@ -74,6 +76,10 @@ pub enum Discretization {
     Midpoint,
 }
 
+/// Most links one chain may have: keeps memory and time bounded for any input
+/// (a 100 m tube at 1 cm elements).
+pub const MAX_LINKS: usize = 10_000;
+
 /// Largest factor by which a short last element's spring exceeds `k`.
 pub const MAX_STIFFNESS_RATIO: f64 = 1e4;
 
@@ -102,20 +108,6 @@ impl Discretization {
             Discretization::Midpoint => "midpoint",
         }
     }
-}
-
-/// Unit vector `e(a) = (cos a, sin a)`.
-#[inline]
-pub fn unit(angle: f64) -> [f64; 2] {
-    let (s, c) = angle.sin_cos();
-    [c, s]
-}
-
-/// Right-hand normal `nu(a) = (sin a, -cos a)`: where chain B sits from chain A.
-#[inline]
-pub fn right_normal(angle: f64) -> [f64; 2] {
-    let (s, c) = angle.sin_cos();
-    [s, -c]
 }
 
 /// Mutable views of one chain's part of the solver's scratch.

@@ -38,8 +38,8 @@
 //! `L2 = L3` the tri-tube body bends in the plane of tube 1 and is the planar
 //! model with `w = 3r/2`.
 
-use crate::chain::{right_normal, unit};
 use crate::error::{positive, InputError};
+use crate::geom::{right_normal, unit};
 use crate::robot::Robot;
 
 /// `sin x / x`, exact through 0.

@@ -45,6 +45,7 @@
 //!
 //! ## Modules
 //!
+//! * [`geom`]: plane vectors, unit vectors and normals.
 //! * [`chain`]: one tube as a chain of links; discretizations, kinematics, energy.
 //! * [`cantilever`]: a single clamped tube under gravity.
 //! * [`body`]: the two-chain body and its endpoint weld.
@@ -68,6 +69,7 @@ pub mod chain;
 pub mod constant_curvature;
 pub mod dynamics;
 pub mod error;
+pub mod geom;
 pub mod inverse_statics;
 pub mod kkt;
 pub mod report;

@@ -35,15 +35,13 @@ use serde::{Deserialize, Serialize};
 
 use crate::body::Body;
 use crate::cantilever::Cantilever;
-use crate::chain::{right_normal, Chain, ChainSpec, Discretization};
+pub use crate::chain::MAX_LINKS;
+use crate::chain::{Chain, ChainSpec, Discretization};
 use crate::error::{non_negative, positive, within, InputError};
+use crate::geom::right_normal;
 
 /// The built-in robot's file, comments included.
 pub const BUILTIN_TOML: &str = include_str!("../robots/leech.toml");
-
-/// Most links one chain may have: keeps memory and time bounded for any input
-/// (a 100 m tube at 1 cm elements).
-pub const MAX_LINKS: usize = 10_000;
 
 /// One tube's element.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -219,15 +217,58 @@ impl Robot {
             / (self.tube.element_mass_kg * self.world.gravity_m_per_s2 * self.tube.element_length_m)
     }
 
+    /// The same robot with the driving unit's clamp at `degrees` from +x.
+    pub fn with_base_angle(&self, degrees: f64) -> Result<Robot, InputError> {
+        self.with(|r| r.world.base_angle_deg = degrees)
+    }
+
+    /// The same robot under gravity `g` (m/s^2, along -y; 0 for none).
+    pub fn with_gravity(&self, g: f64) -> Result<Robot, InputError> {
+        self.with(|r| r.world.gravity_m_per_s2 = g)
+    }
+
+    /// The same robot cut into links by another scheme.
+    pub fn with_discretization(&self, discretization: Discretization) -> Robot {
+        let mut robot = self.clone();
+        robot.model.discretization = discretization;
+        robot
+    }
+
+    /// The same robot with other tube properties: joint stiffness `k` (N m/rad)
+    /// and element mass `m` (kg), as a calibration fits them.
+    pub fn with_tube(&self, stiffness: f64, element_mass: f64) -> Result<Robot, InputError> {
+        self.with(|r| {
+            r.tube.joint_stiffness_nm_per_rad = stiffness;
+            r.tube.element_mass_kg = element_mass;
+        })
+    }
+
+    /// The same robot with joint damping `d` (N m s/rad).
+    pub fn with_damping(&self, damping: f64) -> Result<Robot, InputError> {
+        self.with(|r| r.tube.joint_damping_nms_per_rad = damping)
+    }
+
+    /// The same robot under another name.
+    pub fn with_name(&self, name: impl Into<String>) -> Robot {
+        Robot { name: name.into(), ..self.clone() }
+    }
+
+    /// A changed copy, validated: every builder goes through here so that no
+    /// invalid robot escapes.
+    fn with(&self, change: impl FnOnce(&mut Robot)) -> Result<Robot, InputError> {
+        let mut robot = self.clone();
+        change(&mut robot);
+        robot.validate()?;
+        Ok(robot)
+    }
+
     /// The same robot with shape parameter `pi`, set by scaling the joint
     /// stiffness: `k = Pi m g l` (masses and geometry unchanged).
     pub fn with_shape_parameter(&self, pi: f64) -> Result<Robot, InputError> {
         let pi = positive("shape parameter", pi)?;
         let g = positive("world.gravity_m_per_s2 (the shape parameter needs gravity)", self.world.gravity_m_per_s2)?;
-        let mut robot = self.clone();
-        robot.tube.joint_stiffness_nm_per_rad = pi * self.tube.element_mass_kg * g * self.tube.element_length_m;
-        robot.validate()?;
-        Ok(robot)
+        let k = pi * self.tube.element_mass_kg * g * self.tube.element_length_m;
+        self.with(|r| r.tube.joint_stiffness_nm_per_rad = k)
     }
 
     /// The robot scaled in size by `factor` with the same shape parameter and
@@ -238,17 +279,16 @@ impl Robot {
     /// are then unchanged and every position is multiplied by `s`.
     pub fn scaled(&self, factor: f64) -> Result<Robot, InputError> {
         let s = positive("scale factor", factor)?;
-        let mut robot = self.clone();
-        robot.tube.element_length_m *= s;
-        robot.tube.element_mass_kg *= s;
-        robot.tube.joint_stiffness_nm_per_rad *= s * s;
-        robot.tube.joint_damping_nms_per_rad *= s * s * s.sqrt();
-        robot.tube.min_bend_radius_m *= s;
-        robot.body.base_spacing_m *= s;
-        robot.body.tip_spacing_m *= s;
-        robot.body.payload_kg *= s;
-        robot.validate()?;
-        Ok(robot)
+        self.with(|robot| {
+            robot.tube.element_length_m *= s;
+            robot.tube.element_mass_kg *= s;
+            robot.tube.joint_stiffness_nm_per_rad *= s * s;
+            robot.tube.joint_damping_nms_per_rad *= s * s * s.sqrt();
+            robot.tube.min_bend_radius_m *= s;
+            robot.body.base_spacing_m *= s;
+            robot.body.tip_spacing_m *= s;
+            robot.body.payload_kg *= s;
+        })
     }
 
     /// Bending stiffness `EI = k l` (N m^2).
