@@ -20,10 +20,11 @@
 //! predicted centre line (point-to-curve: measured points need not sit at the
 //! model's joints); a tip-only or `endpoint` point is compared with the
 //! predicted tip. With `x = (ln k)` or `(ln k, ln m)` (positive by
-//! construction), Levenberg-Marquardt minimizes the sum of squared residuals
-//! `S(x)`, the Jacobian by central differences of default solves. Standard
-//! errors come from `sigma^2 (J^T J)^-1` with `sigma^2 = S / (N - p)`, mapped
-//! back from logarithms (`se_k = k se_ln k`).
+//! construction), Levenberg-Marquardt ([`crate::least_squares`], Marquardt
+//! scaling, no bounds) minimizes the sum of squared residuals `S(x)`, the
+//! Jacobian by central differences of default solves. Standard errors come
+//! from `sigma^2 (J^T J)^-1`, `J` at the fit, with `sigma^2 = S / (N - p)`,
+//! mapped back from logarithms (`se_k = k se_ln k`).
 //!
 //! A single tube without a tip mass depends on `k` and `m` only through
 //! `Pi = k/(m g l)`, so the mass is identifiable only with a known mass in the
@@ -35,6 +36,7 @@ use std::collections::BTreeMap;
 use crate::body::Body;
 use crate::constant_curvature::PlanarBody;
 use crate::error::InputError;
+use crate::least_squares::{central_differences, levenberg_marquardt, LeastSquares, Options, Stop, UNBOUNDED};
 use crate::robot::Robot;
 use crate::statics::Solver;
 
@@ -276,6 +278,8 @@ struct Problem<'a> {
     sag: &'a [SagTube],
     shapes: &'a [BodyShape],
     fit: Fit,
+    /// Residual rows: one per measured point.
+    points: usize,
 }
 
 impl Problem<'_> {
@@ -362,6 +366,31 @@ fn check_data(robot: &Robot, sag: &[SagTube], shapes: &[BodyShape], parameters: 
     Ok(points)
 }
 
+/// Central-difference step on `ln k` and `ln m`: a relative change of 1e-5,
+/// far above the solves' 1e-11 and far below the parameters' uncertainty.
+const LOG_STEP: f64 = 1e-5;
+
+impl LeastSquares for Problem<'_> {
+    type Error = String;
+
+    fn rows(&self) -> usize {
+        self.points
+    }
+
+    fn residual(&mut self, x: &[f64], r: &mut [f64]) -> Result<(), String> {
+        r.copy_from_slice(&self.residuals(x)?);
+        Ok(())
+    }
+
+    fn jacobian(&mut self, x: &[f64], r: &[f64], jac: &mut [f64]) -> Result<(), String> {
+        let mut scratch = vec![0.0; r.len()];
+        central_differences(x, LOG_STEP, &[UNBOUNDED; 2][..x.len()], jac, &mut scratch, |y, out| {
+            out.copy_from_slice(&self.residuals(y)?);
+            Ok(())
+        })
+    }
+}
+
 /// Fits `k` (and `m`) of `robot`'s tube to the measurements.
 pub fn calibrate(
     robot: &Robot,
@@ -372,122 +401,44 @@ pub fn calibrate(
     robot.validate()?;
     let p = if fit == Fit::Stiffness { 1 } else { 2 };
     let n = check_data(robot, sag, shapes, p)?;
-    let problem = Problem { robot, sag, shapes, fit };
+    let mut problem = Problem { robot, sag, shapes, fit, points: n };
     let mut x = vec![robot.tube.joint_stiffness_nm_per_rad.ln()];
     if fit == Fit::StiffnessAndMass {
         x.push(robot.tube.element_mass_kg.ln());
     }
-    let rss = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
-    let mut r = problem.residuals(&x).map_err(CalibrationError::Model)?;
-    let mut cost = rss(&r);
-    let mut mu = 1e-3;
-    let mut iterations = 0;
-    let mut jac = jacobian(&problem, &x, &r)?;
-    for _ in 0..100 {
-        iterations += 1;
-        let (jtj, jtr) = normal_equations(&jac, &r, p);
-        let mut improved = false;
-        for _ in 0..20 {
-            let step = solve_damped(&jtj, &jtr, mu, p);
-            let trial: Vec<f64> = x.iter().zip(&step).map(|(a, b)| a + b).collect();
-            if let Ok(rt) = problem.residuals(&trial) {
-                let ct = rss(&rt);
-                if ct < cost {
-                    let relative = (cost - ct) / cost.max(1e-300);
-                    let small_step = step.iter().all(|s| s.abs() < 1e-10);
-                    x = trial;
-                    r = rt;
-                    cost = ct;
-                    mu = (mu * 0.3).max(1e-12);
-                    improved = !(relative < 1e-14 || small_step);
-                    break;
-                }
-            }
-            mu *= 10.0;
-        }
-        if !improved {
-            break;
-        }
-        jac = jacobian(&problem, &x, &r)?;
+    // The logarithms need no bounds: k and m are positive by construction.
+    // The covariance needs the curvature at the fit itself.
+    let options = Options { jacobian_at_solution: true, ..Options::default() };
+    let result = levenberg_marquardt(&mut problem, &x, &[UNBOUNDED; 2][..p], &options);
+    if let Stop::EvaluationFailed(e) = result.stop {
+        return Err(CalibrationError::Model(e));
     }
-    let (jtj, _) = normal_equations(&jac, &r, p);
+    let jtj = result.jtj.expect("the Jacobian at the solution was asked for and evaluated");
     let undetermined = if p == 2 { CalibrationError::MassNotIdentifiable } else { CalibrationError::Insensitive };
-    let covariance = invert(&jtj, p).ok_or(undetermined)?;
+    let covariance = jtj.inverse().ok_or(undetermined)?;
     if p == 2 {
         // The correlation of ln k and ln m tends to 1 when only Pi is seen.
-        let correlation = covariance[1] / (covariance[0] * covariance[3]).sqrt();
+        let correlation = covariance[(0, 1)] / (covariance[(0, 0)] * covariance[(1, 1)]).sqrt();
         if !(correlation.abs() < 1.0 - 1e-6) {
             return Err(CalibrationError::MassNotIdentifiable);
         }
     }
-    let sigma2 = cost / (n - p).max(1) as f64;
-    let k = x[0].exp();
-    let m = if p == 2 { x[1].exp() } else { robot.tube.element_mass_kg };
-    let fitted = problem.robot_at(&x);
+    let rss = 2.0 * result.cost;
+    let sigma2 = rss / (n - p).max(1) as f64;
+    let k = result.x[0].exp();
+    let m = if p == 2 { result.x[1].exp() } else { robot.tube.element_mass_kg };
+    let fitted = problem.robot_at(&result.x);
     Ok(Calibration {
         stiffness_nm_per_rad: k,
-        stiffness_std_error_nm_per_rad: k * (sigma2 * covariance[0]).sqrt(),
+        stiffness_std_error_nm_per_rad: k * (sigma2 * covariance[(0, 0)]).sqrt(),
         element_mass_kg: m,
-        element_mass_std_error_kg: (p == 2).then(|| m * (sigma2 * covariance[3]).sqrt()),
-        rms_residual_mm: 1e3 * (cost / n as f64).sqrt(),
-        max_residual_mm: 1e3 * r.iter().fold(0.0f64, |a, v| a.max(v.abs())),
+        element_mass_std_error_kg: (p == 2).then(|| m * (sigma2 * covariance[(1, 1)]).sqrt()),
+        rms_residual_mm: 1e3 * (rss / n as f64).sqrt(),
+        max_residual_mm: 1e3 * result.residual.iter().fold(0.0f64, |a, v| a.max(v.abs())),
         points: n,
-        iterations,
+        iterations: result.iterations,
         shape_parameter: fitted.shape_parameter(),
     })
-}
-
-fn jacobian(problem: &Problem, x: &[f64], r: &[f64]) -> Result<Vec<Vec<f64>>, CalibrationError> {
-    let h = 1e-5;
-    let mut columns = Vec::new();
-    for i in 0..x.len() {
-        let (mut up, mut down) = (x.to_vec(), x.to_vec());
-        up[i] += h;
-        down[i] -= h;
-        let (a, b) = (
-            problem.residuals(&up).map_err(CalibrationError::Model)?,
-            problem.residuals(&down).map_err(CalibrationError::Model)?,
-        );
-        columns.push(a.iter().zip(&b).map(|(u, d)| (u - d) / (2.0 * h)).collect::<Vec<f64>>());
-        debug_assert_eq!(columns[i].len(), r.len());
-    }
-    Ok(columns)
-}
-
-/// `J^T J` (row-major, p x p) and `J^T r` from Jacobian columns.
-fn normal_equations(jac: &[Vec<f64>], r: &[f64], p: usize) -> (Vec<f64>, Vec<f64>) {
-    let mut jtj = vec![0.0; p * p];
-    let mut jtr = vec![0.0; p];
-    for a in 0..p {
-        jtr[a] = jac[a].iter().zip(r).map(|(j, v)| j * v).sum();
-        for b in 0..p {
-            jtj[a * p + b] = jac[a].iter().zip(&jac[b]).map(|(u, v)| u * v).sum();
-        }
-    }
-    (jtj, jtr)
-}
-
-fn invert(m: &[f64], p: usize) -> Option<Vec<f64>> {
-    match p {
-        1 => (m[0] > 0.0).then(|| vec![1.0 / m[0]]),
-        _ => {
-            let det = m[0] * m[3] - m[1] * m[2];
-            let scale = m[0] * m[3];
-            (det > 1e-14 * scale && scale > 0.0).then(|| vec![m[3] / det, -m[1] / det, -m[2] / det, m[0] / det])
-        }
-    }
-}
-
-/// Solves `(J^T J + mu diag(J^T J)) dx = -J^T r`.
-fn solve_damped(jtj: &[f64], jtr: &[f64], mu: f64, p: usize) -> Vec<f64> {
-    let mut m = jtj.to_vec();
-    for i in 0..p {
-        m[i * p + i] += mu * jtj[i * p + i].max(1e-300);
-    }
-    match invert(&m, p) {
-        Some(inv) => (0..p).map(|a| -(0..p).map(|b| inv[a * p + b] * jtr[b]).sum::<f64>()).collect(),
-        None => vec![0.0; p],
-    }
 }
 
 /// How far a model's shape is from a measured body.

@@ -9,11 +9,11 @@
 //! |e(L) - target|^2  (+ (w (phi(L) - angle))^2 when an angle is asked, w = 0.05 m/rad)
 //! ```
 //!
-//! by Levenberg-Marquardt on the two lengths, projected on the box (angles
-//! compared modulo 2 pi). Each evaluation is a warm-started static solve from
-//! the previous iterate's state (the tubes fed by the step), and the Jacobian
-//! `de/dL` is taken by central differences of warm solves (`h = 1e-6` m;
-//! solves converge to 1e-11). It starts
+//! by Levenberg-Marquardt on the two lengths within the box
+//! ([`crate::least_squares`]; angles compared modulo 2 pi). Each evaluation
+//! is a warm-started static solve from the current iterate's state (the tubes
+//! fed by the step), and the Jacobian `de/dL` is taken by central differences
+//! of warm solves (`h = 1e-6` m; solves converge to 1e-11). It starts
 //! from the nearest points of a map of the workspace computed once with
 //! default solves (in parallel).
 //!
@@ -26,6 +26,7 @@
 
 use crate::body::Body;
 use crate::error::InputError;
+use crate::least_squares::{central_differences, levenberg_marquardt, LeastSquares, Options, Scaling};
 use crate::robot::Robot;
 use crate::statics::{Scratch, Solver};
 use crate::sweep::{Grid, Seed};
@@ -98,6 +99,72 @@ struct Iterate {
     state: Seed,
     endpoint: [f64; 2],
     angle: f64,
+}
+
+/// One descent as a least-squares problem: every evaluation is a warm solve
+/// fed from the current iterate, which moves with each accepted step.
+struct Descent<'a> {
+    reacher: &'a Reacher,
+    target: [f64; 2],
+    angle: Option<f64>,
+    cold: bool,
+    solves: &'a mut usize,
+    current: Iterate,
+    /// The last trial evaluated, kept until the minimizer accepts or rejects it.
+    trial: Option<Iterate>,
+}
+
+impl Descent<'_> {
+    fn solve(&mut self, x: &[f64]) -> Option<Iterate> {
+        self.reacher.evaluate([x[0], x[1]], &self.current.state, self.cold, self.solves)
+    }
+
+    /// The residual rows of an iterate: the angle row only when an angle is asked.
+    fn residual_of(&self, it: &Iterate, r: &mut [f64]) {
+        let full = self.reacher.residual(it.endpoint, it.angle, self.target, self.angle);
+        r.copy_from_slice(&full[..r.len()]);
+    }
+}
+
+impl LeastSquares for Descent<'_> {
+    /// A static solve failed: the descent needs to know that, not why.
+    type Error = ();
+
+    fn rows(&self) -> usize {
+        2 + usize::from(self.angle.is_some())
+    }
+
+    /// The start is already solved: a map point or a cold solve.
+    fn start(&mut self, _: &[f64], r: &mut [f64]) -> Result<(), ()> {
+        self.residual_of(&self.current, r);
+        Ok(())
+    }
+
+    fn residual(&mut self, x: &[f64], r: &mut [f64]) -> Result<(), ()> {
+        let it = self.solve(x).ok_or(())?;
+        self.residual_of(&it, r);
+        self.trial = Some(it);
+        Ok(())
+    }
+
+    /// Central differences (one-sided at the box): near-singular maps have
+    /// long shallow valleys where a forward difference's error would steer
+    /// the step.
+    fn jacobian(&mut self, x: &[f64], r: &[f64], jac: &mut [f64]) -> Result<(), ()> {
+        let mut scratch = [0.0; 3];
+        let bounds = [self.reacher.range; 2];
+        central_differences(x, FD_STEP_M, &bounds, jac, &mut scratch[..r.len()], |y, out| {
+            let it = self.solve(y).ok_or(())?;
+            self.residual_of(&it, out);
+            Ok(())
+        })
+    }
+
+    fn accept(&mut self) {
+        if let Some(it) = self.trial.take() {
+            self.current = it;
+        }
+    }
 }
 
 impl Reacher {
@@ -189,76 +256,39 @@ impl Reacher {
             .is_some_and(|fresh| (fresh.endpoint[0] - it.endpoint[0]).hypot(fresh.endpoint[1] - it.endpoint[1]) < 1e-9)
     }
 
-    fn clamp(&self, x: f64) -> f64 {
-        x.clamp(self.range[0], self.range[1])
+    /// The Levenberg-Marquardt settings of a descent: both unknowns are
+    /// lengths (m), so one damping scale serves both; map starts are close,
+    /// so the damping starts mild. A descent stops only when the endpoint is
+    /// on the target far below the tolerance or when no step helps: the
+    /// callers judge the result, and try other starts.
+    fn options(&self) -> Options {
+        let close = 1e-3 * self.tolerance.tolerance_m.min(1e-6);
+        Options {
+            initial_damping: 1e-6,
+            damping_decrease: 0.2,
+            damping_increase: 10.0,
+            min_damping: 1e-12,
+            max_damping: 1e16,
+            scaling: Scaling::Uniform,
+            max_iterations: MAX_ITERATIONS,
+            max_trials: 12,
+            min_gain_ratio: 0.0,
+            cost_tolerance: 0.5 * close * close,
+            relative_decrease_tolerance: 0.0,
+            step_tolerance: 0.0,
+            gradient_tolerance: 0.0,
+            jacobian_at_solution: false,
+        }
     }
 
     /// Levenberg-Marquardt from one start; returns the best iterate.
     fn descend(&self, start: Iterate, target: [f64; 2], angle: Option<f64>, cold: bool, solves: &mut usize) -> Iterate {
-        let cost = |it: &Iterate| {
-            let r = self.residual(it.endpoint, it.angle, target, angle);
-            r.iter().map(|x| x * x).sum::<f64>()
-        };
-        let mut best = start;
-        let mut mu = 1e-6;
-        for _ in 0..MAX_ITERATIONS {
-            let r = self.residual(best.endpoint, best.angle, target, angle);
-            if r.iter().map(|x| x * x).sum::<f64>().sqrt() < 1e-3 * self.tolerance.tolerance_m.min(1e-6) {
-                break;
-            }
-            // Central differences (one-sided at the box): near-singular maps
-            // have long shallow valleys where a forward difference's error
-            // would steer the step.
-            let mut jac = [[0.0; 2]; 3];
-            for k in 0..2 {
-                let (mut up, mut down) = (best.lengths, best.lengths);
-                up[k] = (up[k] + FD_STEP_M).min(self.range[1]);
-                down[k] = (down[k] - FD_STEP_M).max(self.range[0]);
-                let Some(a) = self.evaluate(up, &best.state, cold, solves) else { return best };
-                let Some(b) = self.evaluate(down, &best.state, cold, solves) else { return best };
-                let (ra, rb) = (
-                    self.residual(a.endpoint, a.angle, target, angle),
-                    self.residual(b.endpoint, b.angle, target, angle),
-                );
-                for row in 0..3 {
-                    jac[row][k] = (ra[row] - rb[row]) / (up[k] - down[k]);
-                }
-            }
-            let mut jtj = [[0.0; 2]; 2];
-            let mut jtr = [0.0; 2];
-            for row in 0..3 {
-                for a in 0..2 {
-                    jtr[a] += jac[row][a] * r[row];
-                    for b in 0..2 {
-                        jtj[a][b] += jac[row][a] * jac[row][b];
-                    }
-                }
-            }
-            let scale = jtj[0][0].max(jtj[1][1]).max(1e-300);
-            let mut improved = false;
-            for _ in 0..12 {
-                let (a, b, c) = (jtj[0][0] + mu * scale, jtj[0][1], jtj[1][1] + mu * scale);
-                let det = a * c - b * b;
-                let step = [-(c * jtr[0] - b * jtr[1]) / det, -(a * jtr[1] - b * jtr[0]) / det];
-                let lengths = [self.clamp(best.lengths[0] + step[0]), self.clamp(best.lengths[1] + step[1])];
-                if lengths == best.lengths {
-                    break;
-                }
-                if let Some(it) = self.evaluate(lengths, &best.state, cold, solves) {
-                    if cost(&it) < cost(&best) {
-                        best = it;
-                        mu = (mu * 0.2).max(1e-12);
-                        improved = true;
-                        break;
-                    }
-                }
-                mu *= 10.0;
-            }
-            if !improved {
-                break;
-            }
-        }
-        best
+        let x0 = start.lengths;
+        let mut descent = Descent { reacher: self, target, angle, cold, solves, current: start, trial: None };
+        // Whatever the stop (on target, no descent, a failed solve), the
+        // current iterate is the best one reached.
+        levenberg_marquardt(&mut descent, &x0, &[self.range; 2], &self.options());
+        descent.current
     }
 
     /// Tube lengths putting the endpoint on `target` (m), and the plate at

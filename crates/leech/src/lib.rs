@@ -54,6 +54,7 @@
 //! * [`statics`]: the Newton-KKT solver, continuation, stability.
 //! * [`dynamics`]: constrained forward dynamics and integrators.
 //! * [`kkt`]: the O(n) bordered tridiagonal solve.
+//! * [`least_squares`]: bounded Levenberg-Marquardt for small fits and inverse problems.
 //! * [`inverse_statics`]: tube lengths that put the endpoint on a target.
 //! * [`sweep`]: sweeps over tube lengths along the actuation path, reach metrics.
 //! * [`robot`]: robot files (TOML) and the built-in robot.
@@ -72,6 +73,7 @@ pub mod error;
 pub mod geom;
 pub mod inverse_statics;
 pub mod kkt;
+pub mod least_squares;
 pub mod report;
 pub mod robot;
 pub mod statics;
