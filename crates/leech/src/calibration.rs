@@ -283,23 +283,18 @@ struct Problem<'a> {
 }
 
 impl Problem<'_> {
-    fn robot_at(&self, x: &[f64]) -> Robot {
-        let mut r = self.robot.clone();
-        r.tube.joint_stiffness_nm_per_rad = x[0].exp();
-        if self.fit == Fit::StiffnessAndMass {
-            r.tube.element_mass_kg = x[1].exp();
-        }
-        r
+    fn robot_at(&self, x: &[f64]) -> Result<Robot, String> {
+        let mass = if self.fit == Fit::StiffnessAndMass { x[1].exp() } else { self.robot.tube.element_mass_kg };
+        self.robot.with_tube(x[0].exp(), mass).map_err(|e| e.to_string())
     }
 
     /// Point residuals (m), or why the model could not be solved.
     fn residuals(&self, x: &[f64]) -> Result<Vec<f64>, String> {
-        let robot = self.robot_at(x);
+        let robot = self.robot_at(x)?;
         let solver = Solver::default();
         let mut out = Vec::new();
         for tube in self.sag {
-            let mut r = robot.clone();
-            r.world.base_angle_deg = tube.base_angle_deg;
+            let r = robot.with_base_angle(tube.base_angle_deg).map_err(|e| e.to_string())?;
             let cantilever = r.cantilever(tube.length, tube.tip_mass).map_err(|e| e.to_string())?;
             let eq = cantilever.solve(&solver).map_err(|e| e.to_string())?;
             let line = cantilever.chain().points(&eq.q);
@@ -325,8 +320,7 @@ impl Problem<'_> {
 }
 
 fn solve_shape(robot: &Robot, shape: &BodyShape) -> Result<(Body, Vec<f64>), String> {
-    let mut r = robot.clone();
-    r.world.base_angle_deg = shape.base_angle_deg;
+    let r = robot.with_base_angle(shape.base_angle_deg).map_err(|e| format!("shape {}: {e}", shape.name))?;
     let body = r.body(shape.lengths[0], shape.lengths[1]).map_err(|e| format!("shape {}: {e}", shape.name))?;
     let eq = body.solve(&Solver::default()).map_err(|e| format!("shape {}: {e}", shape.name))?;
     Ok((body, eq.q))
@@ -427,7 +421,7 @@ pub fn calibrate(
     let sigma2 = rss / (n - p).max(1) as f64;
     let k = result.x[0].exp();
     let m = if p == 2 { result.x[1].exp() } else { robot.tube.element_mass_kg };
-    let fitted = problem.robot_at(&result.x);
+    let fitted = robot.with_tube(k, m).map_err(|e| CalibrationError::Model(e.to_string()))?;
     Ok(Calibration {
         stiffness_nm_per_rad: k,
         stiffness_std_error_nm_per_rad: k * (sigma2 * covariance[(0, 0)]).sqrt(),
@@ -489,8 +483,7 @@ pub fn compare(robot: &Robot, shapes: &[BodyShape]) -> Result<Vec<ShapeCompariso
             let (qa, qb) = body.split(&q);
             let two_chain =
                 shape_error(shape, &body.chain_a().points(qa), &body.chain_b().points(qb), body.endpoint(&q));
-            let mut r = robot.clone();
-            r.world.base_angle_deg = shape.base_angle_deg;
+            let r = robot.with_base_angle(shape.base_angle_deg).map_err(|e| CalibrationError::Model(e.to_string()))?;
             let cc = PlanarBody::of(&r);
             let (a, b) = cc.chain_points(shape.lengths[0], shape.lengths[1], 200);
             let tip = cc.pose(shape.lengths[0], shape.lengths[1]).endpoint;
@@ -568,8 +561,7 @@ pub mod synthetic {
     /// Sag measurements of tubes of the given lengths clamped at `angle_deg`.
     pub fn sag(robot: &Robot, lengths: &[f64], angle_deg: f64, spacing: f64, noise: f64, seed: u64) -> Vec<SagTube> {
         let mut rng = Noise::new(seed);
-        let mut r = robot.clone();
-        r.world.base_angle_deg = angle_deg;
+        let r = robot.with_base_angle(angle_deg).expect("valid synthetic angle");
         lengths
             .iter()
             .map(|&length| {
@@ -591,8 +583,7 @@ pub mod synthetic {
         seed: u64,
     ) -> Vec<BodyShape> {
         let mut rng = Noise::new(seed ^ 0x5EED);
-        let mut r = robot.clone();
-        r.world.base_angle_deg = angle_deg;
+        let r = robot.with_base_angle(angle_deg).expect("valid synthetic angle");
         lengths
             .iter()
             .map(|&[la, lb]| {
