@@ -305,6 +305,9 @@ impl Path for Body {
         self.a.load_gradient(&ev.cos[..na], self.gravity, out_a);
         self.b.load_gradient(&ev.cos[na..], self.gravity, out_b);
     }
+    fn discrete_stiffness(&self) -> f64 {
+        self.a.discrete_stiffness(self.gravity).max(self.b.discrete_stiffness(self.gravity))
+    }
 }
 
 /// The feeding homotopy at `g = 0`: the longer chain's links are scaled so

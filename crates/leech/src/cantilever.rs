@@ -128,6 +128,9 @@ impl Path for Cantilever {
     fn path(&self, _q: &[f64], _t: f64, ev: &Evaluation, out: &mut PathTerms) {
         self.chain.load_gradient(&ev.cos, self.gravity, &mut out.gradient);
     }
+    fn discrete_stiffness(&self) -> f64 {
+        self.chain.discrete_stiffness(self.gravity)
+    }
 }
 
 /// A single tube described element by element, as on `leech chain`'s

@@ -249,6 +249,17 @@ impl Chain {
         self.nominal_stiffness
     }
 
+    /// The discrete shape parameter `k / (m g l)` of a whole element under
+    /// `gravity` (dimensionless; 0 without gravity or mass).
+    pub fn discrete_stiffness(&self, gravity: f64) -> f64 {
+        let weight = self.masses.first().copied().unwrap_or(0.0) * gravity.abs() * self.element_length;
+        if weight > 0.0 {
+            self.nominal_stiffness / weight
+        } else {
+            0.0
+        }
+    }
+
     /// Joint dampers `d_j` (N m s/rad).
     pub fn damping(&self) -> &[f64] {
         &self.damping

@@ -248,6 +248,21 @@ impl Robot {
         self.with(|r| r.tube.joint_damping_nms_per_rad = damping)
     }
 
+    /// The same tube cut into elements of length `l` (m): bending stiffness
+    /// `EI = k l`, mass per length `m / l` and the dampers' `d l` kept, so the
+    /// physical robot is unchanged and only the discretization is finer or
+    /// coarser (docs/model.md section 9).
+    pub fn with_element_length(&self, l: f64) -> Result<Robot, InputError> {
+        let l = positive("element length (m)", l)?;
+        let ratio = l / self.tube.element_length_m;
+        self.with(|r| {
+            r.tube.element_length_m = l;
+            r.tube.element_mass_kg *= ratio;
+            r.tube.joint_stiffness_nm_per_rad /= ratio;
+            r.tube.joint_damping_nms_per_rad /= ratio;
+        })
+    }
+
     /// The same robot under another name.
     pub fn with_name(&self, name: impl Into<String>) -> Robot {
         Robot { name: name.into(), ..self.clone() }

@@ -45,10 +45,13 @@ impl Solver {
         let mut residual = self.minimize(sys, it, from, stage, ws)?;
         let mut t = from;
         self.tangent(sys, it, t, ws);
-        // The first step: what the system allows, shortened so that the
-        // predictor turns no coordinate by more than `first_step_angle`.
-        let response = sup_norm(&ws.tangent);
-        let mut dt = sys.first_step().min(self.options.tuning.first_step_angle / response).min(1.0 - from);
+        // The first step: what the system allows, on a stiff path shortened so
+        // that the predictor turns no coordinate by more than `first_step_angle`.
+        let tuning = &self.options.tuning;
+        let mut dt = sys.first_step().min(1.0 - from);
+        if sys.discrete_stiffness() > tuning.stiff_path {
+            dt = dt.min(tuning.first_step_angle / sup_norm(&ws.tangent));
+        }
         let mut steps = 0;
         while t < 1.0 {
             steps += 1;

@@ -99,4 +99,13 @@ pub trait Path: StaticSystem {
     fn first_step(&self) -> f64 {
         1.0
     }
+    /// How stiff the discrete path is: for chains under gravity the largest
+    /// `k / (m g l)` of a link (dimensionless; 0 when it does not apply). A
+    /// fine chain's stiff high modes shrink the corrector's basin, so above
+    /// [`Tuning::stiff_path`] the first step is sized from the tangent.
+    ///
+    /// [`Tuning::stiff_path`]: super::Tuning::stiff_path
+    fn discrete_stiffness(&self) -> f64 {
+        0.0
+    }
 }
