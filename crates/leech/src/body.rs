@@ -139,28 +139,12 @@ impl Body {
     /// Adds the potential at gravity `load * gravity` with link lengths
     /// scaled by `scale` (A, B) to `ev`, with the links' trigonometry.
     fn potential_with(&self, q: &[f64], gravity: f64, load: f64, scale: [f64; 2], ev: &mut Evaluation) {
-        let na = self.a.len();
+        let (na, n) = (self.a.len(), q.len());
         let (qa, qb) = self.split(q);
-        let (cos_a, cos_b) = ev.cos.split_at_mut(na);
-        let (sin_a, sin_b) = ev.sin.split_at_mut(na);
-        let (grad_a, grad_b) = ev.gradient.split_at_mut(na);
-        let (diag_a, diag_b) = ev.hessian_diag.split_at_mut(na);
-        let (off_a, off_b) = ev.hessian_off.split_at_mut(na);
-        let ea = self.a.evaluate_block(
-            qa,
-            gravity,
-            load,
-            scale[0],
-            Block { cos: cos_a, sin: sin_a, grad: grad_a, diag: diag_a, off: off_a },
-        );
-        let eb = self.b.evaluate_block(
-            qb,
-            gravity,
-            load,
-            scale[1],
-            Block { cos: cos_b, sin: sin_b, grad: grad_b, diag: diag_b, off: off_b },
-        );
-        // off_a's last entry couples A's last link with B's first: no spring there.
+        // The hessian_off entry between A's last link and B's first stays
+        // zero: no spring couples the chains.
+        let ea = self.a.evaluate_block(qa, gravity, load, scale[0], Block::of(ev, 0..na));
+        let eb = self.b.evaluate_block(qb, gravity, load, scale[1], Block::of(ev, na..n));
         ev.energy = ea + eb;
     }
 

@@ -87,19 +87,8 @@ impl Potential for Cantilever {
 
     /// `t` is the fraction of gravity applied.
     fn potential(&self, q: &[f64], t: f64, ev: &mut Evaluation) {
-        ev.energy = self.chain.evaluate_block(
-            q,
-            self.gravity,
-            t,
-            1.0,
-            Block {
-                cos: &mut ev.cos,
-                sin: &mut ev.sin,
-                grad: &mut ev.gradient,
-                diag: &mut ev.hessian_diag,
-                off: &mut ev.hessian_off,
-            },
-        );
+        let n = q.len();
+        ev.energy = self.chain.evaluate_block(q, self.gravity, t, 1.0, Block::of(ev, 0..n));
     }
 }
 

@@ -43,6 +43,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::geom::unit;
+use crate::statics::Evaluation;
 
 /// How a continuous tube is cut into rigid links.
 ///
@@ -117,6 +118,20 @@ pub(crate) struct Block<'a> {
     pub grad: &'a mut [f64],
     pub diag: &'a mut [f64],
     pub off: &'a mut [f64],
+}
+
+impl<'a> Block<'a> {
+    /// The views of the coordinates `range` of an evaluation.
+    pub fn of(ev: &'a mut Evaluation, range: std::ops::Range<usize>) -> Block<'a> {
+        let off_end = range.end.min(ev.hessian_off.len());
+        Block {
+            cos: &mut ev.cos[range.clone()],
+            sin: &mut ev.sin[range.clone()],
+            grad: &mut ev.gradient[range.clone()],
+            diag: &mut ev.hessian_diag[range.clone()],
+            off: &mut ev.hessian_off[range.start..off_end],
+        }
+    }
 }
 
 /// Everything needed to cut one tube into a [`Chain`]. All SI.
