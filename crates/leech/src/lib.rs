@@ -55,6 +55,7 @@
 //! * [`dynamics`]: constrained forward dynamics and integrators.
 //! * [`kkt`]: the O(n) bordered tridiagonal solve.
 //! * [`least_squares`]: bounded Levenberg-Marquardt for small fits and inverse problems.
+//! * [`linalg`]: bordered block-tridiagonal LDL^T with inertia (any number of chains and border rows).
 //! * [`inverse_statics`]: tube lengths that put the endpoint on a target.
 //! * [`sweep`]: sweeps over tube lengths along the actuation path, reach metrics.
 //! * [`robot`]: robot files (TOML) and the built-in robot.
@@ -74,6 +75,7 @@ pub mod geom;
 pub mod inverse_statics;
 pub mod kkt;
 pub mod least_squares;
+pub mod linalg;
 pub mod report;
 pub mod robot;
 pub mod statics;

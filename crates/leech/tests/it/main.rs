@@ -7,6 +7,7 @@ mod derivatives;
 mod dynamics;
 mod inverse_statics;
 mod limits;
+mod linalg;
 mod references;
 mod robot_file;
 mod solver;

@@ -1,0 +1,202 @@
+//! The numeric factorization of a bordered block-tridiagonal matrix and its
+//! solve (equations in the [module doc](super)).
+
+use super::dense_ldl::{self, Pivot};
+use super::{block_tridiagonal, tridiagonal, InertiaCount, Pattern, MAX_BORDER};
+
+/// Below this fraction of its largest entry a pivot of the Schur complement
+/// counts as zero: the border is rank deficient to rounding. Relative, since
+/// `S` is in the border's units, not the chains'.
+const SCHUR_RELATIVE_ZERO: f64 = 1e-12;
+
+/// Factors of one bordered block-tridiagonal matrix, with all the scratch its
+/// factorization and solves need, allocated once from a [`Pattern`]:
+/// [`BorderedLdl::factor`] and [`BorderedLdl::solve`] allocate nothing.
+#[derive(Clone, Debug)]
+pub struct BorderedLdl {
+    pattern: Pattern,
+    factors: SparseFactors,
+    /// `S`, then its Bunch-Kaufman factors (lower triangle by columns).
+    schur: Vec<f64>,
+    schur_pivots: Vec<Pivot>,
+    sparse_inertia: InertiaCount,
+    schur_inertia: InertiaCount,
+}
+
+/// The numbers of the sparse part and border for one factorization.
+pub(super) struct SparseInput<'a> {
+    pub diag: &'a [f64],
+    pub off: &'a [f64],
+    pub border: &'a [f64],
+    pub shift: f64,
+    pub tiny: f64,
+}
+
+/// Factors of the chains: `L D L^T` of `A + shift I` and `W = L^-1 B`.
+#[derive(Clone, Debug)]
+pub(super) struct SparseFactors {
+    /// `D^+` of each block: the reciprocal pivot (B = 1) or the 3 x 3 inverse
+    /// of the pivot block (B = 3, row-major), 0 in dropped directions.
+    pub inv_pivots: Vec<f64>,
+    /// `L_{j, j-1}` of each block (row-major); zero at the first block of a
+    /// chain, and one zero block past the end, so that backward recurrences
+    /// cross chain ends without a test.
+    pub multipliers: Vec<f64>,
+    /// `W = L^-1 B`, laid out like the border (`i * k + r`).
+    pub w: Vec<f64>,
+}
+
+/// The factored Schur complement, as the chain kernels see it.
+pub(super) struct SchurFactors<'a> {
+    factors: &'a [f64],
+    pivots: &'a [Pivot],
+}
+
+impl SchurFactors<'_> {
+    /// Overwrites `y` (k) with `S^-1 y` (directions of zero pivots dropped).
+    pub fn solve(&self, y: &mut [f64]) {
+        dense_ldl::solve_in_place(self.factors, self.pivots.len(), self.pivots, y);
+    }
+}
+
+impl BorderedLdl {
+    /// Scratch and factors for matrices of the given structure.
+    pub fn new(pattern: &Pattern) -> BorderedLdl {
+        let (blocks, b, k) = (pattern.blocks(), pattern.block_size(), pattern.border_rows());
+        BorderedLdl {
+            pattern: pattern.clone(),
+            factors: SparseFactors {
+                inv_pivots: vec![0.0; blocks * b * b],
+                multipliers: vec![0.0; (blocks + 1) * b * b],
+                w: vec![0.0; blocks * b * k],
+            },
+            schur: vec![0.0; k * k],
+            schur_pivots: vec![Pivot::default(); k],
+            sparse_inertia: InertiaCount::default(),
+            schur_inertia: InertiaCount::default(),
+        }
+    }
+
+    /// The structure this factorization was made for.
+    pub fn pattern(&self) -> &Pattern {
+        &self.pattern
+    }
+
+    /// Factors the matrix and returns its inertia (Sylvester's law: that of
+    /// the chains' pivots plus that of the Schur complement).
+    ///
+    /// * `diag`: the diagonal blocks, `B * B` row-major entries per block (for
+    ///   B = 1 the `n` diagonal entries).
+    /// * `off`: for each block `j` but the last, the block coupling it (rows)
+    ///   with block `j + 1` (columns), `B * B` row-major entries; the block
+    ///   below the diagonal is its transpose. Entries between chains are
+    ///   ignored. For B = 1, `off[i]` couples unknowns `i` and `i + 1`.
+    /// * `border`: `B` (n x k), entry (unknown `i`, border row `r`) at `i * k + r`.
+    /// * `corner`: `C` (k x k, row-major, symmetric; the lower triangle is read).
+    /// * `shift`: added to the chains' diagonal and to the first `k_primal`
+    ///   diagonal entries of the corner.
+    /// * `tiny`: a chain pivot with `|d| <= tiny` counts as zero. A Schur
+    ///   pivot counts as zero below `1e-12` of `S`'s largest entry (or `tiny`).
+    ///
+    /// # Panics
+    /// If a slice's length does not fit the pattern.
+    pub fn factor(
+        &mut self,
+        diag: &[f64],
+        off: &[f64],
+        border: &[f64],
+        corner: &[f64],
+        shift: f64,
+        tiny: f64,
+    ) -> InertiaCount {
+        self.check_factor_inputs(diag, off, border, corner);
+        let k = self.pattern.border_rows();
+        self.load_corner(corner, shift);
+        let input = SparseInput { diag, off, border, shift, tiny };
+        let (pattern, factors, schur) = (&self.pattern, &mut self.factors, &mut self.schur[..]);
+        self.sparse_inertia = match (pattern.block_size(), k) {
+            (1, 0) => tridiagonal::factor_small::<0>(pattern, &input, factors, schur),
+            (1, 1) => tridiagonal::factor_small::<1>(pattern, &input, factors, schur),
+            (1, 2) => tridiagonal::factor_small::<2>(pattern, &input, factors, schur),
+            (1, 3) => tridiagonal::factor_small::<3>(pattern, &input, factors, schur),
+            (1, _) => tridiagonal::factor_wide(pattern, &input, factors, schur),
+            _ => block_tridiagonal::factor(pattern, &input, factors, schur),
+        };
+        let scale = self.schur.iter().fold(0.0f64, |m, s| m.max(s.abs()));
+        let schur_tiny = tiny.max(SCHUR_RELATIVE_ZERO * scale);
+        self.schur_inertia = dense_ldl::factor_in_place(&mut self.schur, k, &mut self.schur_pivots, schur_tiny);
+        self.sparse_inertia + self.schur_inertia
+    }
+
+    /// Solves the factored system for right-hand sides `r` (n) and `c` (k),
+    /// writing `x` (n) and `y` (k). Meaningful when the last factorization
+    /// counted no zero eigenvalue; otherwise the dropped directions are zero.
+    ///
+    /// # Panics
+    /// If a slice's length does not fit the pattern.
+    pub fn solve(&self, r: &[f64], c: &[f64], x: &mut [f64], y: &mut [f64]) {
+        let (n, k) = (self.pattern.unknowns(), self.pattern.border_rows());
+        assert!(r.len() == n && x.len() == n, "solve: r and x need {n} entries");
+        assert!(c.len() == k && y.len() == k, "solve: c and y need {k} entries");
+        let schur = SchurFactors { factors: &self.schur, pivots: &self.schur_pivots };
+        let (pattern, factors) = (&self.pattern, &self.factors);
+        match (pattern.block_size(), k) {
+            (1, 0) => tridiagonal::solve_small::<0>(pattern, factors, &schur, r, c, x, y),
+            (1, 1) => tridiagonal::solve_small::<1>(pattern, factors, &schur, r, c, x, y),
+            (1, 2) => tridiagonal::solve_small::<2>(pattern, factors, &schur, r, c, x, y),
+            (1, 3) => tridiagonal::solve_small::<3>(pattern, factors, &schur, r, c, x, y),
+            (1, _) => tridiagonal::solve_wide(pattern, factors, &schur, r, c, x, y),
+            _ => block_tridiagonal::solve(pattern, factors, &schur, r, c, x, y),
+        }
+    }
+
+    /// Inertia of the chains' part `A + shift I` found by the last factorization.
+    pub fn sparse_inertia(&self) -> InertiaCount {
+        self.sparse_inertia
+    }
+
+    /// Inertia of the Schur complement `S` found by the last factorization.
+    pub fn schur_inertia(&self) -> InertiaCount {
+        self.schur_inertia
+    }
+
+    fn check_factor_inputs(&self, diag: &[f64], off: &[f64], border: &[f64], corner: &[f64]) {
+        let (blocks, b, k) = (self.pattern.blocks(), self.pattern.block_size(), self.pattern.border_rows());
+        assert_eq!(diag.len(), blocks * b * b, "factor: diagonal blocks");
+        assert!(off.len() >= blocks.saturating_sub(1) * b * b, "factor: {} off-diagonal entries too few", off.len());
+        assert_eq!(border.len(), blocks * b * k, "factor: border");
+        assert_eq!(corner.len(), k * k, "factor: corner");
+    }
+
+    /// `S` starts as the shifted corner; the kernels subtract `W^T D^-1 W`.
+    fn load_corner(&mut self, corner: &[f64], shift: f64) {
+        let (k, primal) = (self.pattern.border_rows(), self.pattern.primal_rows());
+        for j in 0..k {
+            for i in j..k {
+                self.schur[j * k + i] = corner[i * k + j];
+            }
+        }
+        for i in 0..primal {
+            self.schur[i * k + i] += shift;
+        }
+    }
+}
+
+/// `S(i, j) -= sum_u v_u[j] w_u[i]` on the lower triangle (`S` by columns),
+/// for a group of `R` unknowns with border rows `w_u` and `v_u = (D^-1 W)_u`:
+/// taking several unknowns per sweep over `S` divides its memory traffic.
+#[inline(always)]
+pub(super) fn subtract_outer<const R: usize>(s: &mut [f64], k: usize, w: [&[f64]; R], v: &[[f64; MAX_BORDER]; R]) {
+    for j in 0..k {
+        let coefficients: [f64; R] = std::array::from_fn(|u| v[u][j]);
+        let target = &mut s[j * k + j..j * k + k];
+        for (offset, x) in target.iter_mut().enumerate() {
+            let i = j + offset;
+            let mut sum = 0.0;
+            for u in 0..R {
+                sum += coefficients[u] * w[u][i];
+            }
+            *x -= sum;
+        }
+    }
+}

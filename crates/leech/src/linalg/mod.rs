@@ -1,0 +1,113 @@
+//! Sparse symmetric indefinite factorization of bordered block-tridiagonal
+//! matrices, with the inertia, in O(n k^2).
+//!
+//! The matrices solved here are
+//!
+//! ```text
+//!     [ A + shift I   B           ] [x]   [r]
+//! K = [ B^T           C + shift P ] [y] = [c]
+//! ```
+//!
+//! where `A` (n x n) is a direct sum of independent block-tridiagonal chains
+//! (blocks of size 1 or 3, coupling only between consecutive blocks of one
+//! chain), `B` (n x k) is a dense border of `k <= 64` rows, `C` (k x k) is a
+//! dense symmetric corner, and `P` selects the first `k_primal` border rows:
+//! extra primal unknowns (a floating base's pose) that are shifted like the
+//! sparse unknowns, while the remaining constraint rows are not.
+//! [`Pattern`] holds that structure, [`BorderedLdl`] the numbers.
+//!
+//! ## Bordered solve
+//!
+//! Each chain of `A + shift I` is factored as `L D L^T` (block bidiagonal unit
+//! `L`, block diagonal `D`) without pivoting. With `W = L^-1 B` the Schur
+//! complement of the sparse block is
+//!
+//! ```text
+//! S = C + shift P - B^T A^-1 B = C + shift P - W^T D^-1 W        (k x k),
+//! ```
+//!
+//! symmetric by construction and accumulated during the one forward pass that
+//! also produces `W`. The solve is then
+//!
+//! ```text
+//! t = L^-1 r,   S y = c - W^T D^-1 t,   x = L^-T D^-1 (t - W y),
+//! ```
+//!
+//! two passes over the chains and one small dense solve.
+//!
+//! ## Inertia (Sylvester's law)
+//!
+//! `K` is congruent to `diag(A, S)`, so by Sylvester's law of inertia
+//!
+//! ```text
+//! inertia(K) = inertia(A) + inertia(S) = inertia(D) + inertia(S).
+//! ```
+//!
+//! The pivots of `D` are counted directly (a 3 x 3 pivot block through its own
+//! symmetric indefinite factorization, since it may be indefinite). `S` is
+//! factored by the Bunch-Kaufman `P S P^T = L D L^T` with 1 x 1 and 2 x 2
+//! pivots in [`dense_ldl`]: written here rather than taken from a library
+//! because it must work in place, allocate nothing, and report the inertia.
+//! A pivot with `|d| <= tiny` counts as zero; its direction is dropped from
+//! the solve (its reciprocal is taken as 0), which keeps every factor finite.
+//! A count with `zero > 0` means the matrix is numerically singular and the
+//! solve is a least-change guess, not a solution.
+//!
+//! ## Speed
+//!
+//! The chains' recurrences are serial, so two chains are walked side by side
+//! in two lanes whose instructions overlap in the pipeline; with one scalar
+//! unknown per block and at most three border rows, the border columns and
+//! the Schur complement live in registers (a monomorphized fast path).
+
+mod block_tridiagonal;
+mod bordered_ldl;
+pub mod dense_ldl;
+mod pattern;
+mod tridiagonal;
+
+use std::ops::{Add, AddAssign};
+
+pub use bordered_ldl::BorderedLdl;
+pub use dense_ldl::{solve_symmetric, DenseLdl, Pivot};
+pub use pattern::Pattern;
+
+/// Largest number of border rows a [`Pattern`] carries.
+pub const MAX_BORDER: usize = 64;
+
+/// Numbers of positive, negative and zero eigenvalues of a symmetric matrix,
+/// as counted from the pivots of a factorization (Sylvester's law).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct InertiaCount {
+    /// Positive eigenvalues.
+    pub positive: usize,
+    /// Negative eigenvalues.
+    pub negative: usize,
+    /// Eigenvalues counted as zero: pivots with `|d| <= tiny`.
+    pub zero: usize,
+}
+
+impl InertiaCount {
+    /// Order of the matrix counted.
+    pub fn dimension(&self) -> usize {
+        self.positive + self.negative + self.zero
+    }
+}
+
+impl Add for InertiaCount {
+    type Output = InertiaCount;
+
+    fn add(self, other: InertiaCount) -> InertiaCount {
+        InertiaCount {
+            positive: self.positive + other.positive,
+            negative: self.negative + other.negative,
+            zero: self.zero + other.zero,
+        }
+    }
+}
+
+impl AddAssign for InertiaCount {
+    fn add_assign(&mut self, other: InertiaCount) {
+        *self = *self + other;
+    }
+}
