@@ -73,26 +73,40 @@ impl Solver {
     /// shifted KKT matrix's reduced block positive definite.
     fn lowest_mode(&self, k: f64, it: &Iterate, ws: &mut Scratch) {
         let tuning = &self.options.tuning;
-        let n = ws.n;
-        let off = &ws.current.hessian_off;
-        let mut lower = f64::INFINITY;
-        for i in 0..n {
-            let left = if i > 0 { off[i - 1].abs() } else { 0.0 };
-            let right = if i + 1 < n { off[i].abs() } else { 0.0 };
-            lower = lower.min(ws.lagrangian_diag[i] - left - right);
-        }
+        let lower = gershgorin_lower(ws);
         let sigma = lower - tuning.escape_gap * k;
         let tiny = tuning.tiny_pivot * k;
-        let ev = &ws.current;
-        ws.kkt.factor(&ws.lagrangian_diag, &ev.hessian_off, -sigma, &ev.jacobian, &it.active, tiny);
+        ws.factor_kkt(-sigma, &it.active, tiny);
         for (i, v) in ws.direction.iter_mut().enumerate() {
             *v = 1.0 + 0.1 * (i as f64).sin();
         }
         ws.rhs.fill(0.0);
         for _ in 0..tuning.escape_iterations {
-            ws.kkt.solve(&ws.current.jacobian, &ws.direction, &ws.rhs, &mut ws.step, &mut ws.dual_step);
+            ws.kkt.solve(&it.active, &ws.direction, &ws.rhs, &mut ws.step, &mut ws.dual_step);
             let norm = sup_norm(&ws.step);
             ws.direction.iter_mut().zip(&ws.step).for_each(|(v, s)| *v = s / norm);
         }
     }
+}
+
+/// A lower bound (Gershgorin) on the eigenvalues of the Lagrangian Hessian
+/// in `ws` (chains, border and corner).
+fn gershgorin_lower(ws: &Scratch) -> f64 {
+    let ev = &ws.current;
+    let (chains, free) = (ws.lagrangian_diag.len(), ev.free());
+    let off = &ev.hessian_off;
+    let border_row = |i: usize| ev.hessian_border[i * free..(i + 1) * free].iter().map(|x| x.abs()).sum::<f64>();
+    let mut lower = f64::INFINITY;
+    for i in 0..chains {
+        let left = if i > 0 { off[i - 1].abs() } else { 0.0 };
+        let right = if i + 1 < chains { off[i].abs() } else { 0.0 };
+        lower = lower.min(ws.lagrangian_diag[i] - left - right - border_row(i));
+    }
+    for a in 0..free {
+        let row = &ws.lagrangian_corner[a * free..(a + 1) * free];
+        let others: f64 = row.iter().enumerate().filter(|(b, _)| *b != a).map(|(_, x)| x.abs()).sum();
+        let column: f64 = (0..chains).map(|i| ev.hessian_border[i * free + a].abs()).sum();
+        lower = lower.min(row[a] - others - column);
+    }
+    lower
 }

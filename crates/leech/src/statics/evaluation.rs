@@ -2,17 +2,28 @@
 
 /// What [`StaticSystem::evaluate`](super::StaticSystem::evaluate) fills: the
 /// potential's terms and the constraints' terms at one `(q, t)`.
+///
+/// The `n` coordinates are the chains' `n_s` first, then `f` *free*
+/// coordinates (a floating base's pose) whose Hessian couples densely: the
+/// banded part (`hessian_diag`, `hessian_off`) covers the chains, the border
+/// `hessian_border` (`n_s x f`, entry `(i, a)` at `i f + a`) couples chains
+/// and free coordinates, and `hessian_corner` (`f x f`, row-major) the free
+/// coordinates among themselves.
 #[derive(Clone, Debug, Default)]
 pub struct Evaluation {
     /// Potential `V` (J).
     pub energy: f64,
     /// `dV/dq` (N m).
     pub gradient: Vec<f64>,
-    /// Diagonal of `d2V/dq2` (N m/rad).
+    /// Diagonal of `d2V/dq2` over the chains' coordinates (N m/rad).
     pub hessian_diag: Vec<f64>,
     /// Off-diagonal of the tridiagonal `d2V/dq2`; entry `i` couples `i` and
     /// `i + 1` (zero between chains).
     pub hessian_off: Vec<f64>,
+    /// `d2V/dq_i dq_a` between chain coordinate `i` and free coordinate `a`, at `i f + a`.
+    pub hessian_border: Vec<f64>,
+    /// `d2V/dq_a dq_b` among the free coordinates, row-major.
+    pub hessian_corner: Vec<f64>,
     /// Constraint values `C` (m for positions, rad for angles), `m` of them.
     pub constraints: Vec<f64>,
     /// Constraint Jacobian, interleaved by coordinate: `dC_r/dq_i` at `i m + r`.
@@ -26,19 +37,33 @@ pub struct Evaluation {
 }
 
 impl Evaluation {
-    /// Zeroed storage for `n` coordinates and `m` constraint rows.
+    /// Zeroed storage for `n` chain coordinates and `m` constraint rows.
     pub fn new(n: usize, m: usize) -> Evaluation {
+        Evaluation::with_free(n, 0, m)
+    }
+
+    /// Zeroed storage for `n` coordinates of which the last `free` are free
+    /// (dense) ones, and `m` constraint rows.
+    pub fn with_free(n: usize, free: usize, m: usize) -> Evaluation {
+        let chains = n - free;
         Evaluation {
             energy: 0.0,
             gradient: vec![0.0; n],
-            hessian_diag: vec![0.0; n],
-            hessian_off: vec![0.0; n.saturating_sub(1)],
+            hessian_diag: vec![0.0; chains],
+            hessian_off: vec![0.0; chains.saturating_sub(1)],
+            hessian_border: vec![0.0; chains * free],
+            hessian_corner: vec![0.0; free * free],
             constraints: vec![0.0; m],
             jacobian: vec![0.0; n * m],
             curvature: vec![0.0; n * m],
             cos: vec![0.0; n],
             sin: vec![0.0; n],
         }
+    }
+
+    /// Number of free coordinates `f`.
+    pub fn free(&self) -> usize {
+        self.gradient.len() - self.hessian_diag.len()
     }
 
     /// Number of constraint rows `m`.
@@ -53,6 +78,8 @@ impl Evaluation {
             &mut self.gradient,
             &mut self.hessian_diag,
             &mut self.hessian_off,
+            &mut self.hessian_border,
+            &mut self.hessian_corner,
             &mut self.constraints,
             &mut self.jacobian,
             &mut self.curvature,

@@ -116,23 +116,34 @@ impl Solver {
     /// inertia and the shift used.
     pub(super) fn factor(&self, k: f64, it: &Iterate, ws: &mut Scratch) -> (Inertia, f64) {
         let tuning = &self.options.tuning;
-        transposed_product(&ws.current.hessian_diag, &ws.current.curvature, &it.lambda, &mut ws.lagrangian_diag);
+        Self::lagrangian(ws, &it.lambda);
         let tiny = tuning.tiny_pivot * k;
-        let ev = &ws.current;
-        let first = ws.kkt.factor(&ws.lagrangian_diag, &ev.hessian_off, 0.0, &ev.jacobian, &it.active, tiny);
+        let first = ws.factor_kkt(0.0, &it.active, tiny);
         if first == Inertia::Minimum {
             return (first, 0.0);
         }
         let mut shift = tuning.first_shift * k;
         for _ in 0..tuning.max_shift_tries {
-            if ws.kkt.factor(&ws.lagrangian_diag, &ev.hessian_off, shift, &ev.jacobian, &it.active, tiny)
-                == Inertia::Minimum
-            {
+            if ws.factor_kkt(shift, &it.active, tiny) == Inertia::Minimum {
                 return (first, shift);
             }
             shift *= tuning.shift_growth;
         }
         (first, f64::INFINITY)
+    }
+
+    /// The Lagrangian Hessian `hess V - sum_r lambda_r hess C_r` of
+    /// `ws.current` into `ws.lagrangian_*` (the constraint Hessians are diagonal).
+    fn lagrangian(ws: &mut Scratch, lambda: &[f64]) {
+        let ev = &ws.current;
+        transposed_product(&ev.hessian_diag, &ev.curvature, lambda, &mut ws.lagrangian_diag);
+        ws.lagrangian_corner.copy_from_slice(&ev.hessian_corner);
+        let (chains, free, m) = (ev.hessian_diag.len(), ev.free(), lambda.len());
+        for a in 0..free {
+            let curvature = &ev.curvature[(chains + a) * m..(chains + a + 1) * m];
+            let entry = &mut ws.lagrangian_corner[a * free + a];
+            *entry = curvature.iter().zip(lambda).fold(*entry, |acc, (c, l)| acc - c * l);
+        }
     }
 
     fn out_of_time(&self, it: &Iterate) -> bool {
@@ -288,9 +299,7 @@ impl Solver {
         let mut shift = if min_shift == 0.0 { 0.0 } else { min_shift.max(state.damping) };
         for attempt in 0..tuning.max_trials {
             if attempt > 0 || shift != min_shift {
-                let tiny = tuning.tiny_pivot * k;
-                let ev = &ws.current;
-                ws.kkt.factor(&ws.lagrangian_diag, &ev.hessian_off, shift, &ev.jacobian, &it.active, tiny);
+                ws.factor_kkt(shift, &it.active, tuning.tiny_pivot * k);
             }
             match self.trial(sys, it, t, ws, state, min_shift) {
                 Trial::Accepted => {
@@ -322,7 +331,7 @@ impl Solver {
         for row in 0..m {
             ws.rhs[row] = -ws.current.constraints[row];
         }
-        ws.kkt.solve(&ws.current.jacobian, &ws.residual, &ws.rhs, &mut ws.step, &mut ws.dual_step);
+        ws.kkt.solve(&it.active, &ws.residual, &ws.rhs, &mut ws.step, &mut ws.dual_step);
         ws.residual.iter_mut().for_each(|x| *x = -*x);
         // Where the curvature is corrected the quadratic model is not the
         // energy: keep such steps short, so that the descent follows the

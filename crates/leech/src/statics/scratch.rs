@@ -2,7 +2,7 @@
 
 use super::evaluation::{Evaluation, PathTerms};
 use super::system::{Path, Row, StaticSystem};
-use crate::kkt::Kkt;
+use crate::linalg::{BorderedLdl, Pattern};
 
 /// What a factorization found about the KKT matrix of the working set.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -15,52 +15,124 @@ pub(super) enum Inertia {
     Singular,
 }
 
-/// The KKT factorization of the working set (active rows only).
+/// The KKT factorization of the working set, on [`BorderedLdl`]: the
+/// chains' banded Hessian bordered by the free coordinates (primal rows)
+/// and the constraint rows. Inactive rows stay in the pattern (the symbolic
+/// structure does not change with the active set) as identity rows, `y_r = 0`.
 #[derive(Clone, Debug)]
 pub(super) struct KktSolver {
-    kkt: Kkt,
-    /// The Jacobian in the bordered solver's stride-3 layout.
-    jac3: Vec<f64>,
+    ldl: BorderedLdl,
+    chains: usize,
+    free: usize,
     m: usize,
+    /// The assembled border `[H_cf | J_A^T]` (chains x (f + m)) and corner
+    /// `[[H_ff, J_Af^T], [J_Af, I_inactive]]`, when they differ from `J^T`
+    /// and zero (free coordinates or inactive rows).
+    border: Vec<f64>,
+    corner: Vec<f64>,
+    /// Right-hand side and solution of the border rows (f + m).
+    c: Vec<f64>,
+    y: Vec<f64>,
+    active_rows: usize,
+    /// Whether `corner` holds an assembled matrix (else it is zero).
+    assembled: bool,
 }
 
 impl KktSolver {
-    fn new(n: usize, m: usize, chains: &[usize]) -> KktSolver {
-        let split = if chains.len() == 2 { chains[0] } else { n };
-        KktSolver { kkt: Kkt::with_blocks(n, m, split), jac3: vec![0.0; n * 3], m }
-    }
-
-    fn border<'a>(&'a self, jac: &'a [f64]) -> &'a [f64] {
-        if self.m == 3 {
-            jac
-        } else {
-            &self.jac3
+    fn new(n: usize, free: usize, m: usize, blocks: &[usize]) -> KktSolver {
+        let (chains, k) = (n - free, free + m);
+        KktSolver {
+            ldl: BorderedLdl::new(&Pattern::new(1, blocks, k, free)),
+            chains,
+            free,
+            m,
+            border: vec![0.0; chains * k],
+            corner: vec![0.0; k * k],
+            c: vec![0.0; k],
+            y: vec![0.0; k],
+            active_rows: m,
+            assembled: false,
         }
     }
 
-    /// Factors `[H + shift I, J_A^T; J_A, 0]` and reports the inertia.
+    /// Whether the border is the Jacobian itself (no free coordinates, all rows active).
+    fn direct(&self) -> bool {
+        self.free == 0 && self.active_rows == self.m
+    }
+
+    /// Assembles border and corner from the Lagrangian corner, the potential's
+    /// border Hessian and the Jacobian of the active rows.
+    fn assemble(&mut self, ev: &Evaluation, lagrangian_corner: &[f64], active: &[bool]) {
+        let (f, m, k) = (self.free, self.m, self.free + self.m);
+        for i in 0..self.chains {
+            let row = &mut self.border[i * k..(i + 1) * k];
+            row[..f].copy_from_slice(&ev.hessian_border[i * f..(i + 1) * f]);
+            for r in 0..m {
+                row[f + r] = if active[r] { ev.jacobian[i * m + r] } else { 0.0 };
+            }
+        }
+        self.corner.fill(0.0);
+        for a in 0..f {
+            self.corner[a * k..a * k + f].copy_from_slice(&lagrangian_corner[a * f..(a + 1) * f]);
+            for r in 0..m {
+                let j = if active[r] { ev.jacobian[(self.chains + a) * m + r] } else { 0.0 };
+                self.corner[(f + r) * k + a] = j;
+                self.corner[a * k + f + r] = j;
+            }
+        }
+        for r in 0..m {
+            if !active[r] {
+                self.corner[(f + r) * k + f + r] = 1.0;
+            }
+        }
+    }
+
+    /// Factors `[H + shift I, J_A^T; J_A, 0]` (the free coordinates shifted
+    /// too) and reports the inertia of the working set's KKT matrix.
+    #[allow(clippy::too_many_arguments)]
     pub fn factor(
         &mut self,
         diag: &[f64],
-        off: &[f64],
+        ev: &Evaluation,
+        lagrangian_corner: &[f64],
         shift: f64,
-        jac: &[f64],
         active: &[bool],
         tiny: f64,
     ) -> Inertia {
-        assert!(active.iter().all(|a| *a), "inactive rows are not supported yet");
-        let border = if self.m == 3 { jac } else { &self.jac3 };
-        match self.kkt.factor(diag, off, shift, border, tiny) {
-            crate::kkt::Inertia::Minimum => Inertia::Minimum,
-            crate::kkt::Inertia::Indefinite { .. } => Inertia::Indefinite,
-            crate::kkt::Inertia::Singular => Inertia::Singular,
+        self.active_rows = active.iter().filter(|a| **a).count();
+        let count = if self.direct() {
+            if self.assembled {
+                self.corner.fill(0.0);
+                self.assembled = false;
+            }
+            self.ldl.factor(diag, &ev.hessian_off, &ev.jacobian, &self.corner, shift, tiny)
+        } else {
+            self.assemble(ev, lagrangian_corner, active);
+            self.assembled = true;
+            self.ldl.factor(diag, &ev.hessian_off, &self.border, &self.corner, shift, tiny)
+        };
+        // A minimum of the working set has exactly one negative eigenvalue
+        // per active row (Sylvester: inertia(K) = inertia(H) + inertia(S)).
+        if count.zero > 0 || count.negative < self.active_rows {
+            Inertia::Singular
+        } else if count.negative == self.active_rows {
+            Inertia::Minimum
+        } else {
+            Inertia::Indefinite
         }
     }
 
     /// Solves the factored system: `(H + shift) x + J_A^T y_A = r`, `J_A x = c_A`,
     /// `y` zero on inactive rows.
-    pub fn solve(&self, jac: &[f64], r: &[f64], c: &[f64], x: &mut [f64], y: &mut [f64]) {
-        self.kkt.solve(self.border(jac), r, c, x, y);
+    pub fn solve(&mut self, active: &[bool], r: &[f64], c: &[f64], x: &mut [f64], y: &mut [f64]) {
+        let (n, f) = (self.chains, self.free);
+        self.c[..f].copy_from_slice(&r[n..]);
+        for (row, (dst, src)) in self.c[f..].iter_mut().zip(c).enumerate() {
+            *dst = if active[row] { *src } else { 0.0 };
+        }
+        self.ldl.solve(&r[..n], &self.c, &mut x[..n], &mut self.y);
+        x[n..].copy_from_slice(&self.y[..f]);
+        y.copy_from_slice(&self.y[f..]);
     }
 }
 
@@ -76,6 +148,7 @@ pub struct Scratch {
     pub(super) kkt: KktSolver,
     pub(super) residual: Vec<f64>,
     pub(super) lagrangian_diag: Vec<f64>,
+    pub(super) lagrangian_corner: Vec<f64>,
     pub(super) step: Vec<f64>,
     pub(super) q_trial: Vec<f64>,
     pub(super) tangent: Vec<f64>,
@@ -92,19 +165,20 @@ pub struct Scratch {
 impl Scratch {
     /// Scratch sized for `system`.
     pub fn for_system<S: StaticSystem + ?Sized>(system: &S) -> Scratch {
-        let (n, m) = (system.dim(), system.rows());
+        let (n, m, free) = (system.dim(), system.rows(), system.free());
         let chains = system.blocks();
         let zeros = |len: usize| vec![0.0; len];
         Scratch {
             n,
             rows: (0..m).map(|r| system.row(r)).collect(),
-            current: Evaluation::new(n, m),
-            trial: Evaluation::new(n, m),
+            current: Evaluation::with_free(n, free, m),
+            trial: Evaluation::with_free(n, free, m),
             path: PathTerms::new(n, m),
-            kkt: KktSolver::new(n, m, &chains),
+            kkt: KktSolver::new(n, free, m, &chains),
             chains,
             residual: zeros(n),
-            lagrangian_diag: zeros(n),
+            lagrangian_diag: zeros(n - free),
+            lagrangian_corner: zeros(free * free),
             step: zeros(n),
             q_trial: zeros(n),
             tangent: zeros(n),
@@ -122,9 +196,16 @@ impl Scratch {
     /// Whether this scratch is sized for `system`.
     pub fn fits<S: StaticSystem + ?Sized>(&self, system: &S) -> bool {
         self.n == system.dim()
+            && self.kkt.free == system.free()
             && self.rows.len() == system.rows()
             && self.chains == system.blocks()
             && (0..self.rows.len()).all(|r| self.rows[r] == system.row(r))
+    }
+
+    /// Factors the KKT matrix of the working set `active` at the current
+    /// point with the Lagrangian Hessian in `lagrangian_*`, shifted by `shift`.
+    pub(super) fn factor_kkt(&mut self, shift: f64, active: &[bool], tiny: f64) -> Inertia {
+        self.kkt.factor(&self.lagrangian_diag, &self.current, &self.lagrangian_corner, shift, active, tiny)
     }
 
     /// Fills the path derivatives at the current point.

@@ -41,10 +41,15 @@ pub struct Row {
 pub trait Potential {
     /// Number of generalized coordinates `n`.
     fn dim(&self) -> usize;
-    /// Sizes of the independent blocks (chains) the Hessian splits into (their sum is
-    /// `dim()`): no Hessian entry couples two chains.
+    /// Sizes of the independent blocks (chains) the banded Hessian splits
+    /// into (their sum is `dim() - free()`): no Hessian entry couples two chains.
     fn blocks(&self) -> Vec<usize> {
-        vec![self.dim()]
+        vec![self.dim() - self.free()]
+    }
+    /// Number of free coordinates, the last ones of `q`, whose Hessian
+    /// couples densely (a floating base's pose); 0 by default.
+    fn free(&self) -> usize {
+        0
     }
     /// Moment scale for residuals (N m): the largest joint stiffness.
     fn moment_scale(&self) -> f64;
