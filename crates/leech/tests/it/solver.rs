@@ -87,3 +87,95 @@ fn every_solution_satisfies_its_equations() {
         assert!((eq.energy - body.energy(&eq.q)).abs() < 1e-12);
     }
 }
+
+/// A tube whose tip must stay above a floor at height `floor` (m): one
+/// inequality row `C = y_tip - floor >= 0` (or an equality, to compare).
+struct TipAboveFloor {
+    tube: Cantilever,
+    floor: f64,
+    kind: leech::statics::RowKind,
+}
+
+impl Potential for TipAboveFloor {
+    fn dim(&self) -> usize {
+        self.tube.dim()
+    }
+    fn moment_scale(&self) -> f64 {
+        self.tube.moment_scale()
+    }
+    fn potential(&self, q: &[f64], t: f64, ev: &mut leech::statics::Evaluation) {
+        self.tube.potential(q, t, ev);
+    }
+}
+
+impl Constraints for TipAboveFloor {
+    fn rows(&self) -> usize {
+        1
+    }
+    fn row(&self, _r: usize) -> leech::statics::Row {
+        leech::statics::Row { kind: self.kind, scale: 0.01 }
+    }
+    fn constraints(&self, q: &[f64], _t: f64, ev: &mut leech::statics::Evaluation) {
+        let chain = self.tube.chain();
+        ev.constraints[0] = chain.tip(q)[1] - self.floor;
+        for (j, (l, phi)) in chain.lengths().iter().zip(q).enumerate() {
+            ev.jacobian[j] = l * phi.cos();
+            ev.curvature[j] = -l * phi.sin();
+        }
+    }
+}
+
+impl StaticSystem for TipAboveFloor {
+    fn side_measure(&self, q: &[f64], dq: &[f64]) -> f64 {
+        self.tube.side_measure(q, dq)
+    }
+}
+
+impl Path for TipAboveFloor {
+    fn path(&self, q: &[f64], t: f64, ev: &leech::statics::Evaluation, out: &mut leech::statics::PathTerms) {
+        self.tube.path(q, t, ev, out);
+    }
+}
+
+fn solve_tip_above_floor(floor: f64, kind: leech::statics::RowKind) -> (TipAboveFloor, Equilibrium) {
+    let tube = Robot::builtin().with_base_angle(0.0).unwrap().cantilever(0.30, 0.0).unwrap();
+    let sys = TipAboveFloor { tube, floor, kind };
+    let solver = Solver::default();
+    let mut ws = Scratch::for_system(&sys);
+    let mut it = leech::statics::Iterate::new(sys.tube.chain().straight());
+    let residual = solver.continuation(&sys, &mut it, 0.0, leech::statics::Stage::Load, &mut ws).unwrap();
+    let eq = solver.finish(&sys, it, residual, &mut ws);
+    (sys, eq)
+}
+
+/// An inequality row is inactive when the free shape satisfies it, and acts
+/// exactly as an equality (with a pushing multiplier) when it does not.
+#[test]
+fn inequality_rows_switch_on_and_off() {
+    use leech::statics::RowKind;
+    let free = {
+        let tube = Robot::builtin().with_base_angle(0.0).unwrap().cantilever(0.30, 0.0).unwrap();
+        let eq = tube.solve(&Solver::default()).unwrap();
+        tube.chain().tip(&eq.q)[1]
+    };
+    assert!(free < -0.01, "the free tube sags ({free} m)");
+    // A floor below the sag never touches: the free shape, zero force.
+    let (sys, low) = solve_tip_above_floor(free - 0.01, RowKind::Inequality);
+    assert_eq!(low.multipliers, vec![0.0]);
+    assert!((sys.tube.chain().tip(&low.q)[1] - free).abs() < 1e-12);
+    // A floor above it holds the tip up: on the floor, pushing up (lambda > 0),
+    // the same equilibrium as the equality row.
+    let floor = 0.5 * free;
+    let (sys, held) = solve_tip_above_floor(floor, RowKind::Inequality);
+    let (_, equal) = solve_tip_above_floor(floor, RowKind::Equality);
+    assert!(held.stable && held.multipliers[0] > 0.0, "{:?}", held.multipliers);
+    assert!((sys.tube.chain().tip(&held.q)[1] - floor).abs() < 1e-12);
+    for (a, b) in held.q.iter().zip(&equal.q) {
+        assert!((a - b).abs() < 1e-10);
+    }
+    assert!((held.multipliers[0] - equal.multipliers[0]).abs() < 1e-9 * equal.multipliers[0].abs());
+    // The floor's push is what the tube's weight does not hang on the clamp:
+    // at most the tube's weight.
+    let weight = sys.tube.chain().total_mass() * 9.81;
+    assert!(held.multipliers[0] < weight, "{} N vs weight {weight} N", held.multipliers[0]);
+}
