@@ -44,3 +44,13 @@ fn chain_cold_30(bencher: divan::Bencher) {
     let solver = Solver::default();
     bencher.bench_local(|| tube.solve(&solver).unwrap());
 }
+
+/// The same physical body (0.30/0.28 m) cut finer: the cost of a cold solve
+/// against the number of links per chain (30, 100, 300, 1000, 3000).
+#[divan::bench(args = [30, 100, 300, 1000, 3000], sample_count = 20)]
+fn shape_cold_links(bencher: divan::Bencher, links: usize) {
+    let robot = Robot::builtin().with_element_length(0.30 / links as f64).unwrap();
+    let body = robot.body(0.30, 0.28).unwrap();
+    let solver = Solver::default();
+    bencher.bench_local(|| body.solve(&solver).unwrap());
+}

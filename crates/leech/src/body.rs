@@ -138,7 +138,7 @@ impl Body {
 
     /// Adds the potential at gravity `load * gravity` with link lengths
     /// scaled by `scale` (A, B) to `ev`, with the links' trigonometry.
-    fn potential_with(&self, q: &[f64], gravity: f64, load: f64, scale: [f64; 2], ev: &mut Evaluation) {
+    pub(crate) fn potential_with(&self, q: &[f64], gravity: f64, load: f64, scale: [f64; 2], ev: &mut Evaluation) {
         let (na, n) = (self.a.len(), q.len());
         let (qa, qb) = self.split(q);
         // The hessian_off entry between A's last link and B's first stays
@@ -148,24 +148,30 @@ impl Body {
         ev.energy = ea + eb;
     }
 
-    /// The weld's rows, Jacobian and curvature with link lengths scaled by
-    /// `scale` (A, B), from the trigonometry in `ev`.
-    fn weld_with(&self, q: &[f64], scale: [f64; 2], ev: &mut Evaluation) {
+    /// The weld's rows (the first three of `ev`), Jacobian and curvature
+    /// with link lengths scaled by `scale` (A, B), from the trigonometry in
+    /// `ev`, for the chains' coordinates `q`.
+    pub(crate) fn weld_with(&self, q: &[f64], scale: [f64; 2], ev: &mut Evaluation) {
         let na = self.a.len();
         let n = q.len();
         let pa = self.a.tip_from_trig(&ev.cos[..na], &ev.sin[..na], scale[0]);
         let pb = self.b.tip_from_trig(&ev.cos[na..], &ev.sin[na..], scale[1]);
         let (ca, sa) = (ev.cos[na - 1], ev.sin[na - 1]);
         let c = self.tip_spacing;
-        ev.constraints.copy_from_slice(&[pb[0] - pa[0] - c * sa, pb[1] - pa[1] + c * ca, q[na - 1] - q[n - 1]]);
-        self.weld_columns(scale, &ev.cos, &ev.sin, &mut ev.jacobian, Some(&mut ev.curvature));
-        let last_a = (na - 1) * WELD_ROWS;
+        let m = ev.rows();
+        ev.constraints[..WELD_ROWS].copy_from_slice(&[
+            pb[0] - pa[0] - c * sa,
+            pb[1] - pa[1] + c * ca,
+            q[na - 1] - q[n - 1],
+        ]);
+        self.weld_columns(scale, &ev.cos, &ev.sin, m, &mut ev.jacobian, Some(&mut ev.curvature));
+        let last_a = (na - 1) * m;
         ev.jacobian[last_a] -= c * ca;
         ev.jacobian[last_a + 1] -= c * sa;
         ev.curvature[last_a] += c * sa;
         ev.curvature[last_a + 1] -= c * ca;
         ev.jacobian[last_a + 2] = 1.0;
-        ev.jacobian[(n - 1) * WELD_ROWS + 2] = -1.0;
+        ev.jacobian[(n - 1) * m + 2] = -1.0;
     }
 
     /// The position rows' Jacobian columns `-+ l_j s e'(phi_j)` for link
@@ -176,6 +182,7 @@ impl Body {
         s: [f64; 2],
         cos: &[f64],
         sin: &[f64],
+        m: usize,
         jac: &mut [f64],
         mut curvature: Option<&mut [f64]>,
     ) -> [f64; 2] {
@@ -184,11 +191,11 @@ impl Body {
         for (i, (l, sign, side)) in lengths.enumerate() {
             let (co, si) = (cos[i], sin[i]);
             let ls = sign * l * s[side];
-            jac[i * WELD_ROWS] = -ls * si;
-            jac[i * WELD_ROWS + 1] = ls * co;
+            jac[i * m] = -ls * si;
+            jac[i * m + 1] = ls * co;
             if let Some(curvature) = curvature.as_deref_mut() {
-                curvature[i * WELD_ROWS] = -ls * co;
-                curvature[i * WELD_ROWS + 1] = -ls * si;
+                curvature[i * m] = -ls * co;
+                curvature[i * m + 1] = -ls * si;
             }
             sum[0] += ls * co;
             sum[1] += ls * si;
@@ -236,7 +243,7 @@ impl Body {
 }
 
 /// Rows of the endpoint weld: `C_x`, `C_y` (m) and `C_phi` (rad).
-const WELD_ROWS: usize = 3;
+pub(crate) const WELD_ROWS: usize = 3;
 
 impl Potential for Body {
     fn dim(&self) -> usize {
@@ -379,7 +386,7 @@ impl StaticSystem for Feeding<'_> {
 /// position rows move (at `g = 0` the potential does not depend on lengths).
 impl Path for Feeding<'_> {
     fn path(&self, _q: &[f64], _t: f64, ev: &Evaluation, out: &mut PathTerms) {
-        let dc = self.body.weld_columns(self.rate(), &ev.cos, &ev.sin, &mut out.jacobian, None);
+        let dc = self.body.weld_columns(self.rate(), &ev.cos, &ev.sin, WELD_ROWS, &mut out.jacobian, None);
         out.constraints.copy_from_slice(&[dc[0], dc[1], 0.0]);
     }
 

@@ -332,6 +332,18 @@ impl Chain {
         (0..self.len()).map(|j| q.get(j).copied().unwrap_or(last)).collect()
     }
 
+    /// Length of the rigid piece from the clamp to the first joint (m; 0
+    /// for [`Discretization::Paper`]).
+    pub fn root_length(&self) -> f64 {
+        self.root_length
+    }
+
+    /// Mass of the rigid root piece (kg), `m root / l`: a clamped chain
+    /// leaves it out (its weight is a constant), a floating base carries it.
+    pub fn root_mass(&self) -> f64 {
+        self.masses.first().map_or(0.0, |m0| m0 * self.root_length / self.lengths[0])
+    }
+
     /// Where the first flexible joint sits (m).
     pub fn first_joint(&self) -> [f64; 2] {
         let u = unit(self.clamp_angle);

@@ -78,6 +78,7 @@ pub mod least_squares;
 pub mod linalg;
 pub mod report;
 pub mod robot;
+pub mod stance;
 pub mod statics;
 pub mod sweep;
 

@@ -1,0 +1,326 @@
+//! The body with a floating driving unit: the chains' angles plus the
+//! unit's pose `(p0, phi0)`, under the weld and the holds.
+
+use super::hold::{Hold, Pose};
+use crate::body::{Body, WELD_ROWS};
+use crate::chain::Chain;
+use crate::geom::{right_normal, unit, Vec2};
+use crate::statics::{Constraints, Evaluation, Path, PathTerms, Potential, Row, RowKind, StaticSystem};
+
+/// Free coordinates: `p0` (x, y; m) and `phi0` (rad), after the chains' angles.
+pub const FREE: usize = 3;
+/// Rows of one hold: x, y (m) and angle (rad).
+pub const HOLD_ROWS: usize = 3;
+
+/// What the continuation parameter `t` moves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Approach {
+    /// Gravity, from 0 (`t = 0`) to `g` (`t = 1`); the holds stay.
+    Load,
+    /// The front hold's target, from this pose (`t = 0`) to the hold's (`t = 1`), under full gravity.
+    Front(Pose),
+}
+
+/// The floating body: a [`StaticSystem`] with coordinates
+/// `q = (phi^A, phi^B, p0_x, p0_y, phi0)` (see the [module doc](super)).
+#[derive(Clone, Debug)]
+pub struct FloatingBody<'a> {
+    body: &'a Body,
+    base_spacing: f64,
+    unit_mass: f64,
+    hold: Hold,
+    approach: Approach,
+}
+
+/// One chain's attachment to the driving unit.
+struct Attachment<'c> {
+    chain: &'c Chain,
+    /// The chain's clamp from `p0`, as a function of `phi0`: 0 for chain A,
+    /// `b nu(phi0)` for chain B.
+    spacing: f64,
+    /// First coordinate of the chain in `q`.
+    first: usize,
+}
+
+impl Attachment<'_> {
+    /// The clamp's offset from `p0` and its first two derivatives in `phi0`
+    /// (`b nu`, `b e`, `b e'`), plus the rigid root piece `r e(phi0)`.
+    fn offset(&self, phi0: f64, root: f64) -> [Vec2; 3] {
+        let (b, [c, s]) = (self.spacing, unit(phi0));
+        // nu = (s, -c), nu' = e = (c, s), nu'' = e' = (-s, c); root: r e, r e', -r e.
+        [
+            [b * s + root * c, -b * c + root * s],
+            [b * c - root * s, b * s + root * c],
+            [-b * s - root * c, b * c - root * s],
+        ]
+    }
+}
+
+impl<'a> FloatingBody<'a> {
+    /// The floating form of `body` (its chains' clamps are the reference
+    /// pose: A's clamp point and direction), with base spacing `b` (m), the
+    /// driving unit's mass (kg) at the midpoint of the clamps, and `hold`.
+    pub fn new(body: &'a Body, base_spacing: f64, unit_mass: f64, hold: Hold, approach: Approach) -> FloatingBody<'a> {
+        FloatingBody { body, base_spacing, unit_mass, hold, approach }
+    }
+
+    /// The clamped body underneath.
+    pub fn body(&self) -> &Body {
+        self.body
+    }
+
+    /// The holds.
+    pub fn hold(&self) -> Hold {
+        self.hold
+    }
+
+    fn chains(&self) -> usize {
+        self.body.chain_a().len() + self.body.chain_b().len()
+    }
+
+    fn attachments(&self) -> [Attachment<'a>; 2] {
+        let (a, b) = (self.body.chain_a(), self.body.chain_b());
+        [
+            Attachment { chain: a, spacing: 0.0, first: 0 },
+            Attachment { chain: b, spacing: self.base_spacing, first: a.len() },
+        ]
+    }
+
+    /// Every point of chain `c` moves by `p0 - p_ref + off_c(phi0) - off_c(phi_ref)`
+    /// from where the reference clamp puts it (m).
+    fn shift(&self, c: &Attachment<'_>, p0: Vec2, phi0: f64) -> Vec2 {
+        let reference = self.body.chain_a().clamp_point();
+        let phi_ref = self.body.chain_a().clamp_angle();
+        let root = c.chain.root_length();
+        let (now, before) = (c.offset(phi0, root)[0], c.offset(phi_ref, root)[0]);
+        [p0[0] - reference[0] + now[0] - before[0], p0[1] - reference[1] + now[1] - before[1]]
+    }
+
+    /// The driving unit's pose `(p0, phi0)` in `q`.
+    pub fn unit_pose(&self, q: &[f64]) -> Pose {
+        let n = self.chains();
+        Pose { point_m: [q[n], q[n + 1]], angle_rad: q[n + 2] }
+    }
+
+    /// The endpoint (chain A's tip, m) for `q`.
+    pub fn endpoint(&self, q: &[f64]) -> Vec2 {
+        let n = self.chains();
+        let [a, _] = self.attachments();
+        let tip = a.chain.tip(&q[..a.chain.len()]);
+        let d = self.shift(&a, [q[n], q[n + 1]], q[n + 2]);
+        [tip[0] + d[0], tip[1] + d[1]]
+    }
+
+    /// Total weight carried by the holds and contacts (N): chains, payload,
+    /// root pieces and the driving unit.
+    pub fn weight(&self) -> f64 {
+        let g = self.body.gravity();
+        let chains: f64 = self.attachments().iter().map(|c| c.chain.total_mass() + c.chain.root_mass()).sum();
+        g * (chains + self.unit_mass)
+    }
+
+    /// Where the hold rows start: rear first, then front.
+    fn hold_rows(&self) -> (Option<usize>, Option<usize>) {
+        let rear = self.hold.rear().map(|_| WELD_ROWS);
+        let front = self.hold.front().map(|_| WELD_ROWS + if rear.is_some() { HOLD_ROWS } else { 0 });
+        (rear, front)
+    }
+
+    /// The front hold's target at `t`.
+    fn front_target(&self, t: f64) -> Option<Pose> {
+        let front = self.hold.front()?;
+        Some(match self.approach {
+            Approach::Load => front,
+            Approach::Front(from) => from.lerp(&front, t),
+        })
+    }
+
+    fn load(&self, t: f64) -> f64 {
+        match self.approach {
+            Approach::Load => t,
+            Approach::Front(_) => 1.0,
+        }
+    }
+
+    /// The first springs now turn against `phi0`, not the reference clamp
+    /// angle: their correction to the reference chains' terms.
+    fn attach_springs(&self, q: &[f64], ev: &mut Evaluation) {
+        let n = self.chains();
+        let phi0 = q[n + 2];
+        for c in &self.attachments() {
+            let (k, phi1, phi_ref) = (c.chain.stiffness()[0], q[c.first], c.chain.clamp_angle());
+            ev.energy += 0.5 * k * ((phi1 - phi0).powi(2) - (phi1 - phi_ref).powi(2));
+            ev.gradient[c.first] += k * (phi_ref - phi0);
+            ev.gradient[n + 2] -= k * (phi1 - phi0);
+            ev.hessian_border[c.first * FREE + 2] -= k;
+            ev.hessian_corner[2 * FREE + 2] += k;
+        }
+    }
+
+    /// Gravity's terms on the driving unit's pose, per unit of gravity
+    /// (kg m, kg, kg m, kg m): the chains ride on the clamps' offsets, the
+    /// root pieces' and the unit's weights on the pose itself. Returns the
+    /// potential, `d/dp0_y`, `d/dphi0` and `d2/dphi0^2`, each over `g`.
+    fn base_weight(&self, q: &[f64]) -> [f64; 4] {
+        let n = self.chains();
+        let (p0, phi0) = ([q[n], q[n + 1]], q[n + 2]);
+        let mut out = [0.0; 4];
+        for c in &self.attachments() {
+            let (mass, root_mass, root) = (c.chain.total_mass(), c.chain.root_mass(), c.chain.root_length());
+            let shift = self.shift(c, p0, phi0);
+            let [_, d1, d2] = c.offset(phi0, root);
+            // The root piece's weight sits at its middle; a clamped chain leaves it out.
+            let [mid, mid1, mid2] = c.offset(phi0, 0.5 * root);
+            out[0] += mass * shift[1] + root_mass * (p0[1] + mid[1]);
+            out[1] += mass + root_mass;
+            out[2] += mass * d1[1] + root_mass * mid1[1];
+            out[3] += mass * d2[1] + root_mass * mid2[1];
+        }
+        // The driving unit at the clamps' midpoint, p0 + (b/2) nu(phi0).
+        let (half, (s, c)) = (0.5 * self.base_spacing, phi0.sin_cos());
+        let md = self.unit_mass;
+        [out[0] + md * (p0[1] - half * c), out[1] + md, out[2] + md * half * s, out[3] + md * half * c]
+    }
+}
+
+impl Potential for FloatingBody<'_> {
+    fn dim(&self) -> usize {
+        self.chains() + FREE
+    }
+
+    fn blocks(&self) -> Vec<usize> {
+        self.body.blocks()
+    }
+
+    fn free(&self) -> usize {
+        FREE
+    }
+
+    fn moment_scale(&self) -> f64 {
+        self.body.moment_scale()
+    }
+
+    fn potential(&self, q: &[f64], t: f64, ev: &mut Evaluation) {
+        let n = self.chains();
+        let load = self.load(t);
+        self.body.potential_with(&q[..n], self.body.gravity(), load, [1.0; 2], ev);
+        self.attach_springs(q, ev);
+        let weight = load * self.body.gravity();
+        let [v, dy, dphi, ddphi] = self.base_weight(q);
+        ev.energy += weight * v;
+        ev.gradient[n + 1] += weight * dy;
+        ev.gradient[n + 2] += weight * dphi;
+        ev.hessian_corner[2 * FREE + 2] += weight * ddphi;
+    }
+}
+
+impl Constraints for FloatingBody<'_> {
+    fn rows(&self) -> usize {
+        let (rear, front) = (self.hold.rear().is_some(), self.hold.front().is_some());
+        WELD_ROWS + HOLD_ROWS * (usize::from(rear) + usize::from(front))
+    }
+
+    fn row(&self, r: usize) -> Row {
+        // Positions in element lengths, angles in radians, as the weld.
+        let position = (r - WELD_ROWS.min(r)) % HOLD_ROWS < 2;
+        let scale = if r < WELD_ROWS {
+            self.body.row(r).scale
+        } else if position {
+            self.body.row(0).scale
+        } else {
+            1.0
+        };
+        Row { kind: RowKind::Equality, scale }
+    }
+
+    fn constraints(&self, q: &[f64], t: f64, ev: &mut Evaluation) {
+        let n = self.chains();
+        let m = ev.rows();
+        self.body.weld_with(&q[..n], [1.0; 2], ev);
+        // The weld moves with the clamps' offsets: p0 cancels, phi0 does not.
+        let [a, b] = self.attachments();
+        let phi0 = q[n + 2];
+        let (oa, ob) = (a.offset(phi0, a.chain.root_length()), b.offset(phi0, b.chain.root_length()));
+        let shift = [self.shift(&b, [q[n], q[n + 1]], phi0), self.shift(&a, [q[n], q[n + 1]], phi0)];
+        for r in 0..2 {
+            ev.constraints[r] += shift[0][r] - shift[1][r];
+            ev.jacobian[(n + 2) * m + r] = ob[1][r] - oa[1][r];
+            ev.curvature[(n + 2) * m + r] = ob[2][r] - oa[2][r];
+        }
+        let (rear, front) = self.hold_rows();
+        if let (Some(row), Some(pose)) = (rear, self.hold.rear()) {
+            let target = [pose.point_m[0], pose.point_m[1], pose.angle_rad];
+            for i in 0..HOLD_ROWS {
+                ev.constraints[row + i] = q[n + i] - target[i];
+                ev.jacobian[(n + i) * m + row + i] = 1.0;
+            }
+        }
+        if let (Some(row), Some(pose)) = (front, self.front_target(t)) {
+            self.front_rows(q, row, pose, &oa, ev);
+        }
+    }
+}
+
+impl FloatingBody<'_> {
+    /// The front hold's rows at `row..row + 3`: the endpoint on the target
+    /// point and chain A's last link (the plate) at the target angle.
+    fn front_rows(&self, q: &[f64], row: usize, pose: Pose, oa: &[Vec2; 3], ev: &mut Evaluation) {
+        let (n, m) = (self.chains(), ev.rows());
+        let chain = self.body.chain_a();
+        let na = chain.len();
+        let tip = self.endpoint(q);
+        for (j, l) in chain.lengths().iter().enumerate() {
+            let (c, s) = (ev.cos[j], ev.sin[j]);
+            ev.jacobian[j * m + row] = -l * s;
+            ev.jacobian[j * m + row + 1] = l * c;
+            ev.curvature[j * m + row] = -l * c;
+            ev.curvature[j * m + row + 1] = -l * s;
+        }
+        for i in 0..2 {
+            ev.constraints[row + i] = tip[i] - pose.point_m[i];
+            ev.jacobian[(n + i) * m + row + i] = 1.0;
+            // The root piece turns with phi0 (chain A has no spacing).
+            ev.jacobian[(n + 2) * m + row + i] = oa[1][i];
+            ev.curvature[(n + 2) * m + row + i] = oa[2][i];
+        }
+        ev.constraints[row + 2] = q[na - 1] - pose.angle_rad;
+        ev.jacobian[(na - 1) * m + row + 2] = 1.0;
+    }
+}
+
+impl StaticSystem for FloatingBody<'_> {
+    fn side_measure(&self, q: &[f64], dq: &[f64]) -> f64 {
+        let n = self.chains();
+        let nu = right_normal(q[n + 2]);
+        // The endpoint's displacement relative to the driving unit, along
+        // the right normal of the clamp direction, as for the clamped body.
+        let chain = self.body.chain_a();
+        let tip_jacobian = chain.tip_jacobian(&q[..chain.len()]);
+        tip_jacobian.iter().zip(dq).map(|(col, d)| (col[0] * nu[0] + col[1] * nu[1]) * d).sum()
+    }
+}
+
+impl Path for FloatingBody<'_> {
+    fn path(&self, q: &[f64], _t: f64, ev: &Evaluation, out: &mut PathTerms) {
+        let n = self.chains();
+        match self.approach {
+            Approach::Load => {
+                // Everything gravity does is linear in the load: its gradient at full g.
+                let g = self.body.gravity();
+                let (a, b) = (self.body.chain_a(), self.body.chain_b());
+                a.load_gradient(&ev.cos[..a.len()], g, &mut out.gradient[..a.len()]);
+                b.load_gradient(&ev.cos[a.len()..n], g, &mut out.gradient[a.len()..n]);
+                let [_, dy, dphi, _] = self.base_weight(q);
+                out.gradient[n + 1] = g * dy;
+                out.gradient[n + 2] = g * dphi;
+            }
+            Approach::Front(from) => {
+                let (_, Some(row)) = self.hold_rows() else { return };
+                let to = self.hold.front().expect("a front approach has a front hold");
+                out.constraints[row] = from.point_m[0] - to.point_m[0];
+                out.constraints[row + 1] = from.point_m[1] - to.point_m[1];
+                out.constraints[row + 2] = from.angle_rad - to.angle_rad;
+            }
+        }
+    }
+}

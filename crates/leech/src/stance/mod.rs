@@ -1,0 +1,192 @@
+//! The body in a situation: which cups hold it, where, and the forces on them.
+//!
+//! # Equations
+//!
+//! The driving unit is a rigid body with pose `(p0, phi0)`: `p0` (m) is
+//! chain A's clamp and `phi0` (rad) the clamp direction; chain B's clamp is
+//! at `p0 + b nu(phi0)`. Its mass `Md` (kg) sits at the clamps' midpoint
+//! `p0 + (b/2) nu(phi0)`, and the rigid root pieces of the `midpoint`
+//! discretization ride on it too. With the chains' angles the unknowns are
+//! `q = (phi^A, phi^B, p0_x, p0_y, phi0)` and the potential is
+//!
+//! ```text
+//! V = sum_j k_j/2 (phi_j - phi_{j-1})^2 (phi_0 of each chain = phi0)
+//!   + g (sum_i m_i y_i + ms y_tip + Md y_unit + root pieces)           (J)
+//! ```
+//!
+//! Every point of a chain sits where the reference clamp (the body's own)
+//! puts it, shifted by `p0 - p_ref + off(phi0) - off(phi_ref)` with
+//! `off = 0` for chain A and `b nu(phi0)` for chain B (plus the root piece
+//! `r e(phi0)`): `p0` enters linearly and only through gravity and the
+//! holds, `phi0` through the first springs, the offsets' weight and the weld.
+//! The Hessian keeps the chains banded and couples `(p0, phi0)` only through
+//! the first springs: three *free* coordinates bordering the chains
+//! ([`crate::statics::Potential::free`]).
+//!
+//! Situations are constraint rows on the same unknowns: the endpoint weld
+//! always (docs/model.md section 6); a **rear hold** `p0 = P_r`, `phi0 = Th_r`
+//! (3 rows: today's clamped body); a **front hold** `tip_A = P_f`,
+//! `phi^A_nA = Th_f` (3 rows); or both (6 rows: a closed loop, statically
+//! indeterminate, determined by the tubes' elasticity).
+//!
+//! # Reactions
+//!
+//! With the KKT conditions written `grad V - J^T lambda = 0`, a hold's
+//! multipliers are the **reaction**: the force (N, world frame) the surface
+//! exerts on the robot at the hold point and the moment (N m, counter-clockwise)
+//! about it (`p0` for the rear hold, the endpoint for the front). The rear
+//! hold's angle row carries the moment because a change of `phi0` alone turns
+//! the driving unit about `p0`; the front's angle row acts on the plate alone.
+//! All reactions together carry the whole weight `g (M_chains + ms + Md)`:
+//! the driving unit's own weight goes straight into the rear hold when it holds
+//! (it does not change the shape then).
+//!
+//! # Paths
+//!
+//! * rear: the clamped body's default path (feeding at `g = 0`, then gravity),
+//!   then one Newton step in the floating form for the reactions;
+//! * front: the unloaded shape moved rigidly so that its endpoint sits on the
+//!   front hold, then gravity raised from 0 to `g`: the driving unit swings
+//!   down, as after the rear cup releases;
+//! * both: the rear-held equilibrium, then the front hold's target moved from
+//!   where the endpoint is to where it is asked for, under full gravity. A
+//!   target out of reach fails to converge: an error with the residual, never
+//!   a stretched body.
+
+mod floating;
+mod hold;
+
+pub use floating::{Approach, FloatingBody, FREE, HOLD_ROWS};
+pub use hold::{Hold, Pose};
+
+use crate::body::{Body, WELD_ROWS};
+use crate::error::InputError;
+use crate::geom::{rotate, sub, Vec2};
+use crate::robot::Robot;
+use crate::statics::{Equilibrium, Iterate, Scratch, SolveError, Solver, Stage};
+
+/// The force (N) and moment (N m, counter-clockwise) a hold's surface exerts
+/// on the robot, about the hold point.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Reaction {
+    /// Force on the robot, world frame (N).
+    pub force_n: Vec2,
+    /// Moment on the robot about the hold point (N m).
+    pub moment_nm: f64,
+}
+
+/// An equilibrium of the body in a situation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Held {
+    /// The situation.
+    pub hold: Hold,
+    /// The clamped body whose chains the solution's angles belong to.
+    pub body: Body,
+    /// The equilibrium of the floating form: `q = (phi^A, phi^B, p0, phi0)`.
+    pub equilibrium: Equilibrium,
+    /// The driving unit's pose.
+    pub unit: Pose,
+    /// The endpoint (chain A's tip, m).
+    pub endpoint_m: Vec2,
+    /// The rear hold's reaction, when it holds.
+    pub rear: Option<Reaction>,
+    /// The front hold's reaction, when it holds.
+    pub front: Option<Reaction>,
+    /// The weight carried (N).
+    pub weight_n: f64,
+}
+
+/// Why a situation could not be solved.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum StanceError {
+    /// Bad input.
+    #[error(transparent)]
+    Input(#[from] InputError),
+    /// A solve that did not converge (for a front hold out of reach too).
+    #[error(transparent)]
+    Solve(#[from] SolveError),
+}
+
+/// Solves the body of `robot` at tube lengths `[LA, LB]` (m) held by `hold`,
+/// with the driving unit's mass `unit_mass` (kg).
+pub fn solve(
+    robot: &Robot,
+    lengths: [f64; 2],
+    hold: Hold,
+    unit_mass: f64,
+    solver: &Solver,
+) -> Result<Held, StanceError> {
+    let b = robot.body.base_spacing_m;
+    let unit_mass = crate::error::non_negative("driving unit mass (kg)", unit_mass)?;
+    match hold {
+        Hold::Rear(pose) => {
+            let body = robot.with_base_angle(pose.angle_rad.to_degrees())?.body(lengths[0], lengths[1])?;
+            let eq = body.solve(solver)?;
+            let q = with_pose(&eq.q, pose);
+            let floating = FloatingBody::new(&body, b, unit_mass, hold, Approach::Load);
+            let mut ws = Scratch::for_system(&floating);
+            let eq = solver.warm_start(&floating, &q, &mut ws)?;
+            Ok(Held::new(&floating, eq))
+        }
+        Hold::Front(pose) => {
+            let body = robot.body(lengths[0], lengths[1])?;
+            let unloaded = robot.with_gravity(0.0)?.body(lengths[0], lengths[1])?.solve(solver)?;
+            let q = placed(&body, &unloaded.q, pose);
+            let floating = FloatingBody::new(&body, b, unit_mass, hold, Approach::Load);
+            let mut ws = Scratch::for_system(&floating);
+            let mut it = Iterate::new(q);
+            let residual = solver.continuation(&floating, &mut it, 0.0, Stage::Load, &mut ws)?;
+            Ok(Held::new(&floating, solver.finish(&floating, it, residual, &mut ws)))
+        }
+        Hold::Both { rear, .. } => {
+            let held = solve(robot, lengths, Hold::Rear(rear), unit_mass, solver)?;
+            let from = Pose { point_m: held.endpoint_m, angle_rad: held.body.endpoint_angle(&held.equilibrium.q) };
+            let floating = FloatingBody::new(&held.body, b, unit_mass, hold, Approach::Front(from));
+            let mut ws = Scratch::for_system(&floating);
+            let mut it = Iterate::new(held.equilibrium.q.clone());
+            let residual = solver.continuation(&floating, &mut it, 0.0, Stage::Load, &mut ws)?;
+            Ok(Held::new(&floating, solver.finish(&floating, it, residual, &mut ws)))
+        }
+    }
+}
+
+/// The chains' angles with the driving unit's pose appended.
+fn with_pose(q: &[f64], pose: Pose) -> Vec<f64> {
+    let mut out = q.to_vec();
+    out.extend([pose.point_m[0], pose.point_m[1], pose.angle_rad]);
+    out
+}
+
+/// The body's shape `q` (at its own clamp) moved rigidly so that its
+/// endpoint and plate sit on `pose`.
+fn placed(body: &Body, q: &[f64], pose: Pose) -> Vec<f64> {
+    let turn = pose.angle_rad - body.endpoint_angle(q);
+    let clamp = body.chain_a().clamp_point();
+    let arm = rotate(sub(body.endpoint(q), clamp), turn);
+    let p0 = sub(pose.point_m, arm);
+    let turned: Vec<f64> = q.iter().map(|phi| phi + turn).collect();
+    with_pose(&turned, Pose { point_m: p0, angle_rad: body.chain_a().clamp_angle() + turn })
+}
+
+impl Held {
+    fn new(floating: &FloatingBody<'_>, equilibrium: Equilibrium) -> Held {
+        let hold = floating.hold();
+        let reaction = |row: usize| Reaction {
+            force_n: [equilibrium.multipliers[row], equilibrium.multipliers[row + 1]],
+            moment_nm: equilibrium.multipliers[row + 2],
+        };
+        let rear = hold.rear().map(|_| reaction(WELD_ROWS));
+        let front_row = WELD_ROWS + if rear.is_some() { HOLD_ROWS } else { 0 };
+        let front = hold.front().map(|_| reaction(front_row));
+        Held {
+            hold,
+            body: floating.body().clone(),
+            unit: floating.unit_pose(&equilibrium.q),
+            endpoint_m: floating.endpoint(&equilibrium.q),
+            rear,
+            front,
+            weight_n: floating.weight(),
+            equilibrium,
+        }
+    }
+}
