@@ -16,25 +16,60 @@
 use nalgebra::{Matrix3, Vector3};
 
 use super::bordered_ldl::{subtract_outer, SchurFactors, SparseFactors, SparseInput};
-use super::dense_ldl::{self, Pivot};
+use super::dense_ldl::{self, Pivot, ALPHA};
 use super::pattern::Sweep;
 use super::{InertiaCount, Pattern, MAX_BORDER};
 
 /// Entries per block.
 const BLOCK: usize = 9;
 
+// Element-wise copies: these 9 or 3 entries are too few for a call to memcpy.
 fn load(values: &[f64], j: usize) -> Matrix3<f64> {
-    Matrix3::from_row_slice(&values[j * BLOCK..(j + 1) * BLOCK])
+    let b = &values[j * BLOCK..][..BLOCK];
+    Matrix3::new(b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7], b[8])
 }
 
 fn store(values: &mut [f64], j: usize, m: &Matrix3<f64>) {
-    // Row-major, like the inputs: the transpose's column-major storage.
-    values[j * BLOCK..(j + 1) * BLOCK].copy_from_slice(m.transpose().as_slice());
+    // Row-major, like the inputs.
+    for (e, value) in values[j * BLOCK..][..BLOCK].iter_mut().enumerate() {
+        *value = m[(e / 3, e % 3)];
+    }
 }
 
 /// Inertia and (generalized) inverse of a symmetric pivot block, from its
 /// Bunch-Kaufman factorization; only the lower triangle of `d` is read.
 fn invert_pivot(d: &Matrix3<f64>, tiny: f64) -> (Matrix3<f64>, InertiaCount) {
+    diagonal_pivots(d, tiny).unwrap_or_else(|| bunch_kaufman(d, tiny))
+}
+
+/// The factorization written out for the usual case of a dominant block, when
+/// Bunch-Kaufman's rule takes the three diagonal pivots in order, without an
+/// interchange; `None` otherwise.
+fn diagonal_pivots(d: &Matrix3<f64>, tiny: f64) -> Option<(Matrix3<f64>, InertiaCount)> {
+    let (a11, a21, a31, a22, a32, a33) = (d[(0, 0)], d[(1, 0)], d[(2, 0)], d[(1, 1)], d[(2, 1)], d[(2, 2)]);
+    let accepted = |pivot: f64, below: f64| pivot.abs() > tiny && pivot.abs() >= ALPHA * below;
+    if !accepted(a11, a21.abs().max(a31.abs())) {
+        return None;
+    }
+    let (l21, l31) = (a21 / a11, a31 / a11);
+    let (d2, b32) = (a22 - l21 * a21, a32 - l31 * a21);
+    if !accepted(d2, b32.abs()) {
+        return None;
+    }
+    let l32 = b32 / d2;
+    let d3 = a33 - l31 * a31 - l32 * b32;
+    if !accepted(d3, 0.0) {
+        return None;
+    }
+    // A^-1 = L^-T D^-1 L^-1, with L^-1 of the unit lower triangular L in closed form.
+    let l_inv = Matrix3::new(1.0, 0.0, 0.0, -l21, 1.0, 0.0, l21 * l32 - l31, -l32, 1.0);
+    let inverse = l_inv.transpose() * Matrix3::from_diagonal(&Vector3::new(1.0 / a11, 1.0 / d2, 1.0 / d3)) * l_inv;
+    let negative = [a11, d2, d3].iter().filter(|p| **p < 0.0).count();
+    Some((inverse, InertiaCount { positive: 3 - negative, negative, zero: 0 }))
+}
+
+/// The general case: interchanges, 2 x 2 pivots or zero pivots.
+fn bunch_kaufman(d: &Matrix3<f64>, tiny: f64) -> (Matrix3<f64>, InertiaCount) {
     // nalgebra stores by columns: entry (i, j) at j * 3 + i, the dense layout.
     let mut factors = [0.0; BLOCK];
     factors.copy_from_slice(d.as_slice());
@@ -126,11 +161,13 @@ pub(super) fn factor(
 }
 
 fn block_of(values: &[f64], j: usize) -> Vector3<f64> {
-    Vector3::new(values[3 * j], values[3 * j + 1], values[3 * j + 2])
+    let b = &values[3 * j..][..3];
+    Vector3::new(b[0], b[1], b[2])
 }
 
 fn set_block(values: &mut [f64], j: usize, v: &Vector3<f64>) {
-    values[3 * j..3 * j + 3].copy_from_slice(v.as_slice());
+    let b = &mut values[3 * j..][..3];
+    (b[0], b[1], b[2]) = (v[0], v[1], v[2]);
 }
 
 /// Forward substitution `t = L^-1 r` into `x`.
@@ -199,4 +236,28 @@ pub(super) fn solve(
     schur.solve(y);
     let (mut next0, mut next1) = (Vector3::zeros(), Vector3::zeros());
     pattern.backward(&mut Backward { y, factors, x }, &mut next0, &mut next1);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pivot_blocks_inverted_with_their_inertia() {
+        let cases = [
+            // Dominant and indefinite: diagonal pivots in order.
+            (Matrix3::new(4.0, 0.5, -0.3, 0.5, -5.0, 0.2, -0.3, 0.2, 3.0), (2, 1)),
+            // Off-diagonal dominant: needs an interchange or a 2 x 2 pivot.
+            (Matrix3::new(1e-3, 2.0, 0.0, 2.0, 1e-3, 1.0, 0.0, 1.0, -1.0), (1, 2)),
+            (Matrix3::new(0.0, 1.0, 1.0, 1.0, 0.0, 1.0, 1.0, 1.0, 0.0), (1, 2)),
+        ];
+        for (d, (positive, negative)) in cases {
+            let (inverse, inertia) = invert_pivot(&d, 1e-12);
+            assert_eq!(inertia, InertiaCount { positive, negative, zero: 0 }, "{d}");
+            assert!((inverse * d - Matrix3::identity()).amax() < 1e-12, "{d}");
+            let (general, general_inertia) = bunch_kaufman(&d, 1e-12);
+            assert_eq!(general_inertia, inertia);
+            assert!((general - inverse).amax() < 1e-12);
+        }
+    }
 }

@@ -53,9 +53,12 @@ pub(super) struct SchurFactors<'a> {
 }
 
 impl SchurFactors<'_> {
-    /// Overwrites `y` (k) with `S^-1 y` (directions of zero pivots dropped).
+    /// Overwrites `y` (all k entries, no more) with `S^-1 y` (directions of
+    /// zero pivots dropped). Inlined, so that a constant length unrolls it.
+    #[inline(always)]
     pub fn solve(&self, y: &mut [f64]) {
-        dense_ldl::solve_in_place(self.factors, self.pivots.len(), self.pivots, y);
+        let k = y.len();
+        dense_ldl::solve_in_place(&self.factors[..k * k], k, &self.pivots[..k], y);
     }
 }
 
@@ -113,18 +116,22 @@ impl BorderedLdl {
         let k = self.pattern.border_rows();
         self.load_corner(corner, shift);
         let input = SparseInput { diag, off, border, shift, tiny };
-        let (pattern, factors, schur) = (&self.pattern, &mut self.factors, &mut self.schur[..]);
-        self.sparse_inertia = match (pattern.block_size(), k) {
-            (1, 0) => tridiagonal::factor_small::<0>(pattern, &input, factors, schur),
-            (1, 1) => tridiagonal::factor_small::<1>(pattern, &input, factors, schur),
-            (1, 2) => tridiagonal::factor_small::<2>(pattern, &input, factors, schur),
-            (1, 3) => tridiagonal::factor_small::<3>(pattern, &input, factors, schur),
-            (1, _) => tridiagonal::factor_wide(pattern, &input, factors, schur),
-            _ => block_tridiagonal::factor(pattern, &input, factors, schur),
+        let (pattern, factors) = (&self.pattern, &mut self.factors);
+        let (schur, pivots) = (&mut self.schur[..], &mut self.schur_pivots[..]);
+        (self.sparse_inertia, self.schur_inertia) = match (pattern.block_size(), k) {
+            (1, 0) => factor_fused::<0>(pattern, &input, factors, schur, pivots),
+            (1, 1) => factor_fused::<1>(pattern, &input, factors, schur, pivots),
+            (1, 2) => factor_fused::<2>(pattern, &input, factors, schur, pivots),
+            (1, 3) => factor_fused::<3>(pattern, &input, factors, schur, pivots),
+            (1, _) => {
+                let sparse = tridiagonal::factor_wide(pattern, &input, factors, schur);
+                (sparse, factor_schur(schur, k, pivots, tiny))
+            }
+            _ => {
+                let sparse = block_tridiagonal::factor(pattern, &input, factors, schur);
+                (sparse, factor_schur(schur, k, pivots, tiny))
+            }
         };
-        let scale = self.schur.iter().fold(0.0f64, |m, s| m.max(s.abs()));
-        let schur_tiny = tiny.max(SCHUR_RELATIVE_ZERO * scale);
-        self.schur_inertia = dense_ldl::factor_in_place(&mut self.schur, k, &mut self.schur_pivots, schur_tiny);
         self.sparse_inertia + self.schur_inertia
     }
 
@@ -180,6 +187,27 @@ impl BorderedLdl {
             self.schur[i * k + i] += shift;
         }
     }
+}
+
+/// The fast path: chains with `K <= 3` border rows, and `S` factored with
+/// its size known to the compiler.
+fn factor_fused<const K: usize>(
+    pattern: &Pattern,
+    input: &SparseInput,
+    factors: &mut SparseFactors,
+    schur: &mut [f64],
+    pivots: &mut [Pivot],
+) -> (InertiaCount, InertiaCount) {
+    let sparse = tridiagonal::factor_small::<K>(pattern, input, factors, schur);
+    (sparse, factor_schur(schur, K, pivots, input.tiny))
+}
+
+/// Factors `S` (k x k) in place; its zero pivots are judged relative to its
+/// largest entry.
+#[inline(always)]
+fn factor_schur(schur: &mut [f64], k: usize, pivots: &mut [Pivot], tiny: f64) -> InertiaCount {
+    let scale = schur[..k * k].iter().fold(0.0f64, |m, s| m.max(s.abs()));
+    dense_ldl::factor_in_place(&mut schur[..k * k], k, &mut pivots[..k], tiny.max(SCHUR_RELATIVE_ZERO * scale))
 }
 
 /// `S(i, j) -= sum_u v_u[j] w_u[i]` on the lower triangle (`S` by columns),

@@ -22,7 +22,7 @@
 use super::InertiaCount;
 
 /// Bunch-Kaufman's threshold, which minimizes the bound on element growth.
-const ALPHA: f64 = 0.640_388_203_202_207_6;
+pub(super) const ALPHA: f64 = 0.640_388_203_202_207_6;
 
 /// Per row of the factorization: the interchange made before its step and its
 /// row of `D^+` (block diagonal, so tridiagonal).
@@ -48,6 +48,7 @@ fn at(k: usize, i: usize, j: usize) -> usize {
 ///
 /// # Panics
 /// If `a` has fewer than `k * k` entries or `pivots` fewer than `k`.
+#[inline]
 pub fn factor_in_place(a: &mut [f64], k: usize, pivots: &mut [Pivot], tiny: f64) -> InertiaCount {
     assert!(a.len() >= k * k && pivots.len() >= k, "dense LDL^T: storage for {k} rows expected");
     let mut inertia = InertiaCount::default();
@@ -68,6 +69,7 @@ pub fn factor_in_place(a: &mut [f64], k: usize, pivots: &mut [Pivot], tiny: f64)
 ///
 /// # Panics
 /// If the slices are shorter than `k` rows need.
+#[inline]
 pub fn solve_in_place(factors: &[f64], k: usize, pivots: &[Pivot], b: &mut [f64]) {
     let b = &mut b[..k];
     for (p, pivot) in pivots[..k].iter().enumerate() {
@@ -149,6 +151,7 @@ pub fn solve_symmetric(s: &[f64], k: usize, b: &mut [f64], scratch: &mut DenseLd
 
 /// Picks the pivot for step `p` by Bunch-Kaufman's rule, makes the symmetric
 /// interchange it needs, and returns the pivot's size (1 or 2).
+#[inline]
 fn choose_pivot(a: &mut [f64], k: usize, p: usize, tiny: f64, pivots: &mut [Pivot]) -> usize {
     pivots[p].swap = p;
     // Largest entry below the diagonal in column p, and its row.
@@ -186,6 +189,7 @@ fn choose_pivot(a: &mut [f64], k: usize, p: usize, tiny: f64, pivots: &mut [Pivo
 
 /// Exchanges rows and columns `i < j` of the lower triangle, including the
 /// rows of `L` already computed (columns before `i`).
+#[inline]
 fn swap_symmetric(a: &mut [f64], k: usize, i: usize, j: usize) {
     if i == j {
         return;
@@ -204,6 +208,7 @@ fn swap_symmetric(a: &mut [f64], k: usize, i: usize, j: usize) {
 
 /// Sign of one pivot (or eigenvalue of a 2 x 2 pivot) and its reciprocal, 0
 /// when it counts as zero. NaN counts as zero.
+#[inline]
 fn classify(d: f64, tiny: f64) -> (InertiaCount, f64) {
     if !(d.abs() > tiny) {
         (InertiaCount { zero: 1, ..InertiaCount::default() }, 0.0)
@@ -216,6 +221,7 @@ fn classify(d: f64, tiny: f64) -> (InertiaCount, f64) {
 
 /// Eliminates with the 1 x 1 pivot at `p`: multipliers into column `p`,
 /// rank-one update of the trailing lower triangle, column by column.
+#[inline]
 fn eliminate_single(a: &mut [f64], k: usize, p: usize, tiny: f64, pivots: &mut [Pivot]) -> InertiaCount {
     let (count, inv) = classify(a[at(k, p, p)], tiny);
     pivots[p].inv_diag = inv;
@@ -243,6 +249,7 @@ fn eliminate_single(a: &mut [f64], k: usize, p: usize, tiny: f64, pivots: &mut [
 
 /// Eliminates with the 2 x 2 pivot at rows `p, p + 1`: multipliers into
 /// columns `p` and `p + 1`, rank-two update of the trailing lower triangle.
+#[inline]
 fn eliminate_pair(a: &mut [f64], k: usize, p: usize, tiny: f64, pivots: &mut [Pivot]) -> InertiaCount {
     let (d11, d21, d22) = (a[at(k, p, p)], a[at(k, p + 1, p)], a[at(k, p + 1, p + 1)]);
     // The rule guarantees det <= -(1 - ALPHA^2) d21^2 < 0: the inverse is safe.

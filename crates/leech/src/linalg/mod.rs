@@ -26,8 +26,10 @@
 //! S = C + shift P - B^T A^-1 B = C + shift P - W^T D^-1 W        (k x k),
 //! ```
 //!
-//! symmetric by construction and accumulated during the one forward pass that
-//! also produces `W`. The solve is then
+//! symmetric by construction and computed from `W` and `D` alone (inside the
+//! forward pass that produces `W` on the fast path, right after it
+//! otherwise): unlike `kkt`'s `B^T A^-1 B`, no backward pass over the border
+//! columns is needed. The solve is then
 //!
 //! ```text
 //! t = L^-1 r,   S y = c - W^T D^-1 t,   x = L^-T D^-1 (t - W y),
@@ -48,10 +50,17 @@
 //! factored by the Bunch-Kaufman `P S P^T = L D L^T` with 1 x 1 and 2 x 2
 //! pivots in [`dense_ldl`]: written here rather than taken from a library
 //! because it must work in place, allocate nothing, and report the inertia.
-//! A pivot with `|d| <= tiny` counts as zero; its direction is dropped from
-//! the solve (its reciprocal is taken as 0), which keeps every factor finite.
-//! A count with `zero > 0` means the matrix is numerically singular and the
-//! solve is a least-change guess, not a solution.
+//! Pivoting makes this robust where `kkt`'s unpivoted `L D L^T` of `S` needed
+//! an eigen-decomposition as a fallback: a tiny diagonal is passed over for a
+//! larger one or for a 2 x 2 pivot.
+//!
+//! A pivot with `|d| <= tiny` counts as zero (for `S`, `tiny` is at least
+//! `1e-12` of its largest entry, since `S` has the border's units); its
+//! direction is dropped from the solve (its reciprocal is taken as 0), which
+//! keeps every factor finite. A count with `zero > 0` means the matrix is
+//! numerically singular, or (a zero in a chain) that it cannot be factored
+//! without pivoting across the border; either way the solve is then a finite
+//! guess, not a solution, and the caller should change the shift.
 //!
 //! ## Speed
 //!

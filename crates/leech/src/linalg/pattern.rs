@@ -248,7 +248,7 @@ mod tests {
 
     #[test]
     fn every_block_once_in_chain_order_and_reversed_backward() {
-        for lengths in [vec![5], vec![4, 1, 7], vec![0, 3, 3, 2, 9], vec![2, 2, 2, 2], vec![]] {
+        for lengths in [vec![5], vec![4, 1, 7], vec![5, 4, 4], vec![0, 3, 3, 2, 9], vec![2, 2, 2, 2], vec![]] {
             let pattern = Pattern::new(3, &lengths, 0, 0);
             let forward = walk(&pattern, false);
             assert_eq!(forward.len(), pattern.blocks());
@@ -270,6 +270,13 @@ mod tests {
                 assert_eq!(ours(&forward), reversed);
             }
         }
+    }
+
+    #[test]
+    fn second_lane_finishes_alone() {
+        // Lane 0 takes the 5, lane 1 both 4s: its last 3 blocks run alone.
+        let pattern = Pattern::new(1, &[5, 4, 4], 0, 0);
+        assert_eq!(pattern.schedule.last().map(|s| (s.lanes, s.len)), Some((Lanes::Second, 3)));
     }
 
     #[test]

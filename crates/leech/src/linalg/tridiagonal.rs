@@ -15,39 +15,32 @@ use super::{InertiaCount, Pattern, MAX_BORDER};
 const GROUP: usize = 4;
 
 /// The pivot recurrence of unknown `i`: its multiplier `l_i = off_{i-1} /
-/// d_{i-1}`, pivot `d_i = a_i - l_i off_{i-1}` and reciprocal pivot (0 when
-/// `|d_i| <= tiny`, which drops the direction and restarts the recurrence).
-/// Written as in `kkt` (multiply by the previous reciprocal) so that both
-/// give the same pivots.
+/// d_{i-1}` and reciprocal pivot `1 / d_i`, `d_i = a_i - off_{i-1}^2 / d_{i-1}`
+/// (0 when `|d_i| <= tiny`, which drops the direction and restarts the
+/// recurrence). `off_{i-1}^2` does not depend on the previous pivot, so the
+/// serial chain from one pivot to the next is a multiply, a subtract and a
+/// divide.
 #[inline(always)]
-fn pivot<const FRESH: bool>(input: &SparseInput, i: usize, inv_prev: f64, count: &mut PivotCount) -> (f64, f64) {
+fn pivot<const FRESH: bool>(input: &SparseInput, i: usize, inv_prev: f64) -> (f64, f64) {
     let a = input.diag[i] + input.shift;
     let (l, d) = if FRESH {
         (0.0, a)
     } else {
         let o = input.off[i - 1];
-        let l = o * inv_prev;
-        (l, a - l * o)
+        (o * inv_prev, a - (o * o) * inv_prev)
     };
-    let nonzero = d.abs() > input.tiny;
-    count.negative += usize::from(nonzero & (d < 0.0));
-    count.zero += usize::from(!nonzero);
-    (l, if nonzero { 1.0 / d } else { 0.0 })
+    (l, if d.abs() > input.tiny { 1.0 / d } else { 0.0 })
 }
 
-/// Negative and zero pivots seen by one lane.
-#[derive(Clone, Copy, Default)]
-struct PivotCount {
-    negative: usize,
-    zero: usize,
-}
-
-impl PivotCount {
-    fn inertia(lanes: [PivotCount; 2], n: usize) -> InertiaCount {
-        let negative = lanes[0].negative + lanes[1].negative;
-        let zero = lanes[0].zero + lanes[1].zero;
-        InertiaCount { positive: n - negative - zero, negative, zero }
+/// Inertia of `D` from the stored reciprocal pivots (0 for a zero pivot):
+/// counted after the pass, which keeps the counters out of the lanes.
+fn pivot_inertia(inv_pivots: &[f64]) -> InertiaCount {
+    let (mut negative, mut zero) = (0, 0);
+    for inv in inv_pivots {
+        negative += usize::from(*inv < 0.0);
+        zero += usize::from(*inv == 0.0);
     }
+    InertiaCount { positive: inv_pivots.len() - negative - zero, negative, zero }
 }
 
 /// The factorization pass with everything of one lane in registers.
@@ -64,7 +57,6 @@ struct SmallFactorLane<const K: usize> {
     w: [f64; K],
     /// Lower triangle of the lane's share of `W^T D^-1 W`.
     s: [[f64; K]; K],
-    count: PivotCount,
 }
 
 impl<const K: usize> Sweep for SmallFactor<'_, K> {
@@ -72,7 +64,7 @@ impl<const K: usize> Sweep for SmallFactor<'_, K> {
 
     #[inline(always)]
     fn step<const FRESH: bool>(&mut self, lane: &mut Self::Lane, i: usize) {
-        let (l, inv) = pivot::<FRESH>(self.input, i, lane.inv, &mut lane.count);
+        let (l, inv) = pivot::<FRESH>(self.input, i, lane.inv);
         lane.inv = inv;
         self.inv_pivots[i] = inv;
         self.multipliers[i] = l;
@@ -106,7 +98,7 @@ pub(super) fn factor_small<const K: usize>(
         multipliers: &mut factors.multipliers[..n],
         w: &mut factors.w[..n * K],
     };
-    let fresh = SmallFactorLane { inv: 0.0, w: [0.0; K], s: [[0.0; K]; K], count: PivotCount::default() };
+    let fresh = SmallFactorLane { inv: 0.0, w: [0.0; K], s: [[0.0; K]; K] };
     let (mut lane0, mut lane1) = (fresh, fresh);
     pattern.forward(&mut sweep, &mut lane0, &mut lane1);
     for a in 0..K {
@@ -114,7 +106,7 @@ pub(super) fn factor_small<const K: usize>(
             schur[b * K + a] -= lane0.s[a][b] + lane1.s[a][b];
         }
     }
-    PivotCount::inertia([lane0.count, lane1.count], n)
+    pivot_inertia(&factors.inv_pivots[..n])
 }
 
 /// Forward substitution `t = L^-1 r` into `x`, accumulating `W^T D^-1 t`.
@@ -186,7 +178,7 @@ pub(super) fn solve_small<const K: usize>(
     for row in 0..K {
         y[row] = c[row] - lane0.g[row] - lane1.g[row];
     }
-    schur.solve(y);
+    schur.solve(&mut y[..K]);
     let mut backward = SmallBackward::<K> { y: std::array::from_fn(|row| y[row]), factors, x };
     pattern.backward(&mut backward, &mut 0.0, &mut 0.0);
 }
@@ -200,19 +192,14 @@ struct WideFactor<'a> {
     w: &'a mut [f64],
 }
 
-#[derive(Clone, Copy, Default)]
-struct WideFactorLane {
-    inv: f64,
-    count: PivotCount,
-}
-
 impl Sweep for WideFactor<'_> {
-    type Lane = WideFactorLane;
+    /// The previous reciprocal pivot.
+    type Lane = f64;
 
     #[inline(always)]
-    fn step<const FRESH: bool>(&mut self, lane: &mut Self::Lane, i: usize) {
-        let (l, inv) = pivot::<FRESH>(self.input, i, lane.inv, &mut lane.count);
-        lane.inv = inv;
+    fn step<const FRESH: bool>(&mut self, inv_prev: &mut f64, i: usize) {
+        let (l, inv) = pivot::<FRESH>(self.input, i, *inv_prev);
+        *inv_prev = inv;
         self.inv_pivots[i] = inv;
         self.multipliers[i] = l;
         let k = self.k;
@@ -244,8 +231,7 @@ pub(super) fn factor_wide(
         multipliers: &mut factors.multipliers[..n],
         w: &mut factors.w[..n * k],
     };
-    let (mut lane0, mut lane1) = (WideFactorLane::default(), WideFactorLane::default());
-    pattern.forward(&mut sweep, &mut lane0, &mut lane1);
+    pattern.forward(&mut sweep, &mut 0.0, &mut 0.0);
     let mut v = [[0.0; MAX_BORDER]; GROUP];
     let (w, inv) = (&factors.w, &factors.inv_pivots);
     let grouped = n - n % GROUP;
@@ -265,7 +251,7 @@ pub(super) fn factor_wide(
         }
         subtract_outer::<1>(schur, k, [row], std::array::from_ref(&v[0]));
     }
-    PivotCount::inertia([lane0.count, lane1.count], n)
+    pivot_inertia(&factors.inv_pivots[..n])
 }
 
 /// Forward substitution `t = L^-1 r` into `x`, for any `k`.

@@ -213,13 +213,17 @@ proptest! {
     }
 }
 
-/// The old solver's problem: two chains, three constraint rows, zero corner.
+/// The old solver's problem: two chains, three constraint rows, zero corner;
+/// `H` positive definite or indefinite.
 #[test]
 fn matches_the_kkt_solver_on_two_chains() {
     let mut rng = Rng(7);
-    for (first, second, shift) in [(29, 29, 0.0), (30, 28, 0.5), (1, 12, 0.0), (17, 1, 2.0)] {
+    let cases = [(29, 29, 0.0, false), (30, 28, 0.5, false), (1, 12, 0.0, false), (17, 1, 2.0, false)];
+    let indefinite = [(29, 29, 0.0, true), (40, 25, 0.3, true), (3, 9, 0.0, true)];
+    for (first, second, shift, signed) in cases.into_iter().chain(indefinite) {
         let n = first + second;
-        let diag: Vec<f64> = (0..n).map(|_| rng.uniform(2.5, 4.0)).collect();
+        let sign = |rng: &mut Rng| if signed { rng.sign() } else { 1.0 };
+        let diag: Vec<f64> = (0..n).map(|_| sign(&mut rng) * rng.uniform(2.5, 4.0)).collect();
         let mut off: Vec<f64> = (0..n - 1).map(|_| rng.uniform(-1.0, 1.0)).collect();
         off[first - 1] = 0.0;
         let jac: Vec<f64> = (0..3 * n).map(|_| rng.uniform(-1.0, 1.0)).collect();
@@ -235,12 +239,18 @@ fn matches_the_kkt_solver_on_two_chains() {
         let (mut x, mut y) = (vec![0.0; n], [0.0; 3]);
         ldl.solve(&r, &c, &mut x, &mut y);
 
-        // H positive definite: a constrained minimum, 3 negative eigenvalues.
-        assert_eq!(old, Inertia::Minimum);
-        assert_eq!(new, InertiaCount { positive: n, negative: 3, zero: 0 });
+        // A constrained minimum has exactly 3 negative eigenvalues (one per
+        // constraint); each negative direction of the reduced Hessian adds one.
+        let negative = match old {
+            Inertia::Minimum => 3,
+            Inertia::Indefinite { negative } => 3 + negative,
+            Inertia::Singular => panic!("the old solver found ({first}, {second}) singular"),
+        };
+        assert_eq!(signed, negative > 3, "({first}, {second}): {old:?}");
+        assert_eq!(new, InertiaCount { positive: n + 3 - negative, negative, zero: 0 });
         let scale = x_old.iter().chain(&y_old).fold(0.0f64, |m, v| m.max(v.abs()));
         for (a, b) in x.iter().chain(&y).zip(x_old.iter().chain(&y_old)) {
-            assert!((a - b).abs() <= 1e-12 * scale, "{a} vs {b}");
+            assert!((a - b).abs() <= 1e-12 * scale, "({first}, {second}): {a} vs {b}");
         }
     }
 }
