@@ -53,6 +53,7 @@
 //! * [`statics`]: the Newton-KKT solver, continuation, stability.
 //! * [`dynamics`]: constrained forward dynamics and integrators.
 //! * [`kkt`]: the O(n) bordered tridiagonal solve.
+//! * [`linalg`]: structured linear algebra (quasiseparable mass matrices).
 //! * [`inverse_statics`]: tube lengths that put the endpoint on a target.
 //! * [`workspace`]: sweeps over tube lengths along the actuation path, reach metrics.
 //! * [`robot`]: robot files (TOML) and the built-in robot.
@@ -70,6 +71,7 @@ pub mod dynamics;
 pub mod error;
 pub mod inverse_statics;
 pub mod kkt;
+pub mod linalg;
 pub mod report;
 pub mod robot;
 pub mod statics;
