@@ -1,12 +1,12 @@
 //! Constrained dynamics: energy, constraints, rest at the static equilibrium.
 
-use leech::dynamics::{Integrator, Simulator, State};
+use leech::dynamics::{Integrator, Motion, Simulator};
 use leech::prelude::*;
 use serde_json::Value;
 
 /// A small body released from its unloaded shape turned by -60 deg: it
 /// swings and falls under gravity.
-fn swinging_body(damping: f64) -> (Body, State) {
+fn swinging_body(damping: f64) -> (Body, Motion) {
     let mut robot = Robot::builtin();
     robot.tube.joint_damping_nms_per_rad = damping;
     robot.world.gravity_m_per_s2 = 0.0;
@@ -16,7 +16,7 @@ fn swinging_body(damping: f64) -> (Body, State) {
     let body = robot.body(0.06, 0.05).unwrap();
     let q: Vec<f64> = unloaded.iter().map(|q| q - 60f64.to_radians()).collect();
     let v = vec![0.0; q.len()];
-    (body, State { q, v })
+    (body, Motion { q, v })
 }
 
 #[test]
@@ -87,7 +87,7 @@ fn settling_from_the_unloaded_body_reaches_the_static_equilibrium() {
         robot.world.gravity_m_per_s2 = num("gravity_m_per_s2");
         let body = robot.body(lengths[0], lengths[1]).unwrap();
         let mut sim = Simulator::new(&body);
-        let mut state = State { v: vec![0.0; q0.len()], q: q0 };
+        let mut state = Motion { v: vec![0.0; q0.len()], q: q0 };
         let start = state.clone();
         let rest = sim.run_to_rest(&mut state, 2e-3, Integrator::Implicit, 2.0, 60.0).unwrap();
         assert!(rest.is_some(), "{} did not come to rest", case["name"]);
@@ -130,7 +130,7 @@ fn trajectories_match_mujoco() {
         if case["kind"] == "chain" {
             let tube = robot.cantilever(num("tube_length_m"), 0.0).unwrap();
             let mut sim = Simulator::new(&tube);
-            let mut state = State { q: list("initial_angles_rad"), v: vec![0.0; tube.dim()] };
+            let mut state = Motion { q: list("initial_angles_rad"), v: vec![0.0; tube.dim()] };
             for i in 1..times.len() {
                 for _ in 0..per_sample {
                     sim.step(&mut state, dt, Integrator::Implicit).unwrap();
@@ -143,7 +143,7 @@ fn trajectories_match_mujoco() {
             let mut q = list("initial_angles_a_rad");
             q.extend(list("initial_angles_b_rad"));
             let mut sim = Simulator::new(&body);
-            let mut state = State { v: vec![0.0; q.len()], q };
+            let mut state = Motion { v: vec![0.0; q.len()], q };
             sim.project(&mut state).unwrap();
             for i in 1..times.len() {
                 for _ in 0..per_sample {
