@@ -1,45 +1,50 @@
 //! Backward Euler by simplified Newton iterations.
 
-use super::mass::cholesky;
 use super::{Integrator, Motion, Multibody, Simulator, StepError};
-use crate::kkt::MAX_CONSTRAINTS;
 
 /// Vectors of one implicit step, kept between steps.
 #[derive(Clone, Debug, Default)]
-pub(super) struct Scratch {
+pub(super) struct EulerScratch {
     v1: Vec<f64>,
     q1: Vec<f64>,
+    /// The forces `Q(q1, v1)`.
     f: Vec<f64>,
+    /// `M(q1) (v1 - v0)`.
     g: Vec<f64>,
+    /// The Newton correction of `v1`.
     dv: Vec<f64>,
+    /// The tridiagonal `dt D + dt^2 H`: diagonal (n) and off-diagonal (n - 1).
     diag: Vec<f64>,
     off: Vec<f64>,
 }
 
-impl Scratch {
-    fn resize(&mut self, n: usize) {
-        for v in [&mut self.v1, &mut self.q1, &mut self.f, &mut self.g, &mut self.dv, &mut self.diag] {
-            v.resize(n, 0.0);
+impl EulerScratch {
+    pub(super) fn new(n: usize) -> EulerScratch {
+        let zeros = || vec![0.0; n];
+        EulerScratch {
+            v1: zeros(),
+            q1: zeros(),
+            f: zeros(),
+            g: zeros(),
+            dv: zeros(),
+            diag: zeros(),
+            off: vec![0.0; n.saturating_sub(1)],
         }
-        self.off.resize(n.saturating_sub(1), 0.0);
     }
 }
 
 impl<S: Multibody> Simulator<'_, S> {
     pub(super) fn backward_euler(&mut self, motion: &mut Motion, dt: f64) -> Result<(), StepError> {
-        // The step's vectors live in the simulator: no allocation per step.
-        let mut sc = std::mem::take(&mut self.scratch);
-        sc.resize(self.n);
+        let mut sc = std::mem::take(&mut self.euler);
         let result = self.backward_euler_with(motion, dt, &mut sc);
-        self.scratch = sc;
+        self.euler = sc;
         result
     }
 
-    fn backward_euler_with(&mut self, motion: &mut Motion, dt: f64, sc: &mut Scratch) -> Result<(), StepError> {
+    fn backward_euler_with(&mut self, motion: &mut Motion, dt: f64, sc: &mut EulerScratch) -> Result<(), StepError> {
         let n = self.n;
         sc.v1.copy_from_slice(&motion.v);
         let mut residual = f64::INFINITY;
-        let mut s = [[0.0; MAX_CONSTRAINTS]; MAX_CONSTRAINTS];
         // Simplified Newton: the matrix M + dt D + dt^2 H is factored at the
         // first iterate only and reused; the iterations converge linearly
         // at a rate of order dt, for a fraction of the cost.
@@ -50,51 +55,25 @@ impl<S: Multibody> Simulator<'_, S> {
             self.evaluate(&sc.q1);
             // G = M(q1)(v1 - v0) - dt Q(q1, v1).
             self.forces(&sc.v1, &mut sc.f);
+            for i in 0..n {
+                sc.dv[i] = sc.v1[i] - motion.v[i];
+            }
+            self.mass_product(&sc.dv, &mut sc.g);
             if iteration == 0 {
                 self.iteration_matrix(dt, true, &mut sc.diag, &mut sc.off);
-            }
-            for (b, (chain, offset)) in self.chains.iter().enumerate() {
-                let k = chain.len();
-                let raw = &mut self.raw[b];
-                let range = *offset..*offset + k;
-                chain.mass_matrix_from_trig(&self.ev.cos[range.clone()], &self.ev.sin[range.clone()], raw);
-                for i in 0..k {
-                    let row = &raw[i * k..(i + 1) * k];
-                    sc.g[offset + i] = row
-                        .iter()
-                        .zip(&sc.v1[range.clone()])
-                        .zip(&motion.v[range.clone()])
-                        .map(|((m, a), b)| m * (a - b))
-                        .sum::<f64>();
+                let (cos, sin) = (&self.ev.cos, &self.ev.sin);
+                if self.factors.factor_iteration(&self.chains, cos, sin, &sc.diag, &sc.off).is_err() {
+                    return Err(StepError::NotConverged { integrator: Integrator::Implicit, dt, residual });
                 }
-                if iteration == 0 {
-                    let block = &mut self.mass[b];
-                    block.copy_from_slice(raw);
-                    for i in 0..k {
-                        block[i * k + i] += sc.diag[offset + i];
-                        if i + 1 < k {
-                            block[i * k + i + 1] += sc.off[offset + i];
-                            block[(i + 1) * k + i] += sc.off[offset + i];
-                        }
-                    }
-                    if cholesky(block, k).is_err() {
-                        return Err(StepError::NotConverged { integrator: Integrator::Implicit, dt, residual });
-                    }
-                }
-            }
-            if iteration == 0 {
-                s = self.schur();
+                self.schur();
             }
             // Step with the velocity constraint J(q1) v1 = 0.
             for i in 0..n {
                 sc.dv[i] = dt * sc.f[i] - sc.g[i];
             }
-            self.solve_mass(&mut sc.dv);
-            let mut target = [0.0; MAX_CONSTRAINTS];
-            for r in 0..self.m {
-                target[r] = -(0..n).map(|i| self.ev.jacobian[i * MAX_CONSTRAINTS + r] * sc.v1[i]).sum::<f64>();
-            }
-            self.enforce(&mut sc.dv, target, &s);
+            self.solve(&mut sc.dv);
+            self.target_opposite_of(&sc.v1);
+            self.enforce(&mut sc.dv);
             sc.v1.iter_mut().zip(&sc.dv).for_each(|(v, d)| *v += d);
             let scale = 1.0 + sc.v1.iter().fold(0.0f64, |m, x| m.max(x.abs()));
             residual = sc.dv.iter().fold(0.0f64, |m, x| m.max(x.abs())) / scale;

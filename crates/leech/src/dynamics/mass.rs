@@ -1,41 +1,119 @@
-//! Factorization of the chains' mass matrices.
+//! The chains' mass matrices and the implicit integrators' iteration
+//! matrices, factored, solved and multiplied in O(n).
+//!
+//! Each chain's `M` is semiseparable plus diagonal (order 2,
+//! [`Chain::mass_generators`]); the iteration matrix `M + T` of backward
+//! Euler adds a tridiagonal `T`, which a third generator component with
+//! transition 0 carries to the first subdiagonal only (order 3, see
+//! [`crate::linalg::quasiseparable`]). The matrices of the whole system are
+//! block diagonal, one block per chain.
 
-/// In-place Cholesky `A = L L^T` of a dense `k x k` row-major matrix (lower
-/// triangle); the failing row on a non-positive pivot.
-pub(super) fn cholesky(a: &mut [f64], k: usize) -> Result<(), usize> {
-    for j in 0..k {
-        let mut d = a[j * k + j];
-        for p in 0..j {
-            d -= a[j * k + p] * a[j * k + p];
-        }
-        if !(d > 0.0) {
-            return Err(j);
-        }
-        let d = d.sqrt();
-        a[j * k + j] = d;
-        for i in j + 1..k {
-            let mut s = a[i * k + j];
-            for p in 0..j {
-                s -= a[i * k + p] * a[j * k + p];
-            }
-            a[i * k + j] = s / d;
-        }
-    }
-    Ok(())
+use crate::chain::Chain;
+use crate::linalg::quasiseparable::{self, Generators, Ldl, NotPositiveDefinite};
+
+/// Which matrix the factors hold.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Held {
+    /// Nothing factored yet.
+    Nothing,
+    /// The mass matrix `M`.
+    Mass,
+    /// An iteration matrix `M + T`.
+    Iteration,
 }
 
-pub(super) fn cholesky_solve(l: &[f64], k: usize, x: &mut [f64]) {
-    for i in 0..k {
-        let row = &l[i * k..i * k + i];
-        let s: f64 = row.iter().zip(&x[..i]).map(|(a, b)| a * b).sum();
-        x[i] = (x[i] - s) / l[i * k + i];
-    }
-    // L^T x = y by rows of L (contiguous), eliminating each solved unknown.
-    for p in (0..k).rev() {
-        x[p] /= l[p * k + p];
-        let xp = x[p];
-        for (xi, lpi) in x[..p].iter_mut().zip(&l[p * k..p * k + p]) {
-            *xi -= lpi * xp;
+/// Each chain's factored `M` or `M + T`, whichever was factored last;
+/// [`Factors::solve`] solves with it. Storage is kept between
+/// factorizations.
+#[derive(Clone, Debug)]
+pub(super) struct Factors {
+    mass: Vec<Ldl<2>>,
+    iteration: Vec<Ldl<3>>,
+    held: Held,
+}
+
+/// A chain with the offset of its coordinates in the system's.
+pub(super) type Placed<'a> = (&'a Chain, usize);
+
+impl Factors {
+    /// Storage for `chains`.
+    pub(super) fn new(chains: &[Placed<'_>]) -> Factors {
+        Factors {
+            mass: chains.iter().map(|(c, _)| Ldl::with_capacity(c.len())).collect(),
+            iteration: chains.iter().map(|(c, _)| Ldl::with_capacity(c.len())).collect(),
+            held: Held::Nothing,
         }
+    }
+
+    /// Factors `M` at the point whose cosines and sines are given (all the
+    /// system's coordinates). Fails with the system's row of a pivot that is
+    /// not positive.
+    pub(super) fn factor_mass(&mut self, chains: &[Placed<'_>], cos: &[f64], sin: &[f64]) -> Result<(), usize> {
+        self.held = Held::Nothing;
+        for ((chain, offset), ldl) in chains.iter().zip(&mut self.mass) {
+            let range = *offset..offset + chain.len();
+            ldl.factor(chain.mass_generators(&cos[range.clone()], &sin[range])).map_err(at(*offset))?;
+        }
+        self.held = Held::Mass;
+        Ok(())
+    }
+
+    /// Factors `M + T`, `T` tridiagonal with diagonal `diag` and
+    /// off-diagonal `off` (`off[i]` couples `i` and `i + 1`; entries that
+    /// couple two chains are ignored).
+    pub(super) fn factor_iteration(
+        &mut self,
+        chains: &[Placed<'_>],
+        cos: &[f64],
+        sin: &[f64],
+        diag: &[f64],
+        off: &[f64],
+    ) -> Result<(), usize> {
+        self.held = Held::Nothing;
+        for ((chain, offset), ldl) in chains.iter().zip(&mut self.iteration) {
+            let (k, o) = (chain.len(), *offset);
+            let range = o..o + k;
+            let rows = chain.mass_generators(&cos[range.clone()], &sin[range]).enumerate().map(|(j, m)| {
+                let coupling = if j + 1 < k { off[o + j] } else { 0.0 };
+                Generators {
+                    diagonal: m.diagonal + diag[o + j],
+                    p: [m.p[0], m.p[1], 1.0],
+                    q: [m.q[0], m.q[1], coupling],
+                    a: [1.0, 1.0, 0.0],
+                }
+            });
+            ldl.factor(rows).map_err(at(o))?;
+        }
+        self.held = Held::Iteration;
+        Ok(())
+    }
+
+    /// Solves the factored block-diagonal system in place.
+    pub(super) fn solve(&self, chains: &[Placed<'_>], x: &mut [f64]) {
+        for (b, (chain, offset)) in chains.iter().enumerate() {
+            let block = &mut x[*offset..offset + chain.len()];
+            match self.held {
+                Held::Mass => self.mass[b].solve(block),
+                Held::Iteration => self.iteration[b].solve(block),
+                Held::Nothing => unreachable!("solve before a successful factorization"),
+            }
+        }
+    }
+}
+
+/// The system's row of a chain's failing pivot.
+fn at(offset: usize) -> impl Fn(NotPositiveDefinite) -> usize {
+    move |e| offset + e.row
+}
+
+/// `y = M x` at the point whose cosines and sines are given.
+pub(super) fn multiply(chains: &[Placed<'_>], cos: &[f64], sin: &[f64], x: &[f64], y: &mut [f64]) {
+    for (chain, offset) in chains {
+        let range = *offset..offset + chain.len();
+        quasiseparable::multiply(
+            chain.mass_generators(&cos[range.clone()], &sin[range.clone()]),
+            &x[range.clone()],
+            &mut y[range],
+        );
     }
 }

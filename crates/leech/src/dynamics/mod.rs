@@ -13,11 +13,37 @@
 //! ```
 //!
 //! (every constraint Hessian is diagonal, so `gamma` is a sum of squares).
-//! By Gauss' principle `lambda = -(J M^-1 J^T)^-1 (J M^-1 Q + gamma)`; each
-//! chain's block of `M` is factored by Cholesky. Drift is removed after every
-//! step by projecting onto the constraint manifold (positions by Newton with
-//! the least-norm correction `-J^T (J J^T)^-1 C`, then velocities onto
-//! `J v = 0`), so the constraints hold to rounding throughout.
+//! By Gauss' principle `lambda = -(J M^-1 J^T)^-1 (J M^-1 Q + gamma)`:
+//! with `Y = M^-1 J^T` (`m` solves, `m <= 3` constraint rows) and the
+//! `m x m` Schur complement `S = J Y`,
+//!
+//! ```text
+//! a = M^-1 Q + Y lambda,     S lambda = -gamma - J M^-1 Q.
+//! ```
+//!
+//! Drift is removed after every step by projecting onto the constraint
+//! manifold (positions by Newton with the least-norm correction
+//! `-J^T (J J^T)^-1 C`, then velocities onto `J v = 0`), so the constraints
+//! hold to rounding throughout.
+//!
+//! # O(n) mass algebra
+//!
+//! A chain's mass matrix is dense but structured: with `e_j = (cos phi_j,
+//! sin phi_j)`, `cos(phi_j - phi_k) = e_j . e_k` splits it into
+//!
+//! ```text
+//! M_jj = C_jj + I_j,     M_jk = (W_j e_j) . (l_k e_k)   (j > k),
+//! ```
+//!
+//! semiseparable plus diagonal: a symmetric quasiseparable matrix of order
+//! 2 ([`crate::linalg::quasiseparable`], [`Chain::mass_generators`]). The
+//! iteration matrices of the implicit scheme add a tridiagonal `T`, carried
+//! by a third generator component (`p = (u, 1)`, `q = (v, t)`, transition
+//! `(1, 1, 0)`: it reaches the first subdiagonal only). Both are factored
+//! `L D L^T` in `O(n)`, solved and multiplied in `O(n)`, so that a step
+//! costs `O(n)` (with `m` solves for `Y`): no dense matrix is formed.
+//!
+//! Every vector a step needs is allocated with the [`Simulator`], once.
 //!
 //! # Integrators
 //!

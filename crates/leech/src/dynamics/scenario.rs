@@ -4,8 +4,6 @@
 use super::{Integrator, Motion, Simulator, StepError};
 use crate::body::Body;
 
-/// Most links per chain a simulation takes: the mass matrix is dense.
-pub const MAX_SIMULATED_LINKS: usize = 500;
 /// Most steps one simulation takes.
 pub const MAX_STEPS: usize = 10_000_000;
 
@@ -160,21 +158,6 @@ pub fn simulate(
         positive("speed (m/s)", speed)?;
     }
     let mut body = robot.body(lengths[0], lengths[1])?;
-    let largest = body.chain_a().len().max(body.chain_b().len()).max(match actuation {
-        Actuation::Hold => 0,
-        Actuation::Step { to } | Actuation::Feed { to, .. } => {
-            let d = robot.model.discretization;
-            d.link_count(to[0], robot.tube.element_length_m).max(d.link_count(to[1], robot.tube.element_length_m))
-        }
-    });
-    if largest > MAX_SIMULATED_LINKS {
-        return Err(crate::error::InputError::invalid(
-            "links per chain",
-            largest as f64,
-            format!("at most {MAX_SIMULATED_LINKS} for dynamics (dense mass matrices)"),
-        )
-        .into());
-    }
     let q0 = match start {
         Start::Unloaded => {
             let mut unloaded = robot.clone();

@@ -1,8 +1,11 @@
 //! The simulator: constrained accelerations by Gauss' principle, projection
 //! onto the constraints, energies, rest, and the step dispatch.
 
-use super::backward_euler::Scratch;
-use super::mass::{cholesky, cholesky_solve};
+use super::backward_euler::EulerScratch;
+use super::mass::{self, Factors, Placed};
+use super::midpoint::MidpointScratch;
+use super::rk4::Rk4Scratch;
+use super::stability::PowerScratch;
 use super::{Integrator, Motion, StepError};
 use crate::body::Body;
 use crate::cantilever::Cantilever;
@@ -28,21 +31,72 @@ impl Multibody for Cantilever {
     }
 }
 
-/// The simulator: a system, its scratch space, and the dynamics.
+/// The simulator: a system, its scratch space, and the dynamics. Every
+/// buffer is allocated here, once: no step allocates.
 pub struct Simulator<'a, S: Multibody> {
     pub(super) sys: &'a S,
-    pub(super) chains: Vec<(&'a Chain, usize)>,
+    pub(super) chains: Vec<Placed<'a>>,
     pub(super) n: usize,
     pub(super) m: usize,
     pub(super) ev: Evaluation,
-    pub(super) mass: Vec<Vec<f64>>,
-    pub(super) raw: Vec<Vec<f64>>,
-    pub(super) rhs: Vec<f64>,
-    pub(super) y: Vec<f64>,
-    pub(super) work: Vec<f64>,
-    pub(super) scratch: Scratch,
+    pub(super) factors: Factors,
+    gauss: Gauss,
+    /// One chain's damper or velocity terms (n).
+    work: Vec<f64>,
+    /// The accelerations that [`Simulator::at_rest`] checks (n).
+    rest: Vec<f64>,
+    pub(super) rk4: Rk4Scratch,
+    pub(super) midpoint: MidpointScratch,
+    pub(super) euler: EulerScratch,
+    pub(super) power: PowerScratch,
     /// Fraction of gravity applied (1 unless a scenario ramps it).
     pub load: f64,
+}
+
+/// Scratch of the constraint forces and projections, sized by the
+/// constraint count `m`. Matrices with a row per coordinate are interleaved
+/// like the Jacobian (entry `(i, r)` at `i * m + r`), `m x m` ones row-major.
+#[derive(Clone, Debug)]
+struct Gauss {
+    /// `Y = A^-1 J^T` for the factored `A` (`M` or an iteration matrix).
+    y: Vec<f64>,
+    /// The Schur complement `S = J Y`.
+    schur: Vec<f64>,
+    /// `J J^T`, the projection's metric.
+    normal: Vec<f64>,
+    /// A target `J x = target` or a residual to remove (m).
+    target: Vec<f64>,
+    /// The right-hand side of a small solve, then its solution (m).
+    rhs: Vec<f64>,
+    /// One column of `J^T` (n).
+    column: Vec<f64>,
+}
+
+impl Gauss {
+    fn new(n: usize, m: usize) -> Gauss {
+        Gauss {
+            y: vec![0.0; n * m],
+            schur: vec![0.0; m * m],
+            normal: vec![0.0; m * m],
+            target: vec![0.0; m],
+            rhs: vec![0.0; m],
+            column: vec![0.0; n],
+        }
+    }
+}
+
+/// Solves the small symmetric system `s x = b` (`m x m` row-major, `m` the
+/// length of `b`) in place. Every `m x m` solve of the simulator goes
+/// through here.
+fn solve_small(s: &[f64], b: &mut [f64]) {
+    let m = b.len();
+    let mut matrix = [[0.0; MAX_CONSTRAINTS]; MAX_CONSTRAINTS];
+    let mut rhs = [0.0; MAX_CONSTRAINTS];
+    for r in 0..m {
+        rhs[r] = b[r];
+        matrix[r][..m].copy_from_slice(&s[r * m..(r + 1) * m]);
+    }
+    b.copy_from_slice(&solve_small_symmetric(&matrix, rhs, m)[..m]);
 }
 
 impl<'a, S: Multibody> Simulator<'a, S> {
@@ -52,16 +106,18 @@ impl<'a, S: Multibody> Simulator<'a, S> {
         let (n, m) = (sys.dim(), sys.constraint_count());
         Simulator {
             sys,
-            mass: chains.iter().map(|(c, _)| vec![0.0; c.len() * c.len()]).collect(),
-            raw: chains.iter().map(|(c, _)| vec![0.0; c.len() * c.len()]).collect(),
+            factors: Factors::new(&chains),
             chains,
             n,
             m,
             ev: Evaluation::new(n, m),
-            rhs: vec![0.0; n],
-            y: vec![0.0; n * MAX_CONSTRAINTS],
+            gauss: Gauss::new(n, m),
             work: vec![0.0; n],
-            scratch: Scratch::default(),
+            rest: vec![0.0; n],
+            rk4: Rk4Scratch::new(n),
+            midpoint: MidpointScratch::new(n),
+            euler: EulerScratch::new(n),
+            power: PowerScratch::new(n),
             load: 1.0,
         }
     }
@@ -76,74 +132,82 @@ impl<'a, S: Multibody> Simulator<'a, S> {
         self.sys.evaluate(q, self.load, &mut self.ev);
     }
 
-    /// Factors each chain's block of `M(q)` in place (Cholesky, lower
-    /// triangle), `q` being the point last evaluated (its trigonometry is reused).
-    pub(super) fn factor_mass(&mut self, q: &[f64]) -> Result<(), StepError> {
-        debug_assert_eq!(q.len(), self.n);
-        for (b, (chain, offset)) in self.chains.iter().enumerate() {
-            let k = chain.len();
-            let block = &mut self.mass[b];
-            let range = *offset..*offset + k;
-            chain.mass_matrix_from_trig(&self.ev.cos[range.clone()], &self.ev.sin[range], block);
-            cholesky(block, k).map_err(|i| StepError::NonPositivePivot { index: offset + i })?;
-        }
-        Ok(())
+    /// Factors each chain's `M` at the point last evaluated (its
+    /// trigonometry is reused), O(n).
+    pub(super) fn factor_mass(&mut self) -> Result<(), StepError> {
+        self.factors
+            .factor_mass(&self.chains, &self.ev.cos, &self.ev.sin)
+            .map_err(|index| StepError::NonPositivePivot { index })
     }
 
-    /// Solves the factored block-diagonal system in place.
-    pub(super) fn solve_mass(&self, x: &mut [f64]) {
-        for (b, (chain, offset)) in self.chains.iter().enumerate() {
-            let k = chain.len();
-            cholesky_solve(&self.mass[b], k, &mut x[*offset..*offset + k]);
+    /// Solves with the factors last computed (`M` or an iteration matrix), in place.
+    pub(super) fn solve(&self, x: &mut [f64]) {
+        self.factors.solve(&self.chains, x);
+    }
+
+    /// `y = M x` at the point last evaluated, O(n).
+    pub(super) fn mass_product(&self, x: &[f64], y: &mut [f64]) {
+        mass::multiply(&self.chains, &self.ev.cos, &self.ev.sin, x, y);
+    }
+
+    /// `out = J x` (m) with the evaluated Jacobian.
+    fn jacobian_product(&self, x: &[f64], out: &mut [f64]) {
+        let m = self.m;
+        let jac = &self.ev.jacobian;
+        for (r, o) in out.iter_mut().enumerate() {
+            *o = (0..self.n).map(|i| jac[i * m + r] * x[i]).sum();
         }
     }
 
-    /// `Y = M^-1 J^T` (interleaved like the Jacobian) and `S = J Y`.
-    pub(super) fn schur(&mut self) -> [[f64; MAX_CONSTRAINTS]; MAX_CONSTRAINTS] {
+    /// `Y = A^-1 J^T` by `m` solves with the factored `A`, and `S = J Y`.
+    pub(super) fn schur(&mut self) {
         let (n, m) = (self.n, self.m);
-        let mut s = [[0.0; MAX_CONSTRAINTS]; MAX_CONSTRAINTS];
+        let mut column = std::mem::take(&mut self.gauss.column);
         for r in 0..m {
             for i in 0..n {
-                self.work[i] = self.ev.jacobian[i * MAX_CONSTRAINTS + r];
+                column[i] = self.ev.jacobian[i * m + r];
             }
-            let mut col = std::mem::take(&mut self.work);
-            self.solve_mass(&mut col);
+            self.solve(&mut column);
             for i in 0..n {
-                self.y[i * MAX_CONSTRAINTS + r] = col[i];
+                self.gauss.y[i * m + r] = column[i];
             }
-            self.work = col;
         }
+        self.gauss.column = column;
+        let (jac, y) = (&self.ev.jacobian, &self.gauss.y);
         for a in 0..m {
             for b in 0..m {
-                s[a][b] =
-                    (0..n).map(|i| self.ev.jacobian[i * MAX_CONSTRAINTS + a] * self.y[i * MAX_CONSTRAINTS + b]).sum();
+                self.gauss.schur[a * m + b] = (0..n).map(|i| jac[i * m + a] * y[i * m + b]).sum();
             }
         }
-        s
     }
 
-    /// Corrects `x` (already `M^-1 f`) by `Y lambda` so that `J x = target`.
-    pub(super) fn enforce(
-        &mut self,
-        x: &mut [f64],
-        target: [f64; MAX_CONSTRAINTS],
-        s: &[[f64; MAX_CONSTRAINTS]; MAX_CONSTRAINTS],
-    ) {
+    /// Sets the target of [`Simulator::enforce`] to `-J x`.
+    pub(super) fn target_opposite_of(&mut self, x: &[f64]) {
+        let mut target = std::mem::take(&mut self.gauss.target);
+        self.jacobian_product(x, &mut target);
+        target.iter_mut().for_each(|t| *t = -*t);
+        self.gauss.target = target;
+    }
+
+    /// Corrects `x` (already `A^-1 f`) by `Y lambda` so that `J x` reaches
+    /// the target set before, with `Y` and `S` from [`Simulator::schur`].
+    pub(super) fn enforce(&mut self, x: &mut [f64]) {
         let (n, m) = (self.n, self.m);
         if m == 0 {
             return;
         }
-        let mut rhs = [0.0; MAX_CONSTRAINTS];
-        for r in 0..m {
-            let jx: f64 = (0..n).map(|i| self.ev.jacobian[i * MAX_CONSTRAINTS + r] * x[i]).sum();
-            rhs[r] = target[r] - jx;
+        let mut rhs = std::mem::take(&mut self.gauss.rhs);
+        self.jacobian_product(x, &mut rhs);
+        for (r, t) in rhs.iter_mut().zip(&self.gauss.target) {
+            *r = t - *r;
         }
-        let lambda = solve_small_symmetric(s, rhs, m);
+        solve_small(&self.gauss.schur, &mut rhs);
         for i in 0..n {
             for r in 0..m {
-                x[i] += self.y[i * MAX_CONSTRAINTS + r] * lambda[r];
+                x[i] += self.gauss.y[i * m + r] * rhs[r];
             }
         }
+        self.gauss.rhs = rhs;
     }
 
     /// Generalized forces `Q = -grad V - D v - h` at the last evaluated `q`.
@@ -173,18 +237,15 @@ impl<'a, S: Multibody> Simulator<'a, S> {
     /// Constrained accelerations `a(q, v)` (rad/s^2) into `a`.
     pub fn accelerations(&mut self, q: &[f64], v: &[f64], a: &mut [f64]) -> Result<(), StepError> {
         self.evaluate(q);
-        self.factor_mass(q)?;
-        let mut f = std::mem::take(&mut self.rhs);
-        self.forces(v, &mut f);
-        a.copy_from_slice(&f);
-        self.rhs = f;
-        self.solve_mass(a);
-        let s = self.schur();
-        let mut gamma = [0.0; MAX_CONSTRAINTS];
-        for r in 0..self.m {
-            gamma[r] = -(0..self.n).map(|i| self.ev.curvature[i * MAX_CONSTRAINTS + r] * v[i] * v[i]).sum::<f64>();
+        self.factor_mass()?;
+        self.forces(v, a);
+        self.solve(a);
+        self.schur();
+        let m = self.m;
+        for r in 0..m {
+            self.gauss.target[r] = -(0..self.n).map(|i| self.ev.curvature[i * m + r] * v[i] * v[i]).sum::<f64>();
         }
-        self.enforce(a, gamma, &s);
+        self.enforce(a);
         Ok(())
     }
 
@@ -200,7 +261,8 @@ impl<'a, S: Multibody> Simulator<'a, S> {
     /// matter and this one needs no factorization. Returns the position
     /// violation left (m or rad).
     pub fn project(&mut self, motion: &mut Motion) -> Result<f64, StepError> {
-        if self.m == 0 {
+        let m = self.m;
+        if m == 0 {
             return Ok(0.0);
         }
         let mut violation = f64::INFINITY;
@@ -211,8 +273,8 @@ impl<'a, S: Multibody> Simulator<'a, S> {
             if violation < 1e-13 {
                 break;
             }
-            let target = self.ev.constraints;
-            self.least_change(&mut motion.q, target);
+            self.gauss.target.copy_from_slice(&self.ev.constraints[..m]);
+            self.least_change(&mut motion.q);
             current = false;
         }
         if violation >= 1e-10 {
@@ -222,28 +284,28 @@ impl<'a, S: Multibody> Simulator<'a, S> {
         if !current {
             violation = self.violation(&motion.q);
         }
-        let mut jv = [0.0; MAX_CONSTRAINTS];
-        for r in 0..self.m {
-            jv[r] = (0..self.n).map(|i| self.ev.jacobian[i * MAX_CONSTRAINTS + r] * motion.v[i]).sum::<f64>();
-        }
-        self.least_change(&mut motion.v, jv);
+        let mut jv = std::mem::take(&mut self.gauss.target);
+        self.jacobian_product(&motion.v, &mut jv);
+        self.gauss.target = jv;
+        self.least_change(&mut motion.v);
         Ok(violation)
     }
 
-    /// `x -= J^T (J J^T)^-1 r` with the evaluated Jacobian.
-    fn least_change(&self, x: &mut [f64], r: [f64; MAX_CONSTRAINTS]) {
+    /// `x -= J^T (J J^T)^-1 r` with the evaluated Jacobian and `r` the target.
+    fn least_change(&mut self, x: &mut [f64]) {
         let (n, m) = (self.n, self.m);
         let jac = &self.ev.jacobian;
-        let mut jjt = [[0.0; MAX_CONSTRAINTS]; MAX_CONSTRAINTS];
         for a in 0..m {
             for b in 0..m {
-                jjt[a][b] = (0..n).map(|i| jac[i * MAX_CONSTRAINTS + a] * jac[i * MAX_CONSTRAINTS + b]).sum();
+                self.gauss.normal[a * m + b] = (0..n).map(|i| jac[i * m + a] * jac[i * m + b]).sum();
             }
         }
-        let mu = solve_small_symmetric(&jjt, r, m);
+        let mu = &mut self.gauss.rhs;
+        mu.copy_from_slice(&self.gauss.target);
+        solve_small(&self.gauss.normal, mu);
         for i in 0..n {
             for a in 0..m {
-                x[i] -= jac[i * MAX_CONSTRAINTS + a] * mu[a];
+                x[i] -= jac[i * m + a] * mu[a];
             }
         }
     }
@@ -251,12 +313,16 @@ impl<'a, S: Multibody> Simulator<'a, S> {
     /// Checks that `motion` satisfies the constraints in position and velocity
     /// (to 1e-9 m, rad and rad/s): the initial state of a run must.
     pub fn check(&mut self, motion: &Motion) -> Result<(), StepError> {
+        if motion.q.len() != self.n || motion.v.len() != self.n {
+            return Err(StepError::Inconsistent { violation: f64::INFINITY });
+        }
         let position = self.violation(&motion.q);
-        let velocity = (0..self.m)
-            .map(|r| (0..self.n).map(|i| self.ev.jacobian[i * MAX_CONSTRAINTS + r] * motion.v[i]).sum::<f64>().abs())
-            .fold(0.0f64, f64::max);
+        let mut jv = std::mem::take(&mut self.gauss.target);
+        self.jacobian_product(&motion.v, &mut jv);
+        let velocity = jv.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+        self.gauss.target = jv;
         let violation = position.max(velocity);
-        if !(violation <= 1e-9) || motion.q.len() != self.n || motion.v.len() != self.n {
+        if !(violation <= 1e-9) {
             return Err(StepError::Inconsistent { violation });
         }
         Ok(())
@@ -266,10 +332,14 @@ impl<'a, S: Multibody> Simulator<'a, S> {
     pub fn energy(&mut self, motion: &Motion) -> (f64, f64) {
         self.evaluate(&motion.q);
         let potential = self.ev.energy;
+        let (cos, sin) = (&self.ev.cos, &self.ev.sin);
         let kinetic = self
             .chains
             .iter()
-            .map(|(c, o)| c.kinetic_energy(&motion.q[*o..*o + c.len()], &motion.v[*o..*o + c.len()]))
+            .map(|(c, o)| {
+                let range = *o..o + c.len();
+                c.kinetic_energy_from_trig(&cos[range.clone()], &sin[range.clone()], &motion.v[range])
+            })
             .sum();
         (kinetic, potential)
     }
@@ -280,9 +350,11 @@ impl<'a, S: Multibody> Simulator<'a, S> {
         if motion.v.iter().any(|v| v.abs() > rate) {
             return Ok(false);
         }
-        let mut a = vec![0.0; self.n];
-        self.accelerations(&motion.q, &motion.v, &mut a)?;
-        Ok(a.iter().all(|x| x.abs() < 100.0 * rate))
+        let mut a = std::mem::take(&mut self.rest);
+        let result = self.accelerations(&motion.q, &motion.v, &mut a);
+        let rest = a.iter().all(|x| x.abs() < 100.0 * rate);
+        self.rest = a;
+        result.map(|()| rest)
     }
 
     /// Integrates until [`Simulator::at_rest`] (rates below 1e-9 rad/s) or
