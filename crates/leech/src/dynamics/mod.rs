@@ -36,7 +36,7 @@
 //! ```
 //!
 //! semiseparable plus diagonal: a symmetric quasiseparable matrix of order
-//! 2 ([`crate::linalg::quasiseparable`], [`Chain::mass_generators`]). The
+//! 2 ([`crate::linalg::quasiseparable`], [`Chain::mass_generators`](crate::chain::Chain::mass_generators)). The
 //! iteration matrices of the implicit scheme add a tridiagonal `T`, carried
 //! by a third generator component (`p = (u, 1)`, `q = (v, t)`, transition
 //! `(1, 1, 0)`: it reaches the first subdiagonal only). Both are factored

@@ -68,8 +68,6 @@ struct Gauss {
     target: Vec<f64>,
     /// The right-hand side of a small solve, then its solution (m).
     rhs: Vec<f64>,
-    /// One column of `J^T` (n).
-    column: Vec<f64>,
 }
 
 impl Gauss {
@@ -80,7 +78,6 @@ impl Gauss {
             normal: vec![0.0; m * m],
             target: vec![0.0; m],
             rhs: vec![0.0; m],
-            column: vec![0.0; n],
         }
     }
 }
@@ -97,6 +94,22 @@ fn solve_small(s: &[f64], b: &mut [f64]) {
         matrix[r][..m].copy_from_slice(&s[r * m..(r + 1) * m]);
     }
     b.copy_from_slice(&solve_small_symmetric(&matrix, rhs, m)[..m]);
+}
+
+/// `out = A^T B` (`m x m`, row-major) for `A`, `B` with `m` columns laid
+/// out row by row, in one pass over their rows.
+fn gram(a: &[f64], b: &[f64], m: usize, out: &mut [f64]) {
+    out.iter_mut().for_each(|o| *o = 0.0);
+    if m == 0 {
+        return;
+    }
+    for (ra, rb) in a.chunks_exact(m).zip(b.chunks_exact(m)) {
+        for (r, x) in ra.iter().enumerate() {
+            for (o, y) in out[r * m..(r + 1) * m].iter_mut().zip(rb) {
+                *o += x * y;
+            }
+        }
+    }
 }
 
 impl<'a, S: Multibody> Simulator<'a, S> {
@@ -150,35 +163,28 @@ impl<'a, S: Multibody> Simulator<'a, S> {
         mass::multiply(&self.chains, &self.ev.cos, &self.ev.sin, x, y);
     }
 
-    /// `out = J x` (m) with the evaluated Jacobian.
+    /// `out = J x` (m) with the evaluated Jacobian, in one pass over its rows.
     fn jacobian_product(&self, x: &[f64], out: &mut [f64]) {
         let m = self.m;
-        let jac = &self.ev.jacobian;
-        for (r, o) in out.iter_mut().enumerate() {
-            *o = (0..self.n).map(|i| jac[i * m + r] * x[i]).sum();
+        out.iter_mut().for_each(|o| *o = 0.0);
+        if m == 0 {
+            return;
+        }
+        for (row, xi) in self.ev.jacobian[..self.n * m].chunks_exact(m).zip(x) {
+            for (o, j) in out.iter_mut().zip(row) {
+                *o += j * xi;
+            }
         }
     }
 
-    /// `Y = A^-1 J^T` by `m` solves with the factored `A`, and `S = J Y`.
+    /// `Y = A^-1 J^T` by one sweep of `m` right-hand sides with the factored
+    /// `A`, and `S = J Y`.
     pub(super) fn schur(&mut self) {
         let (n, m) = (self.n, self.m);
-        let mut column = std::mem::take(&mut self.gauss.column);
-        for r in 0..m {
-            for i in 0..n {
-                column[i] = self.ev.jacobian[i * m + r];
-            }
-            self.solve(&mut column);
-            for i in 0..n {
-                self.gauss.y[i * m + r] = column[i];
-            }
-        }
-        self.gauss.column = column;
-        let (jac, y) = (&self.ev.jacobian, &self.gauss.y);
-        for a in 0..m {
-            for b in 0..m {
-                self.gauss.schur[a * m + b] = (0..n).map(|i| jac[i * m + a] * y[i * m + b]).sum();
-            }
-        }
+        // J^T laid out row by row is the Jacobian itself.
+        self.gauss.y.copy_from_slice(&self.ev.jacobian[..n * m]);
+        self.factors.solve_columns(&self.chains, &mut self.gauss.y, m);
+        gram(&self.ev.jacobian[..n * m], &self.gauss.y, m, &mut self.gauss.schur);
     }
 
     /// Sets the target of [`Simulator::enforce`] to `-J x`.
@@ -295,11 +301,7 @@ impl<'a, S: Multibody> Simulator<'a, S> {
     fn least_change(&mut self, x: &mut [f64]) {
         let (n, m) = (self.n, self.m);
         let jac = &self.ev.jacobian;
-        for a in 0..m {
-            for b in 0..m {
-                self.gauss.normal[a * m + b] = (0..n).map(|i| jac[i * m + a] * jac[i * m + b]).sum();
-            }
-        }
+        gram(&jac[..n * m], &jac[..n * m], m, &mut self.gauss.normal);
         let mu = &mut self.gauss.rhs;
         mu.copy_from_slice(&self.gauss.target);
         solve_small(&self.gauss.normal, mu);

@@ -56,7 +56,11 @@
 //! L^T x = y:   x_k = y_k - g_k^T w_k,        w_{k-1} = a_k w_k + p_k x_k   (from k = n-1 down)
 //! ```
 //!
-//! and the same sums with `q` in place of `g` give `(A x)_j = d_j x_j +
+//! (several right-hand sides share one sweep). The solves carry `z` and `w`
+//! as `z_{j+1} = (a_j - g_j p_j^T) z_j + g_j b_j` and `w_{k-1} = (a_k - g_k
+//! p_k^T)^T w_k + p_k y_k`, which no longer wait for `y_j` and `x_k`: the
+//! sweeps' dependency chains are shorter. The same sums with `q`
+//! in place of `g` give `(A x)_j = d_j x_j +
 //! p_j^T z_j + q_j^T w_j` and `x^T A x = sum_j x_j (d_j x_j + 2 p_j^T z_j)`,
 //! all `O(n r)`.
 
@@ -85,12 +89,13 @@ pub struct NotPositiveDefinite {
     pub pivot: f64,
 }
 
-/// One row of the factors: `L`'s generators `p_j`, `g_j`, `a_j` and the pivot.
+/// One row of the factors: `L`'s generators `p_j`, `g_j`, the pivot, and
+/// the solves' transition `b_j = a_j - g_j p_j^T`.
 #[derive(Clone, Copy, Debug)]
 struct FactorRow<const R: usize> {
     p: [f64; R],
     g: [f64; R],
-    a: [f64; R],
+    b: [[f64; R]; R],
     pivot: f64,
 }
 
@@ -149,7 +154,13 @@ impl<const R: usize> Ldl<R> {
                     f[i][k] = a[i] * f[i][k] * a[k] + h[i] * g[k];
                 }
             }
-            self.rows.push(FactorRow { p, g, a, pivot });
+            let mut b = [[0.0; R]; R];
+            for i in 0..R {
+                for k in 0..R {
+                    b[i][k] = if i == k { a[i] } else { 0.0 } - g[i] * p[k];
+                }
+            }
+            self.rows.push(FactorRow { p, g, b, pivot });
         }
         Ok(())
     }
@@ -160,20 +171,64 @@ impl<const R: usize> Ldl<R> {
         let mut z = [0.0; R];
         for (xj, r) in x.iter_mut().zip(&self.rows) {
             let y = *xj - dot(&r.p, &z);
-            for i in 0..R {
-                z[i] = r.a[i] * z[i] + r.g[i] * y;
-            }
+            z = r.forward(&z, *xj);
             *xj = y / r.pivot;
         }
         let mut w = [0.0; R];
         for (xk, r) in x.iter_mut().zip(&self.rows).rev() {
+            let y = *xk;
             *xk -= dot(&r.g, &w);
-            for i in 0..R {
-                w[i] = r.a[i] * w[i] + r.p[i] * *xk;
+            w = r.backward(&w, y);
+        }
+    }
+
+    /// Solves `A X = B` in place for up to [`MAX_COLUMNS`] right-hand sides
+    /// at once, `x` holding `B` row by row (entry `(j, c)` at
+    /// `j * columns + c`). One sweep serves every column: their recurrences
+    /// are independent, so they overlap instead of waiting on each other.
+    pub fn solve_columns(&self, x: &mut [f64], columns: usize) {
+        assert!(columns <= MAX_COLUMNS, "at most {MAX_COLUMNS} columns");
+        assert_eq!(x.len(), self.rows.len() * columns, "right-hand sides of another size");
+        if columns == 0 {
+            return;
+        }
+        let mut z = [[0.0; R]; MAX_COLUMNS];
+        for (xj, r) in x.chunks_exact_mut(columns).zip(&self.rows) {
+            for (xc, zc) in xj.iter_mut().zip(&mut z) {
+                let y = *xc - dot(&r.p, zc);
+                *zc = r.forward(zc, *xc);
+                *xc = y / r.pivot;
+            }
+        }
+        let mut w = [[0.0; R]; MAX_COLUMNS];
+        for (xk, r) in x.chunks_exact_mut(columns).zip(&self.rows).rev() {
+            for (xc, wc) in xk.iter_mut().zip(&mut w) {
+                let y = *xc;
+                *xc -= dot(&r.g, wc);
+                *wc = r.backward(wc, y);
             }
         }
     }
 }
+
+impl<const R: usize> FactorRow<R> {
+    /// `z_{j+1} = a_j z_j + g_j y_j` with `y_j = b_j - p_j^T z_j`, written
+    /// `b z_j + g_j b_j` so that the next row does not wait for `y_j`.
+    #[inline]
+    fn forward(&self, z: &[f64; R], rhs: f64) -> [f64; R] {
+        std::array::from_fn(|i| self.g[i] * rhs + dot(&self.b[i], z))
+    }
+
+    /// `w_{k-1} = a_k w_k + p_k x_k` with `x_k = y_k - g_k^T w_k`, written
+    /// `b^T w_k + p_k y_k` for the same reason.
+    #[inline]
+    fn backward(&self, w: &[f64; R], y: f64) -> [f64; R] {
+        std::array::from_fn(|i| self.p[i] * y + (0..R).map(|k| self.b[k][i] * w[k]).sum::<f64>())
+    }
+}
+
+/// Most right-hand sides [`Ldl::solve_columns`] takes in one sweep.
+pub const MAX_COLUMNS: usize = 4;
 
 #[inline]
 fn dot<const R: usize>(a: &[f64; R], b: &[f64; R]) -> f64 {
@@ -312,6 +367,19 @@ mod tests {
         ldl.solve(&mut solved);
         for j in 0..n {
             prop_assert!((solved[j] - x[j]).abs() < 1e-10, "solve row {j}: {} vs {}", solved[j], x[j]);
+        }
+        // Several right-hand sides at once give each column's single solve, bit for bit.
+        for columns in 0..=MAX_COLUMNS {
+            let b: Vec<f64> = (0..n * columns).map(|_| rng.uniform(-1.0, 1.0)).collect();
+            let mut together = b.clone();
+            ldl.solve_columns(&mut together, columns);
+            for c in 0..columns {
+                let mut alone: Vec<f64> = (0..n).map(|j| b[j * columns + c]).collect();
+                ldl.solve(&mut alone);
+                for j in 0..n {
+                    prop_assert_eq!(together[j * columns + c], alone[j]);
+                }
+            }
         }
         Ok(())
     }
