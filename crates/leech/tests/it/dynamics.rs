@@ -305,3 +305,65 @@ fn a_body_of_2000_links_per_chain_steps_on_its_constraints() {
     assert!(run.max_violation < 1e-9, "violation {:e}", run.max_violation);
     assert!(last.kinetic_j > 0.0, "it falls");
 }
+
+/// Counts the allocations of the thread that asks for it, for the test
+/// below; every other allocation passes straight to the system allocator.
+struct CountingAllocator;
+
+thread_local! {
+    static COUNTING: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    static ALLOCATIONS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+// SAFETY: defers every call to the system allocator unchanged.
+unsafe impl std::alloc::GlobalAlloc for CountingAllocator {
+    unsafe fn alloc(&self, layout: std::alloc::Layout) -> *mut u8 {
+        if COUNTING.with(|c| c.get()) {
+            ALLOCATIONS.with(|a| a.set(a.get() + 1));
+        }
+        // SAFETY: the caller's contract is passed on.
+        unsafe { std::alloc::System.alloc(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: std::alloc::Layout) {
+        // SAFETY: the caller's contract is passed on.
+        unsafe { std::alloc::System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: CountingAllocator = CountingAllocator;
+
+/// How many times `f` allocates on this thread.
+fn allocations(f: impl FnOnce()) -> usize {
+    ALLOCATIONS.with(|a| a.set(0));
+    COUNTING.with(|c| c.set(true));
+    f();
+    COUNTING.with(|c| c.set(false));
+    ALLOCATIONS.with(|a| a.get())
+}
+
+/// Steps of every integrator, the projection, the rest check and the
+/// stability estimate work in the simulator's scratch: none allocates.
+#[test]
+fn steps_do_not_allocate() {
+    assert_eq!(allocations(|| drop(std::hint::black_box(vec![0.0; 8]))), 1, "the counter counts");
+    let (body, mut motion) = swinging_body(0.005);
+    let mut sim = Simulator::new(&body);
+    sim.project(&mut motion).unwrap();
+    let dt = sim.stable_step(&motion.q).unwrap();
+    let count = allocations(|| {
+        // The midpoint's fixed-point iteration needs a third of RK4's step.
+        for (integrator, dt) in
+            [(Integrator::Explicit, dt), (Integrator::Implicit, 2e-3), (Integrator::Midpoint, 0.3 * dt)]
+        {
+            for _ in 0..3 {
+                sim.step(&mut motion, dt, integrator).unwrap();
+            }
+        }
+        sim.at_rest(&motion, 1e-9).unwrap();
+        sim.stable_step(&motion.q).unwrap();
+        sim.energy(&motion);
+    });
+    assert_eq!(count, 0);
+}
