@@ -131,18 +131,14 @@ fn sample(sim: &mut Simulator<'_, Body>, body: &Body, motion: &Motion, time: f64
     }
 }
 
-/// Simulates the body of `robot` starting at tube lengths `lengths` (m).
-/// `progress` receives the simulated time (s) now and then.
-pub fn simulate(
+/// Checks the settings and the lengths reached; returns those (m).
+fn checked_target(
     robot: &crate::robot::Robot,
     lengths: [f64; 2],
-    start: Start,
     actuation: Actuation,
     options: &SimulationOptions,
-    progress: &dyn Fn(f64),
-) -> Result<Simulation, SimulationError> {
+) -> Result<[f64; 2], SimulationError> {
     use crate::error::positive;
-    use crate::statics::Solver;
     positive("duration (s)", options.duration)?;
     positive("sample interval (s)", options.sample_interval)?;
     positive("rest rate (rad/s)", options.rest_rate)?;
@@ -157,23 +153,18 @@ pub fn simulate(
     if let Actuation::Feed { speed, .. } = actuation {
         positive("speed (m/s)", speed)?;
     }
-    let mut body = robot.body(lengths[0], lengths[1])?;
-    let q0 = match start {
-        Start::Unloaded => {
-            let mut unloaded = robot.clone();
-            unloaded.world.gravity_m_per_s2 = 0.0;
-            unloaded.body(lengths[0], lengths[1])?.solve(&Solver::default())?.q
-        }
-        Start::Static => body.solve(&Solver::default())?.q,
-    };
-    let mut motion = Motion { v: vec![0.0; q0.len()], q: q0 };
+    Ok(target)
+}
+
+/// The step (s): the one given, 2 ms for the implicit scheme, or from the
+/// stability limit at `q`; at most [`MAX_STEPS`] of them in the duration.
+fn step_size(body: &Body, q: &[f64], options: &SimulationOptions) -> Result<f64, SimulationError> {
     let dt = match (options.dt, options.integrator) {
-        (Some(dt), _) => positive("dt (s)", dt)?,
+        (Some(dt), _) => crate::error::positive("dt (s)", dt)?,
         (None, Integrator::Implicit) => 2e-3,
         (None, integrator) => {
-            let limit = Simulator::new(&body)
-                .stable_step(&motion.q)
-                .map_err(|source| SimulationError::Step { time: 0.0, source })?;
+            let limit =
+                Simulator::new(body).stable_step(q).map_err(|source| SimulationError::Step { time: 0.0, source })?;
             // The midpoint's fixed-point iteration needs dt omega < 1, RK4 dt omega < 2.8.
             if integrator == Integrator::Midpoint {
                 0.3 * limit
@@ -191,6 +182,32 @@ pub fn simulate(
         )
         .into());
     }
+    Ok(dt)
+}
+
+/// Simulates the body of `robot` starting at tube lengths `lengths` (m).
+/// `progress` receives the simulated time (s) now and then.
+pub fn simulate(
+    robot: &crate::robot::Robot,
+    lengths: [f64; 2],
+    start: Start,
+    actuation: Actuation,
+    options: &SimulationOptions,
+    progress: &dyn Fn(f64),
+) -> Result<Simulation, SimulationError> {
+    use crate::statics::Solver;
+    let target = checked_target(robot, lengths, actuation, options)?;
+    let mut body = robot.body(lengths[0], lengths[1])?;
+    let q0 = match start {
+        Start::Unloaded => {
+            let mut unloaded = robot.clone();
+            unloaded.world.gravity_m_per_s2 = 0.0;
+            unloaded.body(lengths[0], lengths[1])?.solve(&Solver::default())?.q
+        }
+        Start::Static => body.solve(&Solver::default())?.q,
+    };
+    let mut motion = Motion { v: vec![0.0; q0.len()], q: q0 };
+    let dt = step_size(&body, &motion.q, options)?;
     if let Actuation::Step { to } = actuation {
         let next = robot.body(to[0], to[1])?;
         motion = Motion { q: next.carry_over(&body, &motion.q), v: next.carry_over(&body, &motion.v) };
