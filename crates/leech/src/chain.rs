@@ -43,6 +43,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::geom::unit;
+use crate::linalg::quasiseparable::{self, Generators};
 use crate::statics::Evaluation;
 
 /// How a continuous tube is cut into rigid links.
@@ -168,7 +169,8 @@ pub struct Chain {
     lengths: Vec<f64>,
     masses: Vec<f64>,
     mass_offsets: Vec<f64>,
-    inertias: Vec<f64>,
+    /// The mass matrix's diagonal `C_jj + I_j` (kg m^2).
+    mass_diagonal: Vec<f64>,
     stiffness: Vec<f64>,
     nominal_stiffness: f64,
     damping: Vec<f64>,
@@ -213,7 +215,7 @@ impl Chain {
             lengths,
             masses,
             mass_offsets,
-            inertias,
+            mass_diagonal: inertias,
             stiffness: elements.iter().map(|e| spec.stiffness * compliance(e)).collect(),
             nominal_stiffness: spec.stiffness,
             damping: elements.iter().map(|e| spec.damping * compliance(e)).collect(),
@@ -224,13 +226,17 @@ impl Chain {
         chain
     }
 
+    /// Levers `W_j` and the mass matrix's diagonal, which holds the links'
+    /// own inertias `I_j` on entry.
     fn update_levers(&mut self) {
         let n = self.len();
         self.levers.resize(n, 0.0);
         let mut beyond = self.tip_mass;
         for j in (0..n).rev() {
-            self.levers[j] = self.mass_offsets[j] * self.masses[j] + self.lengths[j] * beyond;
-            beyond += self.masses[j];
+            let (a, l, m) = (self.mass_offsets[j], self.lengths[j], self.masses[j]);
+            self.levers[j] = a * m + l * beyond;
+            self.mass_diagonal[j] += a * a * m + l * l * beyond;
+            beyond += m;
         }
     }
 
@@ -551,35 +557,23 @@ impl Chain {
         }
     }
 
-    /// Dense mass matrix `M` (kg m^2), row-major `n x n`, into `out`.
-    pub fn mass_matrix(&self, q: &[f64], out: &mut [f64]) {
-        let (sin, cos): (Vec<f64>, Vec<f64>) = q[..self.len()].iter().map(|phi| phi.sin_cos()).unzip();
-        self.mass_matrix_from_trig(&cos, &sin, out);
-    }
-
-    /// [`Chain::mass_matrix`] from the links' cosines and sines.
-    pub fn mass_matrix_from_trig(&self, cos: &[f64], sin: &[f64], out: &mut [f64]) {
+    /// The generators of the mass matrix (kg m^2) from the links' cosines
+    /// and sines: a symmetric quasiseparable matrix of order 2
+    /// ([`crate::linalg::quasiseparable`]). Below the diagonal
+    /// `M_jk = l_k W_j cos(phi_j - phi_k) = u_j . v_k` (`j > k`) with
+    /// `u_j = W_j e(phi_j)`, `v_k = l_k e(phi_k)` and transitions 1: the
+    /// factorization, solves and products with `M` are then O(n).
+    pub fn mass_generators<'a>(
+        &'a self,
+        cos: &'a [f64],
+        sin: &'a [f64],
+    ) -> impl DoubleEndedIterator<Item = Generators<2>> + ExactSizeIterator + Clone + 'a {
         let n = self.len();
-        // cos(phi_j - phi_k) = c_j c_k + s_j s_k: n sin_cos instead of n^2 cos.
-        let trig = |j: usize| (sin[j], cos[j]);
-        for k in 0..n {
-            let ckk = self.diagonal_inertia_coefficient(k);
-            out[k * n + k] = ckk + self.inertias[k];
-            let (sk, ck) = trig(k);
-            let wk = self.levers[k];
-            for j in 0..k {
-                let (sj, cj) = trig(j);
-                let m = self.lengths[j] * wk * (cj * ck + sj * sk);
-                out[j * n + k] = m;
-                out[k * n + j] = m;
-            }
-        }
-    }
-
-    fn diagonal_inertia_coefficient(&self, k: usize) -> f64 {
-        let a = self.mass_offsets[k];
-        let beyond = if self.lengths[k] > 0.0 { (self.levers[k] - a * self.masses[k]) / self.lengths[k] } else { 0.0 };
-        a * a * self.masses[k] + self.lengths[k] * self.lengths[k] * beyond
+        let (cos, sin) = (&cos[..n], &sin[..n]);
+        (0..n).map(move |j| {
+            let (c, s, w, l) = (cos[j], sin[j], self.levers[j], self.lengths[j]);
+            Generators { diagonal: self.mass_diagonal[j], p: [w * c, w * s], q: [l * c, l * s], a: [1.0, 1.0] }
+        })
     }
 
     /// Velocity-product terms `h_j = sum_k C_jk sin(phi_j - phi_k) dphi_k^2` (N m),
@@ -593,11 +587,10 @@ impl Chain {
     /// [`Chain::velocity_terms`] from the links' cosines and sines.
     pub fn velocity_terms_from_trig(&self, cos: &[f64], sin: &[f64], dq: &[f64], out: &mut [f64]) {
         let n = self.len();
-        let trig: Vec<(f64, f64)> = (0..n).map(|j| (sin[j], cos[j])).collect();
         // Suffix sums over k > j of W_k (c_k, s_k) dphi_k^2.
         let (mut sc, mut ss) = (0.0, 0.0);
         for j in (0..n).rev() {
-            let (sj, cj) = trig[j];
+            let (sj, cj) = (sin[j], cos[j]);
             out[j] = self.lengths[j] * (sj * sc - cj * ss);
             let w = self.levers[j] * dq[j] * dq[j];
             sc += w * cj;
@@ -606,7 +599,7 @@ impl Chain {
         // Prefix sums over k < j of l_k (c_k, s_k) dphi_k^2.
         let (mut pc, mut ps) = (0.0, 0.0);
         for j in 0..n {
-            let (sj, cj) = trig[j];
+            let (sj, cj) = (sin[j], cos[j]);
             out[j] += self.levers[j] * (sj * pc - cj * ps);
             let w = self.lengths[j] * dq[j] * dq[j];
             pc += w * cj;
@@ -616,15 +609,12 @@ impl Chain {
 
     /// Kinetic energy `dq^T M dq / 2` (J).
     pub fn kinetic_energy(&self, q: &[f64], dq: &[f64]) -> f64 {
-        let n = self.len();
-        let mut m = vec![0.0; n * n];
-        self.mass_matrix(q, &mut m);
-        let mut t = 0.0;
-        for j in 0..n {
-            for k in 0..n {
-                t += dq[j] * m[j * n + k] * dq[k];
-            }
-        }
-        0.5 * t
+        let (sin, cos): (Vec<f64>, Vec<f64>) = q[..self.len()].iter().map(|phi| phi.sin_cos()).unzip();
+        self.kinetic_energy_from_trig(&cos, &sin, dq)
+    }
+
+    /// [`Chain::kinetic_energy`] from the links' cosines and sines, O(n).
+    pub fn kinetic_energy_from_trig(&self, cos: &[f64], sin: &[f64], dq: &[f64]) -> f64 {
+        0.5 * quasiseparable::quadratic_form(self.mass_generators(cos, sin), &dq[..self.len()])
     }
 }

@@ -23,7 +23,7 @@
 //! Three facts make it fast: the spring Hessian is tridiagonal, gravity's
 //! Hessian is diagonal (`-g W_j sin phi_j`, [`chain`]), and each constraint's
 //! Hessian is diagonal too ([`body`]). Newton's step is then a tridiagonal
-//! factorization bordered by three dense rows: O(n) per step ([`kkt`]).
+//! factorization bordered by three dense rows: O(n) per step ([`linalg`]).
 //!
 //! Equilibria are not unique (folds, pitchforks, several unloaded shapes), so
 //! [`statics`] follows the robot's history: tubes fed from equal lengths with no
@@ -53,9 +53,9 @@
 //! * [`constant_curvature`]: the kinematic constant-curvature model, planar and tri-tube.
 //! * [`statics`]: the Newton-KKT solver, continuation, stability.
 //! * [`dynamics`]: constrained forward dynamics and integrators.
-//! * [`kkt`]: the O(n) bordered tridiagonal solve.
 //! * [`least_squares`]: bounded Levenberg-Marquardt for small fits and inverse problems.
-//! * [`linalg`]: bordered block-tridiagonal LDL^T with inertia (any number of chains and border rows).
+//! * [`linalg`]: bordered block-tridiagonal LDL^T with inertia (any number of chains and
+//!   border rows); O(n) quasiseparable mass matrices.
 //! * [`inverse_statics`]: tube lengths that put the endpoint on a target.
 //! * [`sweep`]: sweeps over tube lengths along the actuation path, reach metrics.
 //! * [`robot`]: robot files (TOML) and the built-in robot.
@@ -73,7 +73,6 @@ pub mod dynamics;
 pub mod error;
 pub mod geom;
 pub mod inverse_statics;
-pub mod kkt;
 pub mod least_squares;
 pub mod linalg;
 pub mod report;

@@ -69,10 +69,19 @@
 //! unknown per block and at most three border rows, the border columns and
 //! the Schur complement live in registers (a monomorphized fast path).
 
+//!
+//! ## Quasiseparable matrices
+//!
+//! The chains' mass matrices are semiseparable plus diagonal, and the
+//! implicit integrators add a tridiagonal term: both are symmetric
+//! quasiseparable matrices of small order, factored and solved in `O(n)`
+//! ([`quasiseparable`]).
+
 mod block_tridiagonal;
 mod bordered_ldl;
 pub mod dense_ldl;
 mod pattern;
+pub mod quasiseparable;
 mod tridiagonal;
 
 use std::ops::{Add, AddAssign};

@@ -22,7 +22,7 @@
 //! bounded by [`Tuning::active_set_changes_per_row`]). For the LEeCH body
 //! `hess V` is tridiagonal within each chain (springs) plus diagonal
 //! (gravity), every `hess C_r` is diagonal, and the rows are few and dense,
-//! so each step costs O(n m) ([`crate::kkt`]).
+//! so each step costs O(n m) ([`crate::linalg`]).
 //!
 //! *Globalization.* When the reduced Hessian is not positive definite, `H` is
 //! shifted by `delta I` until it is (inertia correction), so the step always

@@ -1,12 +1,15 @@
 //! Constrained dynamics: energy, constraints, rest at the static equilibrium.
 
-use leech::dynamics::{Integrator, Simulator, State};
+use leech::chain::ChainSpec;
+use leech::dynamics::{simulate, Actuation, Integrator, Motion, SimulationOptions, Simulator, Start};
+use leech::linalg::quasiseparable::{self, Generators, Ldl};
 use leech::prelude::*;
+use proptest::prelude::*;
 use serde_json::Value;
 
 /// A small body released from its unloaded shape turned by -60 deg: it
 /// swings and falls under gravity.
-fn swinging_body(damping: f64) -> (Body, State) {
+fn swinging_body(damping: f64) -> (Body, Motion) {
     let mut robot = Robot::builtin();
     robot.tube.joint_damping_nms_per_rad = damping;
     robot.world.gravity_m_per_s2 = 0.0;
@@ -16,7 +19,7 @@ fn swinging_body(damping: f64) -> (Body, State) {
     let body = robot.body(0.06, 0.05).unwrap();
     let q: Vec<f64> = unloaded.iter().map(|q| q - 60f64.to_radians()).collect();
     let v = vec![0.0; q.len()];
-    (body, State { q, v })
+    (body, Motion { q, v })
 }
 
 #[test]
@@ -87,7 +90,7 @@ fn settling_from_the_unloaded_body_reaches_the_static_equilibrium() {
         robot.world.gravity_m_per_s2 = num("gravity_m_per_s2");
         let body = robot.body(lengths[0], lengths[1]).unwrap();
         let mut sim = Simulator::new(&body);
-        let mut state = State { v: vec![0.0; q0.len()], q: q0 };
+        let mut state = Motion { v: vec![0.0; q0.len()], q: q0 };
         let start = state.clone();
         let rest = sim.run_to_rest(&mut state, 2e-3, Integrator::Implicit, 2.0, 60.0).unwrap();
         assert!(rest.is_some(), "{} did not come to rest", case["name"]);
@@ -130,7 +133,7 @@ fn trajectories_match_mujoco() {
         if case["kind"] == "chain" {
             let tube = robot.cantilever(num("tube_length_m"), 0.0).unwrap();
             let mut sim = Simulator::new(&tube);
-            let mut state = State { q: list("initial_angles_rad"), v: vec![0.0; tube.dim()] };
+            let mut state = Motion { q: list("initial_angles_rad"), v: vec![0.0; tube.dim()] };
             for i in 1..times.len() {
                 for _ in 0..per_sample {
                     sim.step(&mut state, dt, Integrator::Implicit).unwrap();
@@ -143,7 +146,7 @@ fn trajectories_match_mujoco() {
             let mut q = list("initial_angles_a_rad");
             q.extend(list("initial_angles_b_rad"));
             let mut sim = Simulator::new(&body);
-            let mut state = State { v: vec![0.0; q.len()], q };
+            let mut state = Motion { v: vec![0.0; q.len()], q };
             sim.project(&mut state).unwrap();
             for i in 1..times.len() {
                 for _ in 0..per_sample {
@@ -167,4 +170,200 @@ fn inconsistent_initial_states_are_rejected() {
     assert!(sim.check(&state).is_ok());
     state.v[0] = 1.0;
     assert!(matches!(sim.check(&state), Err(leech::dynamics::StepError::Inconsistent { .. })));
+}
+
+fn sup(x: &[f64]) -> f64 {
+    x.iter().fold(0.0f64, |m, v| m.max(v.abs()))
+}
+
+fn dense_product(a: &[f64], x: &[f64]) -> Vec<f64> {
+    let n = x.len();
+    (0..n).map(|j| (0..n).map(|k| a[j * n + k] * x[k]).sum()).collect()
+}
+
+/// `|A x - b|` against `|A| |x|` (sup norms): the backward error of a solve.
+fn backward_error(a: &[f64], x: &[f64], b: &[f64]) -> f64 {
+    let n = x.len();
+    let residual: Vec<f64> = dense_product(a, x).iter().zip(b).map(|(ax, b)| ax - b).collect();
+    let norm = (0..n).map(|j| (0..n).map(|k| a[j * n + k].abs()).sum::<f64>()).fold(0.0, f64::max);
+    sup(&residual) / (norm * sup(x))
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// A chain's mass matrix and the backward-Euler matrix `M + dt D +
+    /// dt^2 K` as quasiseparable generators (orders 2 and 3) against the
+    /// dense matrices of the mass points' kinematics: entries, products,
+    /// kinetic energy, and solves by the O(n) factorizations.
+    #[test]
+    fn mass_matrix_generators_factor_solve_and_multiply_like_dense_matrices(
+        n in 1usize..200,
+        element_length in 0.002f64..0.05,
+        last in 0.05f64..1.0,
+        element_mass in 1e-4f64..1e-2,
+        tip_mass in 0.0f64..0.05,
+        stiffness in 0.01f64..10.0,
+        damping in 0.0f64..0.1,
+        midpoint in any::<bool>(),
+        dt in 1e-5f64..0.1,
+        seed in prop::collection::vec(-3.0f64..3.0, 400),
+    ) {
+        let d = if midpoint { Discretization::Midpoint } else { Discretization::Paper };
+        let chain = Chain::new(&ChainSpec {
+            tube_length: element_length * ((n - 1) as f64 + last),
+            element_length,
+            element_mass,
+            stiffness,
+            damping,
+            tip_mass,
+            clamp_point: [0.0, 0.0],
+            clamp_angle: seed[399],
+            discretization: d,
+        });
+        let n = chain.len();
+        let (q, x) = (&seed[..n], &seed[200..200 + n]);
+        let (sin, cos): (Vec<f64>, Vec<f64>) = q.iter().map(|phi| phi.sin_cos()).unzip();
+        let mass = super::kinematic_mass_matrix(&chain, q, d);
+        let scale = sup(&mass);
+        let generated = super::dense(chain.mass_generators(&cos, &sin));
+        for (a, b) in generated.iter().zip(&mass) {
+            prop_assert!((a - b).abs() <= 1e-13 * scale, "M {a:e} vs kinematics {b:e}");
+        }
+        let (expected, mut product) = (dense_product(&mass, x), vec![0.0; n]);
+        quasiseparable::multiply(chain.mass_generators(&cos, &sin), x, &mut product);
+        for (a, b) in product.iter().zip(&expected) {
+            prop_assert!((a - b).abs() <= 1e-12 * scale * sup(x) * n as f64, "M x {a:e} vs {b:e}");
+        }
+        let kinetic: f64 = 0.5 * x.iter().zip(&expected).map(|(a, b)| a * b).sum::<f64>();
+        prop_assert!((chain.kinetic_energy(q, x) - kinetic).abs() <= 1e-12 * scale * (n * n) as f64);
+        let mut ldl = Ldl::<2>::default();
+        ldl.factor(chain.mass_generators(&cos, &sin)).unwrap();
+        let mut solved = expected.clone();
+        ldl.solve(&mut solved);
+        prop_assert!(backward_error(&mass, &solved, &expected) < 1e-13 * n as f64);
+        // The tridiagonal dt D + dt^2 K reaches the first subdiagonal only.
+        let (mut diag, mut off) = (vec![0.0; n], vec![0.0; n]);
+        chain.add_spring_hessian(&mut diag, &mut off);
+        let c = chain.damping();
+        let mut iteration = mass.clone();
+        for j in 0..n {
+            let (dj, oj) = (dt * dt * diag[j] + dt * (c[j] + c.get(j + 1).unwrap_or(&0.0)), dt * dt * off[j]);
+            diag[j] = dj;
+            off[j] = if j + 1 < n { oj - dt * c[j + 1] } else { 0.0 };
+            iteration[j * n + j] += dj;
+            if j + 1 < n {
+                iteration[j * n + j + 1] += off[j];
+                iteration[(j + 1) * n + j] += off[j];
+            }
+        }
+        let rows = chain.mass_generators(&cos, &sin).enumerate().map(|(j, m)| Generators {
+            diagonal: m.diagonal + diag[j],
+            p: [m.p[0], m.p[1], 1.0],
+            q: [m.q[0], m.q[1], off[j]],
+            a: [1.0, 1.0, 0.0],
+        });
+        let generated = super::dense(rows.clone());
+        for (a, b) in generated.iter().zip(&iteration) {
+            prop_assert!((a - b).abs() <= 1e-13 * sup(&iteration), "M + T {a:e} vs {b:e}");
+        }
+        let mut ldl = Ldl::<3>::default();
+        ldl.factor(rows).unwrap();
+        let rhs = dense_product(&iteration, x);
+        let mut solved = rhs.clone();
+        ldl.solve(&mut solved);
+        prop_assert!(backward_error(&iteration, &solved, &rhs) < 1e-13 * n as f64);
+    }
+}
+
+/// Bodies far beyond the old dense limit of 500 links per chain: the same
+/// 0.3 m tubes cut into 2000 links each (continuum stiffness, mass and
+/// damping per length kept), released from the unloaded shape with gravity
+/// on, stay on the constraints through a few implicit steps.
+#[test]
+fn a_body_of_2000_links_per_chain_steps_on_its_constraints() {
+    let mut robot = Robot::builtin();
+    let l0 = robot.tube.element_length_m;
+    let l = 0.30 / 2000.0;
+    robot.tube.element_length_m = l;
+    robot.tube.element_mass_kg *= l / l0;
+    robot.tube.joint_stiffness_nm_per_rad *= l0 / l;
+    robot.tube.joint_damping_nms_per_rad *= l0 / l;
+    let options = SimulationOptions {
+        integrator: Integrator::Implicit,
+        dt: Some(2e-3),
+        duration: 0.01,
+        until_rest: false,
+        gravity_ramp: 0.0,
+        sample_interval: 2e-3,
+        rest_rate: 1e-6,
+    };
+    let run = simulate(&robot, [0.30, 0.30], Start::Unloaded, Actuation::Hold, &options, &|_| {}).unwrap();
+    let last = run.samples.last().unwrap();
+    assert_eq!((last.angles_a_rad.len(), last.angles_b_rad.len()), (2000, 2000));
+    assert_eq!(run.steps, 5);
+    assert!(run.max_violation < 1e-9, "violation {:e}", run.max_violation);
+    assert!(last.kinetic_j > 0.0, "it falls");
+}
+
+/// Counts the allocations of the thread that asks for it, for the test
+/// below; every other allocation passes straight to the system allocator.
+struct CountingAllocator;
+
+thread_local! {
+    static COUNTING: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    static ALLOCATIONS: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+// SAFETY: defers every call to the system allocator unchanged.
+unsafe impl std::alloc::GlobalAlloc for CountingAllocator {
+    unsafe fn alloc(&self, layout: std::alloc::Layout) -> *mut u8 {
+        if COUNTING.with(|c| c.get()) {
+            ALLOCATIONS.with(|a| a.set(a.get() + 1));
+        }
+        // SAFETY: the caller's contract is passed on.
+        unsafe { std::alloc::System.alloc(layout) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: std::alloc::Layout) {
+        // SAFETY: the caller's contract is passed on.
+        unsafe { std::alloc::System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: CountingAllocator = CountingAllocator;
+
+/// How many times `f` allocates on this thread.
+fn allocations(f: impl FnOnce()) -> usize {
+    ALLOCATIONS.with(|a| a.set(0));
+    COUNTING.with(|c| c.set(true));
+    f();
+    COUNTING.with(|c| c.set(false));
+    ALLOCATIONS.with(|a| a.get())
+}
+
+/// Steps of every integrator, the projection, the rest check and the
+/// stability estimate work in the simulator's scratch: none allocates.
+#[test]
+fn steps_do_not_allocate() {
+    assert_eq!(allocations(|| drop(std::hint::black_box(vec![0.0; 8]))), 1, "the counter counts");
+    let (body, mut motion) = swinging_body(0.005);
+    let mut sim = Simulator::new(&body);
+    sim.project(&mut motion).unwrap();
+    let dt = sim.stable_step(&motion.q).unwrap();
+    let count = allocations(|| {
+        // The midpoint's fixed-point iteration needs a third of RK4's step.
+        for (integrator, dt) in
+            [(Integrator::Explicit, dt), (Integrator::Implicit, 2e-3), (Integrator::Midpoint, 0.3 * dt)]
+        {
+            for _ in 0..3 {
+                sim.step(&mut motion, dt, integrator).unwrap();
+            }
+        }
+        sim.at_rest(&motion, 1e-9).unwrap();
+        sim.stable_step(&motion.q).unwrap();
+        sim.energy(&motion);
+    });
+    assert_eq!(count, 0);
 }

@@ -2,7 +2,6 @@
 //! reference: solutions by their residual, inertia against nalgebra's
 //! symmetric eigenvalues, and the old `kkt` solver on its own problems.
 
-use leech::kkt::{Inertia, Kkt};
 use leech::linalg::{solve_symmetric, BorderedLdl, DenseLdl, InertiaCount, Pattern};
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 use proptest::prelude::*;
@@ -210,48 +209,6 @@ proptest! {
         prop_assert_eq!(Some(inertia), reference);
         let residual = (&s * DVector::from_column_slice(&b) - &rhs).amax();
         prop_assert!(residual <= 1e-12 * (s.amax() * DVector::from_column_slice(&b).amax() + 1.0));
-    }
-}
-
-/// The old solver's problem: two chains, three constraint rows, zero corner;
-/// `H` positive definite or indefinite.
-#[test]
-fn matches_the_kkt_solver_on_two_chains() {
-    let mut rng = Rng(7);
-    let cases = [(29, 29, 0.0, false), (30, 28, 0.5, false), (1, 12, 0.0, false), (17, 1, 2.0, false)];
-    let indefinite = [(29, 29, 0.0, true), (40, 25, 0.3, true), (3, 9, 0.0, true)];
-    for (first, second, shift, signed) in cases.into_iter().chain(indefinite) {
-        let n = first + second;
-        let sign = |rng: &mut Rng| if signed { rng.sign() } else { 1.0 };
-        let diag: Vec<f64> = (0..n).map(|_| sign(&mut rng) * rng.uniform(2.5, 4.0)).collect();
-        let mut off: Vec<f64> = (0..n - 1).map(|_| rng.uniform(-1.0, 1.0)).collect();
-        off[first - 1] = 0.0;
-        let jac: Vec<f64> = (0..3 * n).map(|_| rng.uniform(-1.0, 1.0)).collect();
-        let r: Vec<f64> = (0..n).map(|_| rng.uniform(-1.0, 1.0)).collect();
-        let c = [0.3, -0.2, 0.9];
-        let mut kkt = Kkt::with_blocks(n, 3, first);
-        let old = kkt.factor(&diag, &off, shift, &jac, 1e-13);
-        let (mut x_old, mut y_old) = (vec![0.0; n], [0.0; 3]);
-        kkt.solve(&jac, &r, &c, &mut x_old, &mut y_old);
-
-        let mut ldl = BorderedLdl::new(&Pattern::new(1, &[first, second], 3, 0));
-        let new = ldl.factor(&diag, &off, &jac, &[0.0; 9], shift, 1e-13);
-        let (mut x, mut y) = (vec![0.0; n], [0.0; 3]);
-        ldl.solve(&r, &c, &mut x, &mut y);
-
-        // A constrained minimum has exactly 3 negative eigenvalues (one per
-        // constraint); each negative direction of the reduced Hessian adds one.
-        let negative = match old {
-            Inertia::Minimum => 3,
-            Inertia::Indefinite { negative } => 3 + negative,
-            Inertia::Singular => panic!("the old solver found ({first}, {second}) singular"),
-        };
-        assert_eq!(signed, negative > 3, "({first}, {second}): {old:?}");
-        assert_eq!(new, InertiaCount { positive: n + 3 - negative, negative, zero: 0 });
-        let scale = x_old.iter().chain(&y_old).fold(0.0f64, |m, v| m.max(v.abs()));
-        for (a, b) in x.iter().chain(&y).zip(x_old.iter().chain(&y_old)) {
-            assert!((a - b).abs() <= 1e-12 * scale, "({first}, {second}): {a} vs {b}");
-        }
     }
 }
 

@@ -57,3 +57,54 @@ pub fn robot_from_case(case: &serde_json::Value) -> Robot {
     }
     robot
 }
+
+/// The dense symmetric matrix (row-major) of quasiseparable generators,
+/// entry by entry from their definition.
+pub fn dense<const R: usize>(rows: impl Iterator<Item = leech::linalg::quasiseparable::Generators<R>>) -> Vec<f64> {
+    let rows: Vec<_> = rows.collect();
+    let n = rows.len();
+    let mut a = vec![0.0; n * n];
+    for k in 0..n {
+        a[k * n + k] = rows[k].diagonal;
+        let mut t = rows[k].q;
+        for j in k + 1..n {
+            let v: f64 = (0..R).map(|i| rows[j].p[i] * t[i]).sum();
+            a[j * n + k] = v;
+            a[k * n + j] = v;
+            for i in 0..R {
+                t[i] *= rows[j].a[i];
+            }
+        }
+    }
+    a
+}
+
+/// A chain's mass matrix from the kinematics of its mass points, `sum_i m_i
+/// J_i^T J_i` plus the links' own rotational inertia: the reference for
+/// [`Chain::mass_generators`]. Link `i`'s mass sits at its tip (`paper`) or
+/// centre (`midpoint`), the tip mass at the last tip; point `i` moves with
+/// `d r_i / d phi_k = lever_ik e'(phi_k)` for `k <= i`.
+pub fn kinematic_mass_matrix(chain: &Chain, q: &[f64], d: Discretization) -> Vec<f64> {
+    let n = chain.len();
+    let (l, m) = (chain.lengths(), chain.masses());
+    let offset = |j: usize| if d == Discretization::Midpoint { 0.5 * l[j] } else { l[j] };
+    let mut a = vec![0.0; n * n];
+    let mut add_point = |mass: f64, levers: &[f64]| {
+        for j in 0..levers.len() {
+            for k in 0..levers.len() {
+                a[j * n + k] += mass * levers[j] * levers[k] * (q[j] - q[k]).cos();
+            }
+        }
+    };
+    for i in 0..n {
+        let levers: Vec<f64> = (0..=i).map(|k| if k == i { offset(i) } else { l[k] }).collect();
+        add_point(m[i], &levers);
+    }
+    add_point(chain.tip_mass(), l);
+    if d == Discretization::Midpoint {
+        for j in 0..n {
+            a[j * n + j] += m[j] * l[j] * l[j] / 12.0;
+        }
+    }
+    a
+}

@@ -1,0 +1,68 @@
+//! The implicit midpoint rule by fixed-point iteration.
+
+use super::{Integrator, Motion, Multibody, Simulator, StepError};
+
+/// Vectors of one midpoint step, kept between steps.
+#[derive(Clone, Debug, Default)]
+pub(super) struct MidpointScratch {
+    q0: Vec<f64>,
+    v0: Vec<f64>,
+    a: Vec<f64>,
+    /// The midpoint velocity iterate.
+    vm: Vec<f64>,
+    /// The midpoint position.
+    qm: Vec<f64>,
+}
+
+impl MidpointScratch {
+    pub(super) fn new(n: usize) -> MidpointScratch {
+        MidpointScratch { q0: vec![0.0; n], v0: vec![0.0; n], a: vec![0.0; n], vm: vec![0.0; n], qm: vec![0.0; n] }
+    }
+}
+
+impl<S: Multibody> Simulator<'_, S> {
+    pub(super) fn midpoint(&mut self, motion: &mut Motion, dt: f64) -> Result<(), StepError> {
+        let mut sc = std::mem::take(&mut self.midpoint);
+        let result = self.midpoint_with(motion, dt, &mut sc);
+        self.midpoint = sc;
+        result
+    }
+
+    fn midpoint_with(&mut self, motion: &mut Motion, dt: f64, sc: &mut MidpointScratch) -> Result<(), StepError> {
+        let n = self.n;
+        sc.q0.copy_from_slice(&motion.q);
+        sc.v0.copy_from_slice(&motion.v);
+        self.accelerations(&sc.q0, &sc.v0, &mut sc.a)?;
+        // Midpoint velocity, first guessed by an explicit half step.
+        for i in 0..n {
+            sc.vm[i] = sc.v0[i] + 0.5 * dt * sc.a[i];
+        }
+        let mut residual = f64::INFINITY;
+        for _ in 0..50 {
+            for i in 0..n {
+                sc.qm[i] = sc.q0[i] + 0.5 * dt * sc.vm[i];
+            }
+            self.accelerations(&sc.qm, &sc.vm, &mut sc.a)?;
+            let mut change = 0.0f64;
+            let mut largest = 0.0f64;
+            for i in 0..n {
+                let next = sc.v0[i] + 0.5 * dt * sc.a[i];
+                change = change.max((next - sc.vm[i]).abs());
+                largest = largest.max(next.abs());
+                sc.vm[i] = next;
+            }
+            let scale = 1.0 + largest;
+            // Converged, or stalled at rounding (no longer contracting).
+            let done = change < 1e-13 * scale || (change < 1e-10 * scale && change >= 0.5 * residual);
+            residual = change;
+            if done {
+                for i in 0..n {
+                    motion.q[i] = sc.q0[i] + dt * sc.vm[i];
+                    motion.v[i] = 2.0 * sc.vm[i] - sc.v0[i];
+                }
+                return Ok(());
+            }
+        }
+        Err(StepError::NotConverged { integrator: Integrator::Midpoint, dt, residual })
+    }
+}
