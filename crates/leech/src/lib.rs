@@ -51,6 +51,7 @@
 //! * [`body`]: the two-chain body and its endpoint weld.
 //! * [`calibration`]: fitting `k` (and `m`) to measured tubes and bodies; model comparison.
 //! * [`constant_curvature`]: the kinematic constant-curvature model, planar and tri-tube.
+//! * [`cup`]: whether a suction cup holds under a hold's reaction: pull-off, peel, slip.
 //! * [`statics`]: the Newton-KKT solver, continuation, stability.
 //! * [`dynamics`]: constrained forward dynamics and integrators.
 //! * [`least_squares`]: bounded Levenberg-Marquardt for small fits and inverse problems.
@@ -69,6 +70,7 @@ pub mod calibration;
 pub mod cantilever;
 pub mod chain;
 pub mod constant_curvature;
+pub mod cup;
 pub mod dynamics;
 pub mod error;
 pub mod geom;

@@ -7,6 +7,14 @@
 //! Every key is SI and checked; unknown keys are errors. The shape parameter
 //! of the tube is `Pi = k / (m g l)` (docs/model.md section 8).
 //!
+//! Keys the statics do not need are optional, and the sections
+//! `[driving_unit]`, `[cup]` and `[limits]` may be left out whole: a missing
+//! key takes the built-in robot's value, so robot files written before these
+//! keys existed stay valid. They are the tube's outer diameter
+//! ([`DEFAULT_TUBE_OUTER_DIAMETER_M`]), the driving unit's mass
+//! ([`DrivingUnit`]), both suction cups ([`Cup`], judged by [`crate::cup`]) and
+//! the tube lengths planners may use ([`Limits`]).
+//!
 //! ```
 //! use leech::robot::Robot;
 //! let robot = Robot::from_toml_str(r#"
@@ -56,10 +64,16 @@ pub struct Tube {
     pub joint_damping_nms_per_rad: f64,
     /// Tightest bend the real tube takes (m); sweeps mark tighter shapes infeasible.
     pub min_bend_radius_m: f64,
+    /// The tube's outer diameter (m): contacts with a surface keep a tube's
+    /// axis at least its radius away.
+    pub outer_diameter_m: f64,
 }
 
 /// The paper's stripwound hose: 25 mm minimum bending radius.
 pub const DEFAULT_MIN_BEND_RADIUS_M: f64 = 0.025;
+
+/// The paper's stripwound hose: 10 mm outer diameter.
+pub const DEFAULT_TUBE_OUTER_DIAMETER_M: f64 = 0.010;
 
 /// The body's geometry and payload.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -92,6 +106,108 @@ pub struct Model {
     pub discretization: Discretization,
 }
 
+/// The driving unit: its motors, frame and the rear cup.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DrivingUnit {
+    /// Mass (kg), a point mass at the midpoint of the two chains' clamps. The
+    /// statics hold the unit as a fixed clamp and leave it out; it loads the
+    /// body and the front cup when the front cup holds and the unit hangs.
+    pub mass_kg: f64,
+}
+
+impl Default for DrivingUnit {
+    /// The built-in robot's estimate: 0.25 kg.
+    fn default() -> Self {
+        DrivingUnit { mass_kg: 0.25 }
+    }
+}
+
+/// Both suction cups (the rear one on the driving unit, the front one on the
+/// endpoint plate), alike. Both sit on chain B's side: the surfaces the robot
+/// holds lie to the right of the body (`nu`, docs/model.md section 2).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Cup {
+    /// Diameter of the cup's lip (m).
+    pub diameter_m: f64,
+    /// Force that pulls one cup straight off a smooth surface (N).
+    pub pull_off_force_n: f64,
+    /// Friction coefficient between the lip and the surface.
+    pub friction_coefficient: f64,
+    /// Smallest safety factor a hold should keep (at least 1).
+    pub min_safety_factor: f64,
+    /// A cup attaches when its face is at most this far from the surface (m).
+    pub attach_distance_tolerance_m: f64,
+    /// ... and faces the surface within this angle (deg).
+    pub attach_angle_tolerance_deg: f64,
+    /// The rear cup's face: this far from chain B's clamp along `nu(phi_0)` (m).
+    pub rear_offset_m: f64,
+    /// The front cup's face: this far from chain B's tip along `nu` of the plate angle (m).
+    pub front_offset_m: f64,
+    /// How far a cup is pushed on past touchdown to seal (m).
+    pub preload_m: f64,
+}
+
+impl Default for Cup {
+    /// The built-in robot's cups (see [`BUILTIN_TOML`] for the sources).
+    fn default() -> Self {
+        Cup {
+            diameter_m: 0.05,
+            pull_off_force_n: 33.4,
+            friction_coefficient: 0.5,
+            min_safety_factor: 1.5,
+            attach_distance_tolerance_m: 0.002,
+            attach_angle_tolerance_deg: 5.0,
+            rear_offset_m: 0.03,
+            front_offset_m: 0.02,
+            preload_m: 0.0,
+        }
+    }
+}
+
+impl Cup {
+    /// Checks the cup's own values (the robot also checks the offsets
+    /// against the tube's radius).
+    pub fn validate(&self) -> Result<(), InputError> {
+        positive("cup.diameter_m", self.diameter_m)?;
+        positive("cup.pull_off_force_n", self.pull_off_force_n)?;
+        positive("cup.friction_coefficient", self.friction_coefficient)?;
+        // Below 1 a hold would be accepted that the model predicts to fail.
+        let factor = self.min_safety_factor;
+        if !(factor.is_finite() && factor >= 1.0) {
+            return Err(InputError::invalid("cup.min_safety_factor", factor, "a finite number >= 1"));
+        }
+        positive("cup.attach_distance_tolerance_m", self.attach_distance_tolerance_m)?;
+        let angle = self.attach_angle_tolerance_deg;
+        if !(angle.is_finite() && angle > 0.0 && angle <= 90.0) {
+            return Err(InputError::invalid("cup.attach_angle_tolerance_deg", angle, "a finite number in (0, 90]"));
+        }
+        non_negative("cup.rear_offset_m", self.rear_offset_m)?;
+        non_negative("cup.front_offset_m", self.front_offset_m)?;
+        non_negative("cup.preload_m", self.preload_m)?;
+        Ok(())
+    }
+}
+
+/// The tube lengths planners may command (m): the body model itself takes
+/// any length from one element up (see [`Robot::check_tube_length`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Limits {
+    /// Shortest free tube length (m).
+    pub tube_length_min_m: f64,
+    /// Longest free tube length (m).
+    pub tube_length_max_m: f64,
+}
+
+impl Default for Limits {
+    /// The range of the paper's reachability study (Fig. 12): 0.05 to 0.30 m.
+    fn default() -> Self {
+        Limits { tube_length_min_m: 0.05, tube_length_max_m: 0.30 }
+    }
+}
+
 /// A validated robot description.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Robot {
@@ -105,6 +221,12 @@ pub struct Robot {
     pub world: World,
     /// Discretization.
     pub model: Model,
+    /// The driving unit's mass.
+    pub driving_unit: DrivingUnit,
+    /// Both suction cups.
+    pub cup: Cup,
+    /// Tube lengths for planners.
+    pub limits: Limits,
 }
 
 #[derive(Deserialize)]
@@ -117,6 +239,7 @@ struct RawTube {
     bending_stiffness_nm2: Option<f64>,
     joint_damping_nms_per_rad: f64,
     min_bend_radius_m: Option<f64>,
+    outer_diameter_m: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -128,6 +251,12 @@ struct RawRobot {
     world: World,
     #[serde(default)]
     model: Model,
+    #[serde(default)]
+    driving_unit: DrivingUnit,
+    #[serde(default)]
+    cup: Cup,
+    #[serde(default)]
+    limits: Limits,
 }
 
 /// One of two alternative keys, exactly one present.
@@ -182,10 +311,14 @@ impl Robot {
                 joint_stiffness_nm_per_rad: if joint { stiffness } else { stiffness / l },
                 joint_damping_nms_per_rad: raw.tube.joint_damping_nms_per_rad,
                 min_bend_radius_m: raw.tube.min_bend_radius_m.unwrap_or(DEFAULT_MIN_BEND_RADIUS_M),
+                outer_diameter_m: raw.tube.outer_diameter_m.unwrap_or(DEFAULT_TUBE_OUTER_DIAMETER_M),
             },
             body: raw.body,
             world: raw.world,
             model: raw.model,
+            driving_unit: raw.driving_unit,
+            cup: raw.cup,
+            limits: raw.limits,
         };
         robot.validate()?;
         Ok(robot)
@@ -203,6 +336,37 @@ impl Robot {
         non_negative("body.payload_kg", self.body.payload_kg)?;
         within("world.gravity_m_per_s2", self.world.gravity_m_per_s2, 0.0, 1e3)?;
         within("world.base_angle_deg", self.world.base_angle_deg, -360.0, 360.0)?;
+        positive("tube.outer_diameter_m", self.tube.outer_diameter_m)?;
+        non_negative("driving_unit.mass_kg", self.driving_unit.mass_kg)?;
+        self.cup.validate()?;
+        self.validate_cup_offsets()?;
+        let min = positive("limits.tube_length_min_m", self.limits.tube_length_min_m)?;
+        let max = self.limits.tube_length_max_m;
+        if !(max.is_finite() && max > min) {
+            return Err(InputError::invalid(
+                "limits.tube_length_max_m",
+                max,
+                format!("a finite number > limits.tube_length_min_m ({min})"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// A cup face closer to chain B's axis than the tube's radius would put
+    /// the tube into the surface the cup holds.
+    fn validate_cup_offsets(&self) -> Result<(), InputError> {
+        let radius = 0.5 * self.tube.outer_diameter_m;
+        for (field, offset) in
+            [("cup.rear_offset_m", self.cup.rear_offset_m), ("cup.front_offset_m", self.cup.front_offset_m)]
+        {
+            if !(offset >= radius) {
+                return Err(InputError::invalid(
+                    field,
+                    offset,
+                    format!("a number >= the tube's radius ({radius} m, half of tube.outer_diameter_m)"),
+                ));
+            }
+        }
         Ok(())
     }
 
@@ -263,6 +427,11 @@ impl Robot {
         })
     }
 
+    /// The same robot with other suction cups.
+    pub fn with_cup(&self, cup: Cup) -> Result<Robot, InputError> {
+        self.with(|r| r.cup = cup)
+    }
+
     /// The same robot under another name.
     pub fn with_name(&self, name: impl Into<String>) -> Robot {
         Robot { name: name.into(), ..self.clone() }
@@ -292,6 +461,12 @@ impl Robot {
     /// keeps `Pi = k/(m g l)`; damping times `s^2.5` keeps the damping ratio.
     /// Tube lengths must be scaled by `s` too for the same shape: the angles
     /// are then unchanged and every position is multiplied by `s`.
+    ///
+    /// The rest follows the same rule: every length (tube diameter, cup
+    /// geometry and tolerances, tube length limits) times `s`, the driving
+    /// unit's mass times `s` like the payload, and the cups' pull-off force
+    /// times `s`: the loads on a cup grow as `s` and a moment over the cup's
+    /// radius too, so every cup keeps its safety factor ([`crate::cup`]).
     pub fn scaled(&self, factor: f64) -> Result<Robot, InputError> {
         let s = positive("scale factor", factor)?;
         self.with(|robot| {
@@ -303,6 +478,21 @@ impl Robot {
             robot.body.base_spacing_m *= s;
             robot.body.tip_spacing_m *= s;
             robot.body.payload_kg *= s;
+            robot.tube.outer_diameter_m *= s;
+            robot.driving_unit.mass_kg *= s;
+            let cup = &mut robot.cup;
+            for length in [
+                &mut cup.diameter_m,
+                &mut cup.attach_distance_tolerance_m,
+                &mut cup.rear_offset_m,
+                &mut cup.front_offset_m,
+                &mut cup.preload_m,
+                &mut robot.limits.tube_length_min_m,
+                &mut robot.limits.tube_length_max_m,
+            ] {
+                *length *= s;
+            }
+            cup.pull_off_force_n *= s;
         })
     }
 

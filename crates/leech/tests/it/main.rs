@@ -3,6 +3,7 @@
 mod calibration;
 mod constant_curvature;
 mod continuum;
+mod cup;
 mod derivatives;
 mod dynamics;
 mod inverse_statics;

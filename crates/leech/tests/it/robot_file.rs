@@ -1,7 +1,7 @@
 //! Robot files: the built-in robot, continuum keys, and one-line errors.
 
 use leech::prelude::*;
-use leech::robot::BUILTIN_TOML;
+use leech::robot::{Cup, DrivingUnit, Limits, BUILTIN_TOML};
 
 #[test]
 fn builtin_round_trips_through_toml() {
@@ -66,4 +66,104 @@ fn tube_lengths_are_checked() {
         assert!(e.contains("LA") && e.contains("tube length"), "{e}");
     }
     assert!(robot.body(0.01, 0.3).is_ok());
+}
+
+/// The built-in file's text from its first line up to (not including) `marker`.
+fn builtin_before(marker: &str) -> &'static str {
+    let end = BUILTIN_TOML.find(marker).expect("the marker is in the built-in file");
+    &BUILTIN_TOML[..end]
+}
+
+#[test]
+fn files_without_the_optional_keys_take_the_builtin_values() {
+    let old = builtin_before("# The sections below are optional");
+    assert!(!old.contains("[cup]") && !old.contains("[driving_unit]") && !old.contains("[limits]"));
+    let line = old.lines().find(|l| l.starts_with("outer_diameter_m")).unwrap();
+    let old = old.replace(&format!("{line}\n"), "");
+    let robot = Robot::from_toml_str(&old).unwrap();
+    assert_eq!(robot, Robot::builtin());
+    assert_eq!(robot.tube.outer_diameter_m, leech::robot::DEFAULT_TUBE_OUTER_DIAMETER_M);
+    assert_eq!(robot.driving_unit, DrivingUnit::default());
+    assert_eq!(robot.cup, Cup::default());
+    assert_eq!(robot.limits, Limits::default());
+}
+
+#[test]
+fn builtin_states_the_documented_values() {
+    let robot = Robot::builtin();
+    assert_eq!(robot.tube.outer_diameter_m, 0.010);
+    assert_eq!(robot.driving_unit.mass_kg, 0.25);
+    let cup = &robot.cup;
+    assert_eq!((cup.diameter_m, cup.min_safety_factor, cup.preload_m), (0.05, 1.5, 0.0));
+    assert_eq!((cup.attach_distance_tolerance_m, cup.attach_angle_tolerance_deg), (0.002, 5.0));
+    // One cup holds the paper's 1.7 kg on a vertical wall through friction.
+    let shear_hold_kg = cup.friction_coefficient * cup.pull_off_force_n / 9.81;
+    assert!((shear_hold_kg - 1.7).abs() < 0.01, "{shear_hold_kg}");
+    assert_eq!((robot.limits.tube_length_min_m, robot.limits.tube_length_max_m), (0.05, 0.30));
+}
+
+#[test]
+fn optional_sections_take_single_keys() {
+    let base = builtin_before("[driving_unit]");
+    let robot = Robot::from_toml_str(&format!("{base}[cup]\nfriction_coefficient = 0.8\n")).unwrap();
+    assert_eq!(robot.cup, Cup { friction_coefficient: 0.8, ..Cup::default() });
+    let robot = Robot::from_toml_str(&format!("{base}[limits]\ntube_length_max_m = 0.5\n")).unwrap();
+    assert_eq!(robot.limits, Limits { tube_length_max_m: 0.5, ..Limits::default() });
+    let e = message(Robot::from_toml_str(&format!("{base}[cup]\nsuction_n = 3\n")));
+    assert!(e.contains("suction_n"), "{e}");
+}
+
+#[test]
+fn bad_new_values_name_field_value_and_range() {
+    for (line, bad, field, allowed) in [
+        ("outer_diameter_m = 0.010 ", "outer_diameter_m = 0 ", "tube.outer_diameter_m", "> 0"),
+        ("mass_kg = 0.25 ", "mass_kg = -0.25 ", "driving_unit.mass_kg", ">= 0"),
+        ("\ndiameter_m = 0.05 ", "\ndiameter_m = 0 ", "cup.diameter_m", "> 0"),
+        ("pull_off_force_n = 33.4 ", "pull_off_force_n = nan ", "cup.pull_off_force_n", "> 0"),
+        ("friction_coefficient = 0.5 ", "friction_coefficient = -0.5 ", "cup.friction_coefficient", "> 0"),
+        ("min_safety_factor = 1.5 ", "min_safety_factor = 0.9 ", "cup.min_safety_factor", ">= 1"),
+        ("attach_distance_tolerance_m = 0.002 ", "attach_distance_tolerance_m = 0 ", "cup.attach_distance", "> 0"),
+        ("attach_angle_tolerance_deg = 5 ", "attach_angle_tolerance_deg = 95 ", "cup.attach_angle", "(0, 90]"),
+        ("attach_angle_tolerance_deg = 5 ", "attach_angle_tolerance_deg = 0 ", "cup.attach_angle", "(0, 90]"),
+        ("rear_offset_m = 0.03 ", "rear_offset_m = 0.004 ", "cup.rear_offset_m", "tube's radius (0.005"),
+        ("front_offset_m = 0.02 ", "front_offset_m = -0.02 ", "cup.front_offset_m", ">= 0"),
+        ("preload_m = 0.0 ", "preload_m = -0.001 ", "cup.preload_m", ">= 0"),
+        ("tube_length_min_m = 0.05 ", "tube_length_min_m = 0 ", "limits.tube_length_min_m", "> 0"),
+        (
+            "tube_length_max_m = 0.30",
+            "tube_length_max_m = 0.05",
+            "limits.tube_length_max_m",
+            "> limits.tube_length_min_m",
+        ),
+    ] {
+        let e = message(with(line, bad));
+        let value = bad.split('=').nth(1).unwrap().trim();
+        let value = if value == "nan" { "NaN" } else { value };
+        assert!(e.contains(field) && e.contains(allowed) && e.contains(value), "{bad}: {e}");
+    }
+}
+
+#[test]
+fn cup_offsets_follow_the_tube_diameter() {
+    // A thicker tube needs its cups further out: the same offsets are rejected.
+    let e = message(with("outer_diameter_m = 0.010 ", "outer_diameter_m = 0.05 "));
+    assert!(e.contains("cup.front_offset_m") && e.contains("0.025"), "{e}");
+    let robot = Robot::builtin();
+    let e = robot.with_cup(Cup { rear_offset_m: 0.001, ..robot.cup.clone() }).unwrap_err().to_string();
+    assert!(e.contains("cup.rear_offset_m"), "{e}");
+    let wider = robot.with_cup(Cup { diameter_m: 0.08, ..robot.cup.clone() }).unwrap();
+    assert_eq!(wider.cup.diameter_m, 0.08);
+}
+
+#[test]
+fn scaling_scales_the_new_lengths_and_masses() {
+    let base = Robot::builtin();
+    let r = base.scaled(2.0).unwrap();
+    assert_eq!(r.tube.outer_diameter_m, 2.0 * base.tube.outer_diameter_m);
+    assert_eq!(r.driving_unit.mass_kg, 2.0 * base.driving_unit.mass_kg);
+    assert_eq!(r.cup.rear_offset_m, 2.0 * base.cup.rear_offset_m);
+    assert_eq!(r.cup.pull_off_force_n, 2.0 * base.cup.pull_off_force_n);
+    assert_eq!(r.cup.friction_coefficient, base.cup.friction_coefficient);
+    assert_eq!(r.cup.attach_angle_tolerance_deg, base.cup.attach_angle_tolerance_deg);
+    assert_eq!(r.limits.tube_length_max_m, 2.0 * base.limits.tube_length_max_m);
 }
