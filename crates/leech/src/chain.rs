@@ -464,6 +464,20 @@ impl Chain {
             .collect()
     }
 
+    /// First moment of the links' masses and the tip mass, `sum m_i r_i + P r_tip`
+    /// (kg m): divided by [`Chain::total_mass`] it is their centre of mass.
+    pub fn mass_moment(&self, q: &[f64]) -> [f64; 2] {
+        let mut p = self.first_joint();
+        let mut moment = [0.0; 2];
+        for ((l, a), (m, phi)) in self.lengths.iter().zip(&self.mass_offsets).zip(self.masses.iter().zip(q)) {
+            let u = unit(*phi);
+            moment[0] += m * (p[0] + a * u[0]);
+            moment[1] += m * (p[1] + a * u[1]);
+            p = [p[0] + l * u[0], p[1] + l * u[1]];
+        }
+        [moment[0] + self.tip_mass * p[0], moment[1] + self.tip_mass * p[1]]
+    }
+
     /// Spring potential `sum_j k_j/2 (phi_j - phi_{j-1})^2` (J).
     pub fn spring_energy(&self, q: &[f64]) -> f64 {
         let mut prev = self.clamp_angle;

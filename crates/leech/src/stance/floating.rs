@@ -119,6 +119,30 @@ impl<'a> FloatingBody<'a> {
         g * (chains + self.unit_mass)
     }
 
+    /// The centre of mass of everything the holds carry (m).
+    pub fn centre_of_mass(&self, q: &[f64]) -> Vec2 {
+        let n = self.chains();
+        let (p0, phi0) = ([q[n], q[n + 1]], q[n + 2]);
+        let mut moment = [0.0; 2];
+        let mut mass = 0.0;
+        for c in &self.attachments() {
+            let m = c.chain.total_mass();
+            let own = c.chain.mass_moment(&q[c.first..c.first + c.chain.len()]);
+            let shift = self.shift(c, p0, phi0);
+            let root = c.offset(phi0, 0.5 * c.chain.root_length())[0];
+            for i in 0..2 {
+                moment[i] += own[i] + m * shift[i] + c.chain.root_mass() * (p0[i] + root[i]);
+            }
+            mass += m + c.chain.root_mass();
+        }
+        let unit = c_unit(p0, phi0, 0.5 * self.base_spacing);
+        for i in 0..2 {
+            moment[i] += self.unit_mass * unit[i];
+        }
+        mass += self.unit_mass;
+        [moment[0] / mass, moment[1] / mass]
+    }
+
     /// Where the hold rows start: rear first, then front.
     fn hold_rows(&self) -> (Option<usize>, Option<usize>) {
         let rear = self.hold.rear().map(|_| WELD_ROWS);
@@ -323,4 +347,10 @@ impl Path for FloatingBody<'_> {
             }
         }
     }
+}
+
+/// The driving unit's mass point, `p0 + (b/2) nu(phi0)`.
+fn c_unit(p0: Vec2, phi0: f64, half_spacing: f64) -> Vec2 {
+    let nu = right_normal(phi0);
+    [p0[0] + half_spacing * nu[0], p0[1] + half_spacing * nu[1]]
 }

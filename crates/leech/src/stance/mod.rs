@@ -94,6 +94,8 @@ pub struct Held {
     pub front: Option<Reaction>,
     /// The weight carried (N).
     pub weight_n: f64,
+    /// Where that weight acts: the centre of mass (m).
+    pub centre_of_mass: Vec2,
 }
 
 /// Why a situation could not be solved.
@@ -107,17 +109,21 @@ pub enum StanceError {
     Solve(#[from] SolveError),
 }
 
-/// Solves the body of `robot` at tube lengths `[LA, LB]` (m) held by `hold`,
-/// with the driving unit's mass `unit_mass` (kg).
-pub fn solve(
-    robot: &Robot,
-    lengths: [f64; 2],
-    hold: Hold,
-    unit_mass: f64,
-    solver: &Solver,
-) -> Result<Held, StanceError> {
+/// Solves the body of `robot` at tube lengths `[LA, LB]` (m) held by `hold`.
+///
+/// ```
+/// use leech::prelude::*;
+/// use leech::stance::{self, Hold, Pose};
+/// let robot = Robot::builtin();
+/// let hold = Hold::Rear(Pose::from_deg([0.0, 0.0], 90.0));
+/// let held = stance::solve(&robot, [0.25, 0.2], hold, &Solver::default()).unwrap();
+/// // The rear cup carries the whole weight.
+/// let rear = held.rear.unwrap();
+/// assert!((rear.force_n[1] - held.weight_n).abs() < 1e-9 * held.weight_n);
+/// ```
+pub fn solve(robot: &Robot, lengths: [f64; 2], hold: Hold, solver: &Solver) -> Result<Held, StanceError> {
     let b = robot.body.base_spacing_m;
-    let unit_mass = crate::error::non_negative("driving unit mass (kg)", unit_mass)?;
+    let unit_mass = robot.driving_unit.mass_kg;
     match hold {
         Hold::Rear(pose) => {
             let body = robot.with_base_angle(pose.angle_rad.to_degrees())?.body(lengths[0], lengths[1])?;
@@ -139,7 +145,7 @@ pub fn solve(
             Ok(Held::new(&floating, solver.finish(&floating, it, residual, &mut ws)))
         }
         Hold::Both { rear, .. } => {
-            let held = solve(robot, lengths, Hold::Rear(rear), unit_mass, solver)?;
+            let held = solve(robot, lengths, Hold::Rear(rear), solver)?;
             let from = Pose { point_m: held.endpoint_m, angle_rad: held.body.endpoint_angle(&held.equilibrium.q) };
             let floating = FloatingBody::new(&held.body, b, unit_mass, hold, Approach::Front(from));
             let mut ws = Scratch::for_system(&floating);
@@ -186,6 +192,7 @@ impl Held {
             rear,
             front,
             weight_n: floating.weight(),
+            centre_of_mass: floating.centre_of_mass(&equilibrium.q),
             equilibrium,
         }
     }

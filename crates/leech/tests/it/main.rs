@@ -12,6 +12,7 @@ mod linalg;
 mod references;
 mod robot_file;
 mod solver;
+mod stance;
 mod sweep;
 
 use leech::prelude::*;

@@ -1,0 +1,89 @@
+//! Holds: the rear hold is today's body, reactions carry the weight, both
+//! holds at the free endpoint change nothing, the front hold hangs the unit.
+
+use leech::prelude::*;
+use leech::stance::{self, Held, Hold, Pose};
+
+fn solve(hold: Hold, lengths: [f64; 2]) -> Held {
+    stance::solve(&Robot::builtin(), lengths, hold, &Solver::default()).unwrap()
+}
+
+/// Force and moment balance of all reactions against the weight, to 1e-9
+/// relative: the forces carry `W` upwards, the moments about the origin
+/// cancel gravity's.
+fn check_balance(held: &Held) {
+    let w = held.weight_n;
+    let mut force = [0.0, 0.0];
+    let mut moment = 0.0;
+    let mut add = |at: [f64; 2], r: &stance::Reaction| {
+        force[0] += r.force_n[0];
+        force[1] += r.force_n[1];
+        moment += r.moment_nm + at[0] * r.force_n[1] - at[1] * r.force_n[0];
+    };
+    if let Some(r) = &held.rear {
+        add(held.unit.point_m, r);
+    }
+    if let Some(r) = &held.front {
+        add(held.endpoint_m, r);
+    }
+    assert!(force[0].abs() < 1e-9 * w && (force[1] - w).abs() < 1e-9 * w, "force {force:?} vs weight {w}");
+    // Gravity's moment about the origin is -x_G W: the reactions' must cancel it.
+    let x_g = held.centre_of_mass[0];
+    assert!((moment - x_g * w).abs() < 1e-9 * w * 0.3, "moment {moment} vs {}", x_g * w);
+}
+
+#[test]
+fn rear_hold_is_the_clamped_body() {
+    let robot = Robot::builtin();
+    let body = robot.body(0.30, 0.28).unwrap();
+    let eq = body.solve(&Solver::default()).unwrap();
+    let held = solve(Hold::Rear(Pose::from_deg([0.0, 0.0], robot.world.base_angle_deg)), [0.30, 0.28]);
+    assert!(held.equilibrium.stable);
+    for (a, b) in eq.q.iter().zip(&held.equilibrium.q) {
+        assert!((a - b).abs() < 1e-12);
+    }
+    check_balance(&held);
+    // Elsewhere on the wall: the same shape, moved.
+    let moved = solve(Hold::Rear(Pose::from_deg([0.4, 1.2], robot.world.base_angle_deg)), [0.30, 0.28]);
+    assert!((moved.endpoint_m[0] - held.endpoint_m[0] - 0.4).abs() < 1e-12);
+    assert!((moved.endpoint_m[1] - held.endpoint_m[1] - 1.2).abs() < 1e-12);
+    check_balance(&moved);
+}
+
+#[test]
+fn both_holds_where_the_endpoint_is_change_nothing() {
+    let rear = Pose::from_deg([0.0, 0.0], 90.0);
+    let free = solve(Hold::Rear(rear), [0.27, 0.22]);
+    let front = Pose { point_m: free.endpoint_m, angle_rad: free.body.endpoint_angle(&free.equilibrium.q) };
+    let both = solve(Hold::Both { rear, front }, [0.27, 0.22]);
+    for (a, b) in free.equilibrium.q.iter().zip(&both.equilibrium.q) {
+        assert!((a - b).abs() < 1e-9);
+    }
+    let f = both.front.unwrap();
+    assert!(f.force_n[0].abs() < 1e-9 && f.force_n[1].abs() < 1e-9 && f.moment_nm.abs() < 1e-9, "{f:?}");
+    check_balance(&both);
+}
+
+#[test]
+fn a_front_hold_hangs_the_driving_unit_below() {
+    // The front cup on a wall at 0.5 m, the plate facing up the wall.
+    let front = Pose::from_deg([0.0, 0.5], 90.0);
+    let held = solve(Hold::Front(front), [0.25, 0.22]);
+    assert!(held.equilibrium.stable);
+    assert!((held.endpoint_m[0] - front.point_m[0]).abs() < 1e-12);
+    assert!((held.endpoint_m[1] - front.point_m[1]).abs() < 1e-12);
+    // The unit hangs below the cup.
+    assert!(held.unit.point_m[1] < front.point_m[1] - 0.1, "{:?}", held.unit);
+    check_balance(&held);
+}
+
+#[test]
+fn pushing_the_tubes_past_the_free_shape_loads_both_cups() {
+    let rear = Pose::from_deg([0.0, 0.0], 90.0);
+    let free = solve(Hold::Rear(rear), [0.27, 0.22]);
+    let front = Pose { point_m: free.endpoint_m, angle_rad: free.body.endpoint_angle(&free.equilibrium.q) };
+    let pushed = solve(Hold::Both { rear, front }, [0.28, 0.23]);
+    let f = pushed.front.unwrap();
+    assert!(f.force_n[0].hypot(f.force_n[1]) > 1e-3, "{f:?}");
+    check_balance(&pushed);
+}
