@@ -58,6 +58,7 @@
 //! * [`inverse_statics`]: tube lengths that put the endpoint on a target.
 //! * [`sweep`]: sweeps over tube lengths along the actuation path, reach metrics.
 //! * [`robot`]: robot files (TOML) and the built-in robot.
+//! * [`scene`]: floors, walls, steps and thin walls (TOML) and the geometric queries of contact.
 //! * [`report`]: serializable results (what the command line prints and writes).
 //! * [`error`]: input errors.
 
@@ -76,6 +77,7 @@ pub mod kkt;
 pub mod least_squares;
 pub mod report;
 pub mod robot;
+pub mod scene;
 pub mod statics;
 pub mod sweep;
 
