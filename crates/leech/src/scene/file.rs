@@ -6,19 +6,50 @@ use super::{Scene, Solid, MAX_SCENE_BYTES};
 use crate::error::InputError;
 use crate::geom::Vec2;
 
-/// A `[[half_plane]]` table.
+/// A `[[half_plane]]` table. Points are read as lists and checked for two
+/// numbers here: serde reads a fixed-size array from the first elements of a
+/// longer list, so `[x, y, z]` would silently lose `z`.
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawHalfPlane {
-    point_m: Vec2,
-    normal: Vec2,
+    point_m: Vec<f64>,
+    normal: Vec<f64>,
 }
 
 /// A `[[polygon]]` table.
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawPolygon {
-    points_m: Vec<Vec2>,
+    points_m: Vec<Vec<f64>>,
+}
+
+/// A point `[x, y]` from a list of numbers.
+fn pair(field: String, v: &[f64]) -> Result<Vec2, InputError> {
+    match v {
+        [x, y] => Ok([*x, *y]),
+        _ => Err(InputError::Invalid {
+            field,
+            value: format!("{} number{}", v.len(), if v.len() == 1 { "" } else { "s" }),
+            allowed: "a point [x, y] of two numbers".into(),
+        }),
+    }
+}
+
+/// The solids of a parsed file, half-planes first; `source` starts error fields.
+fn solids(raw: RawScene, source: &str) -> Result<Vec<Solid>, InputError> {
+    let mut solids = Vec::with_capacity(raw.half_plane.len() + raw.polygon.len());
+    for (i, h) in raw.half_plane.iter().enumerate() {
+        solids.push(Solid::HalfPlane {
+            point_m: pair(format!("{source}: half_plane[{i}].point_m"), &h.point_m)?,
+            normal: pair(format!("{source}: half_plane[{i}].normal"), &h.normal)?,
+        });
+    }
+    for (i, p) in raw.polygon.iter().enumerate() {
+        let points_m =
+            p.points_m.iter().enumerate().map(|(j, q)| pair(format!("{source}: polygon[{i}].points_m[{j}]"), q));
+        solids.push(Solid::Polygon { points_m: points_m.collect::<Result<_, _>>()? });
+    }
+    Ok(solids)
 }
 
 /// The whole file. The two kinds sit in separate arrays of tables, so the file
@@ -49,9 +80,8 @@ impl Scene {
         }
         let raw: RawScene =
             toml::from_str(text).map_err(|e| InputError::File { file: source.into(), message: one_line(text, &e) })?;
-        let half_planes = raw.half_plane.into_iter().map(|h| Solid::HalfPlane { point_m: h.point_m, normal: h.normal });
-        let polygons = raw.polygon.into_iter().map(|p| Solid::Polygon { points_m: p.points_m });
-        let scene = Scene { name: raw.name, solids: half_planes.chain(polygons).collect() };
+        let name = raw.name.clone();
+        let scene = Scene { name, solids: solids(raw, source)? };
         scene.validate().map_err(|e| match e {
             InputError::Invalid { field, value, allowed } => {
                 InputError::Invalid { field: format!("{source}: {field}"), value, allowed }
@@ -69,9 +99,11 @@ impl Scene {
         for solid in &self.solids {
             match solid {
                 Solid::HalfPlane { point_m, normal } => {
-                    raw.half_plane.push(RawHalfPlane { point_m: *point_m, normal: *normal })
+                    raw.half_plane.push(RawHalfPlane { point_m: point_m.to_vec(), normal: normal.to_vec() })
                 }
-                Solid::Polygon { points_m } => raw.polygon.push(RawPolygon { points_m: points_m.clone() }),
+                Solid::Polygon { points_m } => {
+                    raw.polygon.push(RawPolygon { points_m: points_m.iter().map(|p| p.to_vec()).collect() })
+                }
             }
         }
         toml::to_string(&raw).expect("a scene always serializes")

@@ -153,14 +153,10 @@ fn polygon_hit(solid: usize, points: &[Vec2], p: Vec2) -> Hit {
         return Hit { distance, feature: Feature::Edge { solid, edge: best_edge }, normal: outward(a, b), closest };
     }
     let vertex = if best_t <= 0.0 { best_edge } else { (best_edge + 1) % points.len() };
-    let away = sub(p, closest);
+    let (away, r) = (sub(p, closest), distance.abs());
     // Outward: from the vertex towards an outside point, from an inside point
     // towards the vertex; at the vertex itself, the bisector.
-    let normal = if distance != 0.0 {
-        [sign * away[0] / best.sqrt(), sign * away[1] / best.sqrt()]
-    } else {
-        bisector(points, vertex)
-    };
+    let normal = if r > 0.0 { [sign * away[0] / r, sign * away[1] / r] } else { bisector(points, vertex) };
     Hit { distance, feature: Feature::Vertex { solid, vertex }, normal, closest }
 }
 
@@ -532,6 +528,12 @@ mod tests {
         // A point-like link.
         let (d, s, _) = Scene::segment_corner_distance([0.22, 0.26], [0.22, 0.26], &corner);
         assert!((d - 0.01).abs() < 1e-12 && s == 0.0);
+    }
+
+    #[test]
+    #[should_panic(expected = "at least one solid")]
+    fn signed_distance_needs_a_solid() {
+        Scene { name: "none".into(), solids: Vec::new() }.signed_distance([0.0, 0.0]);
     }
 
     #[test]

@@ -9,6 +9,7 @@ mod inverse_statics;
 mod limits;
 mod references;
 mod robot_file;
+mod scene;
 mod solver;
 mod sweep;
 
