@@ -19,6 +19,14 @@ pub enum InputError {
         /// The parser's message, folded to one line.
         message: String,
     },
+    /// A named file (a scene) that is not valid TOML or has unknown or missing keys.
+    #[error("{file}: {message}")]
+    File {
+        /// Where the text came from (a path or a built-in name).
+        file: String,
+        /// The parser's message with its line, on one line.
+        message: String,
+    },
 }
 
 impl InputError {

@@ -53,6 +53,12 @@ pub fn cross(a: Vec2, b: Vec2) -> f64 {
     a[0] * b[1] - a[1] * b[0]
 }
 
+/// Euclidean length `|v|`.
+#[inline]
+pub fn norm(v: Vec2) -> f64 {
+    v[0].hypot(v[1])
+}
+
 /// `v` rotated by `angle` (rad) counter-clockwise.
 #[inline]
 pub fn rotate(v: Vec2, angle: f64) -> Vec2 {
@@ -75,6 +81,7 @@ mod tests {
             assert!((r[0] - e[0]).abs() < 1e-15 && (r[1] - e[1]).abs() < 1e-15);
             let back = sub(add_scaled(e, 2.0, nu), e);
             assert!((dot(back, nu) - 2.0).abs() < 1e-15);
+            assert!((norm(add_scaled(e, 3.0, nu)) - 10f64.sqrt()).abs() < 1e-15);
         }
     }
 }

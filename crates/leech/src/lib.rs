@@ -52,7 +52,8 @@
 //! * [`calibration`]: fitting `k` (and `m`) to measured tubes and bodies; model comparison.
 //! * [`constant_curvature`]: the kinematic constant-curvature model, planar and tri-tube.
 //! * [`cup`]: whether a suction cup holds under a hold's reaction: pull-off, peel, slip.
-//! * [`statics`]: the Newton-KKT solver, continuation, stability.
+//! * [`stance`]: the body held by its rear cup, its front cup or both; the reactions on the cups.
+//! * [`statics`]: the Newton-KKT solver, continuation, stability, inequality rows.
 //! * [`dynamics`]: constrained forward dynamics and integrators.
 //! * [`least_squares`]: bounded Levenberg-Marquardt for small fits and inverse problems.
 //! * [`linalg`]: bordered block-tridiagonal LDL^T with inertia (any number of chains and
@@ -60,6 +61,7 @@
 //! * [`inverse_statics`]: tube lengths that put the endpoint on a target.
 //! * [`sweep`]: sweeps over tube lengths along the actuation path, reach metrics.
 //! * [`robot`]: robot files (TOML) and the built-in robot.
+//! * [`scene`]: floors, walls, steps and thin walls (TOML) and the geometric queries of contact.
 //! * [`report`]: serializable results (what the command line prints and writes).
 //! * [`error`]: input errors.
 
@@ -79,6 +81,7 @@ pub mod least_squares;
 pub mod linalg;
 pub mod report;
 pub mod robot;
+pub mod scene;
 pub mod stance;
 pub mod statics;
 pub mod sweep;

@@ -11,6 +11,7 @@ mod limits;
 mod linalg;
 mod references;
 mod robot_file;
+mod scene;
 mod solver;
 mod stance;
 mod sweep;

@@ -1,0 +1,149 @@
+//! The scene file format (TOML): parsing with one-line errors, and writing.
+
+use serde::{Deserialize, Serialize};
+
+use super::{Scene, Solid, MAX_SCENE_BYTES};
+use crate::error::InputError;
+use crate::geom::Vec2;
+
+/// A `[[half_plane]]` table. Points are read as lists and checked for two
+/// numbers here: serde reads a fixed-size array from the first elements of a
+/// longer list, so `[x, y, z]` would silently lose `z`.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawHalfPlane {
+    point_m: Vec<f64>,
+    normal: Vec<f64>,
+}
+
+/// A `[[polygon]]` table.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPolygon {
+    points_m: Vec<Vec<f64>>,
+}
+
+/// A point `[x, y]` from a list of numbers.
+fn pair(field: String, v: &[f64]) -> Result<Vec2, InputError> {
+    match v {
+        [x, y] => Ok([*x, *y]),
+        _ => Err(InputError::Invalid {
+            field,
+            value: format!("{} number{}", v.len(), if v.len() == 1 { "" } else { "s" }),
+            allowed: "a point [x, y] of two numbers".into(),
+        }),
+    }
+}
+
+/// The solids of a parsed file, half-planes first; `source` starts error fields.
+fn solids(raw: RawScene, source: &str) -> Result<Vec<Solid>, InputError> {
+    let mut solids = Vec::with_capacity(raw.half_plane.len() + raw.polygon.len());
+    for (i, h) in raw.half_plane.iter().enumerate() {
+        solids.push(Solid::HalfPlane {
+            point_m: pair(format!("{source}: half_plane[{i}].point_m"), &h.point_m)?,
+            normal: pair(format!("{source}: half_plane[{i}].normal"), &h.normal)?,
+        });
+    }
+    for (i, p) in raw.polygon.iter().enumerate() {
+        let points_m =
+            p.points_m.iter().enumerate().map(|(j, q)| pair(format!("{source}: polygon[{i}].points_m[{j}]"), q));
+        solids.push(Solid::Polygon { points_m: points_m.collect::<Result<_, _>>()? });
+    }
+    Ok(solids)
+}
+
+/// The whole file. The two kinds sit in separate arrays of tables, so the file
+/// cannot say how they interleave: half-planes come first.
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScene {
+    name: String,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    half_plane: Vec<RawHalfPlane>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    polygon: Vec<RawPolygon>,
+}
+
+impl Scene {
+    /// Parses and validates a scene file; `source` (a path, or a built-in
+    /// name) starts every error message.
+    ///
+    /// The solids are the half-planes, then the polygons, each in file order.
+    /// Text longer than [`MAX_SCENE_BYTES`] is rejected before parsing.
+    pub fn from_toml_str(text: &str, source: &str) -> Result<Scene, InputError> {
+        if text.len() > MAX_SCENE_BYTES {
+            return Err(InputError::Invalid {
+                field: source.into(),
+                value: format!("{} bytes", text.len()),
+                allowed: format!("a scene file of at most {MAX_SCENE_BYTES} bytes"),
+            });
+        }
+        let raw: RawScene =
+            toml::from_str(text).map_err(|e| InputError::File { file: source.into(), message: one_line(text, &e) })?;
+        let name = raw.name.clone();
+        let scene = Scene { name, solids: solids(raw, source)? };
+        scene.validate().map_err(|e| match e {
+            InputError::Invalid { field, value, allowed } => {
+                InputError::Invalid { field: format!("{source}: {field}"), value, allowed }
+            }
+            other => other,
+        })?;
+        Ok(scene)
+    }
+
+    /// The scene file for this scene (values only, no comments). It reads back
+    /// to an equal scene when the half-planes come before the polygons in
+    /// [`Scene::solids`], as in every scene read from a file.
+    pub fn to_toml_string(&self) -> String {
+        let mut raw = RawScene { name: self.name.clone(), half_plane: Vec::new(), polygon: Vec::new() };
+        for solid in &self.solids {
+            match solid {
+                Solid::HalfPlane { point_m, normal } => {
+                    raw.half_plane.push(RawHalfPlane { point_m: point_m.to_vec(), normal: normal.to_vec() })
+                }
+                Solid::Polygon { points_m } => {
+                    raw.polygon.push(RawPolygon { points_m: points_m.iter().map(|p| p.to_vec()).collect() })
+                }
+            }
+        }
+        toml::to_string(&raw).expect("a scene always serializes")
+    }
+}
+
+/// The parser's message with its line number, folded to one line (the
+/// parser's own text spans several lines and draws a caret under the spot).
+fn one_line(text: &str, error: &toml::de::Error) -> String {
+    let message = error.message().split_whitespace().collect::<Vec<_>>().join(" ");
+    match error.span() {
+        Some(span) => {
+            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
+            format!("line {line}: {message}")
+        }
+        None => message,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const TEXT: &str = "name = \"box\"\n[[polygon]]\npoints_m = [[0, 0], [1, 0], [1, 1]]\n";
+
+    #[test]
+    fn integers_read_as_metres_and_round_trip() {
+        let scene = Scene::from_toml_str(TEXT, "box.toml").unwrap();
+        assert_eq!(scene.solids, vec![Solid::Polygon { points_m: vec![[0.0, 0.0], [1.0, 0.0], [1.0, 1.0]] }]);
+        let text = scene.to_toml_string();
+        assert!(!text.contains("half_plane"), "empty arrays are left out:\n{text}");
+        assert_eq!(Scene::from_toml_str(&text, "again").unwrap(), scene);
+    }
+
+    #[test]
+    fn parse_errors_name_the_file_and_line() {
+        let e = Scene::from_toml_str(&TEXT.replace("[[polygon]]", "[[polygon]]\ncolour = 1"), "box.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("box.toml: line 3: unknown field `colour`"), "{e}");
+        assert!(!e.contains('\n'), "{e}");
+    }
+}

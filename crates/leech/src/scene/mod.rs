@@ -1,0 +1,154 @@
+//! Scenes: the rigid surroundings a robot climbs on (floors, walls, steps,
+//! thin walls, ceilings), and the geometric queries a contact solver asks.
+//!
+//! ## Rules and units
+//!
+//! * Lengths in m, angles in rad counter-clockwise from +x. World x is
+//!   horizontal, y points up (gravity acts along -y, as in [`crate::robot`]).
+//! * A scene is a union of solids; free space is everything else. Solids may
+//!   overlap.
+//! * [`Solid::HalfPlane`]: everything behind the line through `point_m` with
+//!   unit outward `normal` is solid; the normal points into free space.
+//! * [`Solid::Polygon`]: a simple polygon (no crossing or touching edges),
+//!   vertices counter-clockwise, convex or concave, solid inside. Edge `i` runs
+//!   from vertex `i` to vertex `i + 1`, the last edge back to vertex 0; the
+//!   inside is on the left of each edge, so its outward normal is on its right.
+//! * Normals are outward: out of the solid, into free space. Signed distances
+//!   are positive in free space and negative inside a solid.
+//! * The surface direction at a point is the tangent with free space on its
+//!   left: the outward normal is the tangent turned a quarter turn
+//!   counter-clockwise. On a floor it is 0 (+x), on a wall whose free side is
+//!   -x it is pi/2 (up), on a ceiling pi (-x). This matches the robot file's
+//!   `base_angle_deg` (0 along a floor, 90 up a wall): a suction cup placed
+//!   with this angle faces the surface from the free side.
+//! * Join a polygon to a floor (or to another solid) by burying its base in
+//!   it, not by letting the two share a face: inside a solid the depth is
+//!   measured to that solid's own boundary, and a shared face would be an
+//!   internal boundary that depth and normals could point through.
+//!
+//! ## Files
+//!
+//! Scene files are TOML ([`Scene::from_toml_str`]); unknown keys are errors and
+//! every value is checked (one-line [`InputError`]s naming the field, the value
+//! and what is allowed):
+//!
+//! ```
+//! use leech::scene::Scene;
+//! let scene = Scene::from_toml_str(r#"
+//! name = "thin wall"
+//! [[half_plane]]            # everything behind the line is solid
+//! point_m = [0.0, 0.0]
+//! normal = [0.0, 1.0]       # unit outward normal, into free space
+//! [[polygon]]               # a convex or concave solid, vertices counter-clockwise
+//! points_m = [[0.30, -0.05], [0.32, -0.05], [0.32, 0.25], [0.30, 0.25]]
+//! "#, "example").unwrap();
+//! let (d, _, normal, _) = scene.signed_distance([0.29, 0.1]);
+//! assert!((d - 0.01).abs() < 1e-12 && normal == [-1.0, 0.0]);
+//! ```
+//!
+//! Built-in scenes ([`Scene::builtin`], [`BUILTIN_SCENES`]) are such files,
+//! under `crates/leech/scenes/`.
+
+mod builtin;
+mod file;
+mod query;
+mod solid;
+
+pub use builtin::{BuiltinScene, BUILTIN_SCENES};
+pub use query::{Candidate, Corner};
+pub use solid::Solid;
+
+use crate::error::InputError;
+
+/// Most solids in one scene.
+pub const MAX_SOLIDS: usize = 256;
+
+/// Most vertices in one polygon (its self-intersection check is quadratic).
+pub const MAX_VERTICES: usize = 1024;
+
+/// Largest coordinate magnitude (m): a robot of 0.3 m tubes never needs more,
+/// and bounded coordinates keep the geometry's rounding small.
+pub const MAX_COORDINATE_M: f64 = 1e3;
+
+/// Largest scene file (bytes) worth reading; [`Scene::from_toml_str`] rejects
+/// longer text too, so whoever reads a file can stop at this size.
+pub const MAX_SCENE_BYTES: usize = 1 << 20;
+
+/// How far a half-plane's normal may be from unit length.
+pub const UNIT_TOLERANCE: f64 = 1e-9;
+
+/// Distance (m) within which a polygon corner counts as on another solid's
+/// surface, so not exposed (see [`Scene::convex_corners`]).
+pub const ON_SURFACE_M: f64 = 1e-9;
+
+/// A validated scene: a union of rigid solids (m).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// Display name.
+    pub name: String,
+    /// The solids; [`Feature`]s refer to them by index.
+    pub solids: Vec<Solid>,
+}
+
+/// A piece of a scene's surface: what a point's closest surface point lies on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Feature {
+    /// The line of half-plane `solid`.
+    HalfPlane {
+        /// Index into [`Scene::solids`].
+        solid: usize,
+    },
+    /// The inside of edge `edge` (from vertex `edge` to the next) of polygon `solid`.
+    Edge {
+        /// Index into [`Scene::solids`].
+        solid: usize,
+        /// Edge index.
+        edge: usize,
+    },
+    /// Vertex `vertex` of polygon `solid`.
+    Vertex {
+        /// Index into [`Scene::solids`].
+        solid: usize,
+        /// Vertex index.
+        vertex: usize,
+    },
+}
+
+impl Scene {
+    /// A checked scene.
+    pub fn new(name: impl Into<String>, solids: Vec<Solid>) -> Result<Scene, InputError> {
+        let scene = Scene { name: name.into(), solids };
+        scene.validate()?;
+        Ok(scene)
+    }
+
+    /// Checks every solid; call it again after changing fields by hand.
+    ///
+    /// Fields are named as in the file: `half_plane[i]` and `polygon[i]` count
+    /// each kind separately, in order.
+    pub fn validate(&self) -> Result<(), InputError> {
+        let count = self.solids.len();
+        if !(1..=MAX_SOLIDS).contains(&count) {
+            return Err(InputError::Invalid {
+                field: "half_plane, polygon".into(),
+                value: format!("{count} solids in all"),
+                allowed: format!("1 to {MAX_SOLIDS} solids"),
+            });
+        }
+        let (mut half_planes, mut polygons) = (0, 0);
+        for solid in &self.solids {
+            let field = match solid {
+                Solid::HalfPlane { .. } => {
+                    half_planes += 1;
+                    format!("half_plane[{}]", half_planes - 1)
+                }
+                Solid::Polygon { .. } => {
+                    polygons += 1;
+                    format!("polygon[{}]", polygons - 1)
+                }
+            };
+            solid.validate(&field)?;
+        }
+        Ok(())
+    }
+}
