@@ -4,9 +4,11 @@
 use super::dense_ldl::{self, Pivot};
 use super::{block_tridiagonal, tridiagonal, InertiaCount, Pattern, MAX_BORDER};
 
-/// Below this fraction of its largest entry a pivot of the Schur complement
-/// counts as zero: the border is rank deficient to rounding. Relative, since
-/// `S` is in the border's units, not the chains'.
+/// Below this a pivot of the equilibrated Schur complement (every row's
+/// largest entry scaled to 1) counts as zero: the border is rank deficient
+/// to rounding. Per row, since the border mixes units (primal rows shifted by
+/// a large inertia correction beside constraint rows in metres): a threshold
+/// relative to the largest entry of `S` would drop the constraint rows.
 const SCHUR_RELATIVE_ZERO: f64 = 1e-12;
 
 /// Factors of one bordered block-tridiagonal matrix, with all the scratch its
@@ -19,6 +21,8 @@ pub struct BorderedLdl {
     /// `S`, then its Bunch-Kaufman factors (lower triangle by columns).
     schur: Vec<f64>,
     schur_pivots: Vec<Pivot>,
+    /// The equilibration `D` of `S` (factored as `D S D`).
+    schur_scale: Vec<f64>,
     sparse_inertia: InertiaCount,
     schur_inertia: InertiaCount,
 }
@@ -50,6 +54,7 @@ pub(super) struct SparseFactors {
 pub(super) struct SchurFactors<'a> {
     factors: &'a [f64],
     pivots: &'a [Pivot],
+    scale: &'a [f64],
 }
 
 impl SchurFactors<'_> {
@@ -58,7 +63,10 @@ impl SchurFactors<'_> {
     #[inline(always)]
     pub fn solve(&self, y: &mut [f64]) {
         let k = y.len();
+        // S^-1 = D (D S D)^-1 D.
+        y.iter_mut().zip(self.scale).for_each(|(v, d)| *v *= d);
         dense_ldl::solve_in_place(&self.factors[..k * k], k, &self.pivots[..k], y);
+        y.iter_mut().zip(self.scale).for_each(|(v, d)| *v *= d);
     }
 }
 
@@ -75,6 +83,7 @@ impl BorderedLdl {
             },
             schur: vec![0.0; k * k],
             schur_pivots: vec![Pivot::default(); k],
+            schur_scale: vec![1.0; k],
             sparse_inertia: InertiaCount::default(),
             schur_inertia: InertiaCount::default(),
         }
@@ -117,7 +126,7 @@ impl BorderedLdl {
         self.load_corner(corner, shift);
         let input = SparseInput { diag, off, border, shift, tiny };
         let (pattern, factors) = (&self.pattern, &mut self.factors);
-        let (schur, pivots) = (&mut self.schur[..], &mut self.schur_pivots[..]);
+        let (schur, pivots) = (&mut self.schur[..], (&mut self.schur_pivots[..], &mut self.schur_scale[..]));
         (self.sparse_inertia, self.schur_inertia) = match (pattern.block_size(), k) {
             (1, 0) => factor_fused::<0>(pattern, &input, factors, schur, pivots),
             (1, 1) => factor_fused::<1>(pattern, &input, factors, schur, pivots),
@@ -125,11 +134,11 @@ impl BorderedLdl {
             (1, 3) => factor_fused::<3>(pattern, &input, factors, schur, pivots),
             (1, _) => {
                 let sparse = tridiagonal::factor_wide(pattern, &input, factors, schur);
-                (sparse, factor_schur(schur, k, pivots, tiny))
+                (sparse, factor_schur(schur, k, pivots))
             }
             _ => {
                 let sparse = block_tridiagonal::factor(pattern, &input, factors, schur);
-                (sparse, factor_schur(schur, k, pivots, tiny))
+                (sparse, factor_schur(schur, k, pivots))
             }
         };
         self.sparse_inertia + self.schur_inertia
@@ -145,7 +154,7 @@ impl BorderedLdl {
         let (n, k) = (self.pattern.unknowns(), self.pattern.border_rows());
         assert!(r.len() == n && x.len() == n, "solve: r and x need {n} entries");
         assert!(c.len() == k && y.len() == k, "solve: c and y need {k} entries");
-        let schur = SchurFactors { factors: &self.schur, pivots: &self.schur_pivots };
+        let schur = SchurFactors { factors: &self.schur, pivots: &self.schur_pivots, scale: &self.schur_scale };
         let (pattern, factors) = (&self.pattern, &self.factors);
         match (pattern.block_size(), k) {
             (1, 0) => tridiagonal::solve_small::<0>(pattern, factors, &schur, r, c, x, y),
@@ -196,18 +205,28 @@ fn factor_fused<const K: usize>(
     input: &SparseInput,
     factors: &mut SparseFactors,
     schur: &mut [f64],
-    pivots: &mut [Pivot],
+    pivots: (&mut [Pivot], &mut [f64]),
 ) -> (InertiaCount, InertiaCount) {
     let sparse = tridiagonal::factor_small::<K>(pattern, input, factors, schur);
-    (sparse, factor_schur(schur, K, pivots, input.tiny))
+    (sparse, factor_schur(schur, K, pivots))
 }
 
-/// Factors `S` (k x k) in place; its zero pivots are judged relative to its
-/// largest entry.
+/// Factors `S` (k x k, lower triangle by columns) in place as `D S D`, `D`
+/// scaling each row's largest entry to 1; zero pivots are judged on that.
 #[inline(always)]
-fn factor_schur(schur: &mut [f64], k: usize, pivots: &mut [Pivot], tiny: f64) -> InertiaCount {
-    let scale = schur[..k * k].iter().fold(0.0f64, |m, s| m.max(s.abs()));
-    dense_ldl::factor_in_place(&mut schur[..k * k], k, &mut pivots[..k], tiny.max(SCHUR_RELATIVE_ZERO * scale))
+fn factor_schur(schur: &mut [f64], k: usize, (pivots, scale): (&mut [Pivot], &mut [f64])) -> InertiaCount {
+    let s = &mut schur[..k * k];
+    for i in 0..k {
+        // Row i of the symmetric S: (i, j <= i) at j k + i, (i, j > i) at i k + j.
+        let row = (0..k).map(|j| if j <= i { s[j * k + i] } else { s[i * k + j] }.abs()).fold(0.0f64, f64::max);
+        scale[i] = if row > 0.0 { 1.0 / row.sqrt() } else { 1.0 };
+    }
+    for j in 0..k {
+        for i in j..k {
+            s[j * k + i] *= scale[i] * scale[j];
+        }
+    }
+    dense_ldl::factor_in_place(s, k, &mut pivots[..k], SCHUR_RELATIVE_ZERO)
 }
 
 /// `S(i, j) -= sum_u v_u[j] w_u[i]` on the lower triangle (`S` by columns),

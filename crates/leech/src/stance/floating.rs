@@ -1,10 +1,11 @@
 //! The body with a floating driving unit: the chains' angles plus the
 //! unit's pose `(p0, phi0)`, under the weld and the holds.
 
+use super::contact::ContactRow;
 use super::hold::{Hold, Pose};
 use crate::body::{Body, WELD_ROWS};
 use crate::chain::Chain;
-use crate::geom::{right_normal, unit, Vec2};
+use crate::geom::{dot, right_normal, unit, Vec2};
 use crate::statics::{Constraints, Evaluation, Path, PathTerms, Potential, Row, RowKind, StaticSystem};
 
 /// Free coordinates: `p0` (x, y; m) and `phi0` (rad), after the chains' angles.
@@ -30,6 +31,7 @@ pub struct FloatingBody<'a> {
     unit_mass: f64,
     hold: Hold,
     approach: Approach,
+    contacts: Vec<ContactRow>,
 }
 
 /// One chain's attachment to the driving unit.
@@ -61,12 +63,59 @@ impl<'a> FloatingBody<'a> {
     /// pose: A's clamp point and direction), with base spacing `b` (m), the
     /// driving unit's mass (kg) at the midpoint of the clamps, and `hold`.
     pub fn new(body: &'a Body, base_spacing: f64, unit_mass: f64, hold: Hold, approach: Approach) -> FloatingBody<'a> {
-        FloatingBody { body, base_spacing, unit_mass, hold, approach }
+        FloatingBody { body, base_spacing, unit_mass, hold, approach, contacts: Vec::new() }
+    }
+
+    /// The same body with these contact rows (after the holds' rows).
+    pub fn with_contacts(mut self, contacts: Vec<ContactRow>) -> Self {
+        self.contacts = contacts;
+        self
+    }
+
+    /// The contact rows.
+    pub fn contacts(&self) -> &[ContactRow] {
+        &self.contacts
+    }
+
+    /// The first contact row's index.
+    pub fn contact_row(&self) -> usize {
+        self.rows() - self.contacts.len()
+    }
+
+    /// Chain `c`'s centre line where it is (m): the clamp, the first joint
+    /// when there is a rigid root piece, then every link's tip (the last
+    /// [`FloatingBody::chain_len`] points).
+    pub fn chain_points(&self, q: &[f64], c: usize) -> Vec<Vec2> {
+        let n = self.chains();
+        let att = &self.attachments()[c];
+        let d = self.shift(att, [q[n], q[n + 1]], q[n + 2]);
+        let mut points = att.chain.points(&q[att.first..att.first + att.chain.len()]);
+        points.iter_mut().for_each(|p| *p = [p[0] + d[0], p[1] + d[1]]);
+        // The clamp itself does not turn with the root piece.
+        let clamp = att.offset(q[n + 2], 0.0)[0];
+        points[0] = [q[n] + clamp[0], q[n + 1] + clamp[1]];
+        points
+    }
+
+    /// Number of links of chain `c` (0: A, 1: B).
+    pub fn chain_len(&self, c: usize) -> usize {
+        self.attachments()[c].chain.len()
     }
 
     /// The clamped body underneath.
     pub fn body(&self) -> &Body {
         self.body
+    }
+
+    /// What the continuation parameter moves.
+    pub fn approach(&self) -> Approach {
+        self.approach
+    }
+
+    /// The same body moved along another approach.
+    pub fn with_approach(mut self, approach: Approach) -> Self {
+        self.approach = approach;
+        self
     }
 
     /// The holds.
@@ -241,10 +290,13 @@ impl Potential for FloatingBody<'_> {
 impl Constraints for FloatingBody<'_> {
     fn rows(&self) -> usize {
         let (rear, front) = (self.hold.rear().is_some(), self.hold.front().is_some());
-        WELD_ROWS + HOLD_ROWS * (usize::from(rear) + usize::from(front))
+        WELD_ROWS + HOLD_ROWS * (usize::from(rear) + usize::from(front)) + self.contacts.len()
     }
 
     fn row(&self, r: usize) -> Row {
+        if r >= self.contact_row() {
+            return Row { kind: RowKind::Inequality, scale: self.body.row(0).scale };
+        }
         // Positions in element lengths, angles in radians, as the weld.
         let position = (r - WELD_ROWS.min(r)) % HOLD_ROWS < 2;
         let scale = if r < WELD_ROWS {
@@ -282,6 +334,10 @@ impl Constraints for FloatingBody<'_> {
         if let (Some(row), Some(pose)) = (front, self.front_target(t)) {
             self.front_rows(q, row, pose, &oa, ev);
         }
+        let first = self.contact_row();
+        for (i, contact) in self.contacts.iter().enumerate() {
+            self.contact_terms(q, first + i, contact, ev);
+        }
     }
 }
 
@@ -309,6 +365,42 @@ impl FloatingBody<'_> {
         }
         ev.constraints[row + 2] = q[na - 1] - pose.angle_rad;
         ev.jacobian[(na - 1) * m + row + 2] = 1.0;
+    }
+}
+
+impl FloatingBody<'_> {
+    /// A contact row `n . x - h` at `row`: `x` moves with the links before
+    /// it, its own link by the fraction, and the driving unit's pose.
+    fn contact_terms(&self, q: &[f64], row: usize, contact: &ContactRow, ev: &mut Evaluation) {
+        let (n, m) = (self.chains(), ev.rows());
+        let att = &self.attachments()[contact.chain];
+        let normal = contact.normal;
+        let mut x = self.shift(att, [q[n], q[n + 1]], q[n + 2]);
+        let first = att.chain.first_joint();
+        x = [x[0] + first[0], x[1] + first[1]];
+        for (j, l) in att.chain.lengths()[..=contact.link].iter().enumerate() {
+            let i = att.first + j;
+            let lever = if j == contact.link { contact.fraction * l } else { *l };
+            let (c, s) = (ev.cos[i], ev.sin[i]);
+            x = [x[0] + lever * c, x[1] + lever * s];
+            ev.jacobian[i * m + row] = lever * (normal[1] * c - normal[0] * s);
+            ev.curvature[i * m + row] = -lever * (normal[0] * c + normal[1] * s);
+        }
+        ev.constraints[row] = dot(normal, x) - contact.offset;
+        let [_, d1, d2] = att.offset(q[n + 2], att.chain.root_length());
+        ev.jacobian[n * m + row] = normal[0];
+        ev.jacobian[(n + 1) * m + row] = normal[1];
+        ev.jacobian[(n + 2) * m + row] = dot(normal, d1);
+        ev.curvature[(n + 2) * m + row] = dot(normal, d2);
+    }
+
+    /// Where contact row `contact` touches (m).
+    pub fn contact_point(&self, q: &[f64], contact: &ContactRow) -> Vec2 {
+        let points = self.chain_points(q, contact.chain);
+        // The link's start is the point before its tip.
+        let tip = points.len() - self.chain_len(contact.chain) + contact.link;
+        let (a, b) = (points[tip - 1], points[tip]);
+        [a[0] + contact.fraction * (b[0] - a[0]), a[1] + contact.fraction * (b[1] - a[1])]
     }
 }
 

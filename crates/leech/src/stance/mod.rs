@@ -53,9 +53,12 @@
 //!   target out of reach fails to converge: an error with the residual, never
 //!   a stretched body.
 
+mod contact;
 mod floating;
 mod hold;
+mod scene_solve;
 
+pub use contact::{detect, penetration, ContactOptions, ContactRow};
 pub use floating::{Approach, FloatingBody, FREE, HOLD_ROWS};
 pub use hold::{Hold, Pose};
 
@@ -63,7 +66,8 @@ use crate::body::{Body, WELD_ROWS};
 use crate::error::InputError;
 use crate::geom::{rotate, sub, Vec2};
 use crate::robot::Robot;
-use crate::statics::{Equilibrium, Iterate, Scratch, SolveError, Solver, Stage};
+use crate::scene::Scene;
+use crate::statics::{Equilibrium, Iterate, Potential, Scratch, SolveError, Solver, Stage};
 
 /// The force (N) and moment (N m, counter-clockwise) a hold's surface exerts
 /// on the robot, about the hold point.
@@ -96,6 +100,26 @@ pub struct Held {
     pub weight_n: f64,
     /// Where that weight acts: the centre of mass (m).
     pub centre_of_mass: Vec2,
+    /// The contacts that push (normal force above zero).
+    pub contacts: Vec<ContactForce>,
+}
+
+/// A surface pushing on a tube.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct ContactForce {
+    /// `"a"` (centre tube) or `"b"` (side pair).
+    pub chain: &'static str,
+    /// The node (0 is the clamp; node `i` the tip of link `i`); for a corner
+    /// touching a link between nodes, the link's start node.
+    pub node: usize,
+    /// How far along the link from that node the point is (0 at a node).
+    pub fraction: f64,
+    /// The touching point on the tube's centre line (m).
+    pub point_m: Vec2,
+    /// The surface's outward normal there.
+    pub normal: Vec2,
+    /// The normal force (N), along `normal`.
+    pub force_n: f64,
 }
 
 /// Why a situation could not be solved.
@@ -126,34 +150,102 @@ pub fn solve(robot: &Robot, lengths: [f64; 2], hold: Hold, solver: &Solver) -> R
     let unit_mass = robot.driving_unit.mass_kg;
     match hold {
         Hold::Rear(pose) => {
-            let body = robot.with_base_angle(pose.angle_rad.to_degrees())?.body(lengths[0], lengths[1])?;
+            let body = rear_body(robot, lengths, pose)?;
             let eq = body.solve(solver)?;
-            let q = with_pose(&eq.q, pose);
             let floating = FloatingBody::new(&body, b, unit_mass, hold, Approach::Load);
             let mut ws = Scratch::for_system(&floating);
-            let eq = solver.warm_start(&floating, &q, &mut ws)?;
+            let eq = solver.warm_start(&floating, &with_pose(&eq.q, pose), &mut ws)?;
             Ok(Held::new(&floating, eq))
         }
         Hold::Front(pose) => {
             let body = robot.body(lengths[0], lengths[1])?;
-            let unloaded = robot.with_gravity(0.0)?.body(lengths[0], lengths[1])?.solve(solver)?;
-            let q = placed(&body, &unloaded.q, pose);
+            let q = placed(&body, &unloaded(robot, lengths, solver)?, pose);
             let floating = FloatingBody::new(&body, b, unit_mass, hold, Approach::Load);
-            let mut ws = Scratch::for_system(&floating);
-            let mut it = Iterate::new(q);
-            let residual = solver.continuation(&floating, &mut it, 0.0, Stage::Load, &mut ws)?;
-            Ok(Held::new(&floating, solver.finish(&floating, it, residual, &mut ws)))
+            continued(&floating, q, solver)
         }
         Hold::Both { rear, .. } => {
             let held = solve(robot, lengths, Hold::Rear(rear), solver)?;
             let from = Pose { point_m: held.endpoint_m, angle_rad: held.body.endpoint_angle(&held.equilibrium.q) };
             let floating = FloatingBody::new(&held.body, b, unit_mass, hold, Approach::Front(from));
-            let mut ws = Scratch::for_system(&floating);
-            let mut it = Iterate::new(held.equilibrium.q.clone());
-            let residual = solver.continuation(&floating, &mut it, 0.0, Stage::Load, &mut ws)?;
-            Ok(Held::new(&floating, solver.finish(&floating, it, residual, &mut ws)))
+            continued(&floating, held.equilibrium.q.clone(), solver)
         }
     }
+}
+
+/// [`solve`] among the solids of `scene`: the tubes keep their radius of
+/// clearance and rest on what they touch (see [`detect`]).
+///
+/// The path is the robot's own: the tubes start at the shortest length
+/// (`[limits] tube_length_min_m`, or the shorter of the two if less), held
+/// as asked and under gravity, and are fed to their lengths in steps of at
+/// most [`FEED_STEP_M`], the contact rows refreshed at every step; with both
+/// holds, the front hold's target then moves from where the endpoint is to
+/// where it is asked for, in stages.
+pub fn solve_in(
+    robot: &Robot,
+    lengths: [f64; 2],
+    hold: Hold,
+    scene: &Scene,
+    solver: &Solver,
+) -> Result<Held, StanceError> {
+    let (b, unit_mass) = (robot.body.base_spacing_m, robot.driving_unit.mass_kg);
+    let radius = 0.5 * robot.tube.outer_diameter_m;
+    let first = match hold {
+        Hold::Both { rear, .. } => Hold::Rear(rear),
+        other => other,
+    };
+    let short = robot.limits.tube_length_min_m.min(lengths[0]).min(lengths[1]);
+    let start = solve(robot, [short; 2], first, solver)?;
+    let (mut body, mut q) = (start.body, start.equilibrium.q);
+    let steps = ((lengths[0] - short).max(lengths[1] - short) / FEED_STEP_M).ceil() as usize;
+    for step in 1..=steps {
+        let s = step as f64 / steps as f64;
+        let fed = [short + s * (lengths[0] - short), short + s * (lengths[1] - short)];
+        let next = match first {
+            Hold::Rear(pose) => rear_body(robot, fed, pose)?,
+            _ => robot.body(fed[0], fed[1])?,
+        };
+        let chains = body.dim();
+        let mut carried = next.carry_over(&body, &q[..chains]);
+        carried.extend_from_slice(&q[chains..]);
+        body = next;
+        let floating = FloatingBody::new(&body, b, unit_mass, first, Approach::Load);
+        q = scene_solve::loaded(floating, carried, scene, radius, solver)?.equilibrium.q;
+    }
+    // Once more at the final lengths (no step when they are the start's):
+    // the contacts as they stand, with their forces.
+    let floating = FloatingBody::new(&body, b, unit_mass, first, Approach::Load);
+    let settled = scene_solve::loaded(floating, q, scene, radius, solver)?;
+    let Hold::Both { .. } = hold else { return Ok(Held::settled(settled)) };
+    let from = Pose {
+        point_m: settled.floating.endpoint(&settled.equilibrium.q),
+        angle_rad: body.endpoint_angle(&settled.equilibrium.q),
+    };
+    let both = FloatingBody::new(&body, b, unit_mass, hold, Approach::Front(from));
+    Ok(Held::settled(scene_solve::approached(both, settled.equilibrium.q, scene, radius, solver)?))
+}
+
+/// Longest feeding step between contact refreshes (m): half the built-in
+/// robot's element, so no node crosses the clearance between refreshes.
+pub const FEED_STEP_M: f64 = 0.005;
+
+/// The body clamped at the rear hold's angle (its clamp at the origin; the
+/// floating form moves it to the hold's point).
+fn rear_body(robot: &Robot, lengths: [f64; 2], pose: Pose) -> Result<Body, InputError> {
+    robot.with_base_angle(pose.angle_rad.to_degrees())?.body(lengths[0], lengths[1])
+}
+
+/// The unloaded (`g = 0`) shape at the robot's base angle.
+fn unloaded(robot: &Robot, lengths: [f64; 2], solver: &Solver) -> Result<Vec<f64>, StanceError> {
+    Ok(robot.with_gravity(0.0)?.body(lengths[0], lengths[1])?.solve(solver)?.q)
+}
+
+/// Follows `floating`'s approach from `q` (an equilibrium at `t = 0`) to `t = 1`.
+fn continued(floating: &FloatingBody<'_>, q: Vec<f64>, solver: &Solver) -> Result<Held, StanceError> {
+    let mut ws = Scratch::for_system(floating);
+    let mut it = Iterate::new(q);
+    let residual = solver.continuation(floating, &mut it, 0.0, Stage::Load, &mut ws)?;
+    Ok(Held::new(floating, solver.finish(floating, it, residual, &mut ws)))
 }
 
 /// The chains' angles with the driving unit's pose appended.
@@ -184,7 +276,26 @@ impl Held {
         let rear = hold.rear().map(|_| reaction(WELD_ROWS));
         let front_row = WELD_ROWS + if rear.is_some() { HOLD_ROWS } else { 0 };
         let front = hold.front().map(|_| reaction(front_row));
+        let first = floating.contact_row();
+        let contacts = floating
+            .contacts()
+            .iter()
+            .zip(&equilibrium.multipliers[first..])
+            .filter(|(_, force)| **force > 0.0)
+            .map(|(c, force)| {
+                let at_node = c.fraction >= 1.0;
+                ContactForce {
+                    chain: if c.chain == 0 { "a" } else { "b" },
+                    node: if at_node { c.link + 1 } else { c.link },
+                    fraction: if at_node { 0.0 } else { c.fraction },
+                    point_m: floating.contact_point(&equilibrium.q, c),
+                    normal: c.normal,
+                    force_n: *force,
+                }
+            })
+            .collect();
         Held {
+            contacts,
             hold,
             body: floating.body().clone(),
             unit: floating.unit_pose(&equilibrium.q),

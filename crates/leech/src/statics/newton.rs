@@ -181,28 +181,27 @@ impl Solver {
         }
     }
 
-    /// Releases active inequality rows that pull (`lambda_r < 0`) and
-    /// activates inactive ones that are violated (`C_r < 0`), beyond the
-    /// tolerance. Returns whether the set changed.
+    /// Releases the active inequality row that pulls hardest (`lambda_r < 0`),
+    /// or else activates the inactive one violated most (`C_r < 0` beyond the
+    /// tolerance). Returns whether the set changed. One row at a time: two
+    /// violated rows of neighbouring points can be nearly parallel, and
+    /// activating both at once makes the step ill-posed (large opposite forces).
     fn update_active_set(&self, it: &mut Iterate, ws: &Scratch, tolerance: f64) -> bool {
-        let k = ws.rows.len();
-        let mut changed = false;
-        for row in 0..k {
-            let spec = ws.rows[row];
-            if spec.kind != RowKind::Inequality {
-                continue;
-            }
-            let c = ws.current.constraints[row] / spec.scale;
-            if it.active[row] && it.lambda[row] < 0.0 {
-                it.active[row] = false;
-                it.lambda[row] = 0.0;
-                changed = true;
-            } else if !it.active[row] && c < -tolerance {
-                it.active[row] = true;
-                changed = true;
-            }
+        let inequality = |r: &usize| ws.rows[*r].kind == RowKind::Inequality;
+        let rows = 0..ws.rows.len();
+        let pulling = rows.clone().filter(inequality).filter(|r| it.active[*r] && it.lambda[*r] < 0.0);
+        if let Some(r) = pulling.min_by(|a, b| it.lambda[*a].total_cmp(&it.lambda[*b])) {
+            it.active[r] = false;
+            it.lambda[r] = 0.0;
+            return true;
         }
-        changed
+        let violation = |r: &usize| ws.current.constraints[*r] / ws.rows[*r].scale;
+        let violated = rows.filter(inequality).filter(|r| !it.active[*r] && violation(r) < -tolerance);
+        if let Some(r) = violated.min_by(|a, b| violation(a).total_cmp(&violation(b))) {
+            it.active[r] = true;
+            return true;
+        }
+        false
     }
 
     /// Newton's method with the working set fixed.
@@ -297,16 +296,21 @@ impl Solver {
         // a fixed direction. Where the curvature is right, the plain Newton
         // step comes first: that keeps quadratic convergence.
         let mut shift = if min_shift == 0.0 { 0.0 } else { min_shift.max(state.damping) };
+        // A step that no longer shrinks as the shift grows is the part that
+        // restores violated rows (the least-change correction): the trust
+        // radius cannot shorten it, so it is tried as it is.
+        let mut last_long = f64::INFINITY;
         for attempt in 0..tuning.max_trials {
             if attempt > 0 || shift != min_shift {
                 ws.factor_kkt(shift, &it.active, tuning.tiny_pivot * k);
             }
-            match self.trial(sys, it, t, ws, state, min_shift) {
+            match self.trial(sys, it, t, ws, state, min_shift, last_long) {
                 Trial::Accepted => {
                     state.damping = if shift > min_shift { tuning.damping_memory * shift } else { 0.0 };
                     return Some(shift);
                 }
-                Trial::Rejected | Trial::TooLong => {}
+                Trial::TooLong => last_long = sup_norm(&ws.step),
+                Trial::Rejected => {}
             }
             shift = (tuning.damping_growth * shift).max(tuning.min_damping * k);
         }
@@ -322,6 +326,7 @@ impl Solver {
         ws: &mut Scratch,
         state: &mut Damping,
         min_shift: f64,
+        last_long: f64,
     ) -> Trial {
         let tuning = &self.options.tuning;
         let k = sys.moment_scale();
@@ -336,7 +341,12 @@ impl Solver {
         // Where the curvature is corrected the quadratic model is not the
         // energy: keep such steps short, so that the descent follows the
         // valley a damped motion would and cannot hop into a distant basin.
-        if min_shift > 0.0 && sup_norm(&ws.step) > self.options.trust_radius {
+        // With inequality rows the working set can change between runs, and
+        // a full Newton step across a released contact can leap far: those
+        // steps are kept within the trust radius too.
+        let guarded = min_shift > 0.0 || ws.rows.iter().any(|r| r.kind == RowKind::Inequality);
+        let length = sup_norm(&ws.step);
+        if guarded && length > self.options.trust_radius && length < 0.9 * last_long {
             return Trial::TooLong;
         }
         for row in 0..m {

@@ -9,7 +9,7 @@ use proptest::prelude::*;
 const H: f64 = 1e-6;
 
 fn evaluate<S: StaticSystem>(sys: &S, q: &[f64], t: f64) -> Evaluation {
-    let mut ev = Evaluation::new(sys.dim(), sys.rows());
+    let mut ev = Evaluation::with_free(sys.dim(), sys.free(), sys.rows());
     sys.evaluate(q, t, &mut ev);
     ev
 }
@@ -36,6 +36,21 @@ fn close(analytic: f64, numeric: f64, scale: f64, what: &str) -> Result<(), Test
     Ok(())
 }
 
+/// Entry `(i, j)` of the potential's Hessian: banded over the chains,
+/// border and corner for the free coordinates.
+fn hessian_entry(ev: &Evaluation, i: usize, j: usize) -> f64 {
+    let (chains, free) = (ev.hessian_diag.len(), ev.free());
+    match (i < chains, j < chains) {
+        (true, true) if i == j => ev.hessian_diag[i],
+        (true, true) if i + 1 == j => ev.hessian_off[i],
+        (true, true) if j + 1 == i => ev.hessian_off[j],
+        (true, true) => 0.0,
+        (true, false) => ev.hessian_border[i * free + (j - chains)],
+        (false, true) => ev.hessian_border[j * free + (i - chains)],
+        (false, false) => ev.hessian_corner[(i - chains) * free + (j - chains)],
+    }
+}
+
 /// Checks gradient, Hessian (tridiagonal), constraint Jacobian and constraint
 /// curvature (diagonal), and the path derivatives, of any static system.
 fn check_system<S: Path>(sys: &S, q: &[f64], t: f64) -> Result<(), TestCaseError> {
@@ -52,16 +67,7 @@ fn check_system<S: Path>(sys: &S, q: &[f64], t: f64) -> Result<(), TestCaseError
         close(ev.gradient[i], (plus.energy - minus.energy) / (2.0 * H), k + 1e-3 * ev.energy.abs(), "dV/dq")?;
         for j in 0..n {
             let fd = (plus.gradient[j] - minus.gradient[j]) / (2.0 * H);
-            let analytic = if j == i {
-                ev.hessian_diag[i]
-            } else if j + 1 == i {
-                ev.hessian_off[j]
-            } else if i + 1 == j {
-                ev.hessian_off[i]
-            } else {
-                0.0
-            };
-            close(analytic, fd, k_gradient, "d2V/dq2")?;
+            close(hessian_entry(&ev, i, j), fd, k_gradient, "d2V/dq2")?;
         }
         for r in 0..m {
             let fd = (plus.constraints[r] - minus.constraints[r]) / (2.0 * H);
@@ -287,4 +293,41 @@ fn rotational_inertias(chain: &Chain, d: Discretization) -> Vec<f64> {
         .zip(chain.masses())
         .map(|(l, m)| if d == Discretization::Midpoint { m * l * l / 12.0 } else { 0.0 })
         .collect()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// The floating body under every kind of hold, with contact rows at
+    /// nodes and between nodes, along both approaches.
+    #[test]
+    fn floating_body_derivatives(
+        la in 0.03f64..0.075,
+        lb in 0.03f64..0.075,
+        clamp_deg in -180.0f64..180.0,
+        d in discretization(),
+        seed in prop::collection::vec(-4.0f64..7.0, 20),
+        pose in prop::collection::vec(-1.0f64..1.0, 6),
+        hold_kind in 0usize..3,
+        t in 0.1f64..1.0,
+        fraction in 0.1f64..1.0,
+    ) {
+        use leech::stance::{Approach, ContactRow, FloatingBody, Hold, Pose};
+        let robot = Robot::builtin().with_base_angle(clamp_deg).unwrap().with_discretization(d);
+        let body = robot.body(la, lb).unwrap();
+        let rear = Pose { point_m: [pose[0], pose[1]], angle_rad: pose[2] };
+        let front = Pose { point_m: [pose[3], pose[4]], angle_rad: pose[5] };
+        let hold = [Hold::Rear(rear), Hold::Front(front), Hold::Both { rear, front }][hold_kind];
+        let from = Pose { point_m: [0.1, -0.2], angle_rad: 0.3 };
+        let approach = if hold_kind == 2 && t > 0.5 { Approach::Front(from) } else { Approach::Load };
+        let contacts = vec![
+            ContactRow { chain: 0, link: 1, fraction: 1.0, normal: [0.6, 0.8], offset: 0.01 },
+            ContactRow { chain: 1, link: 2, fraction, normal: [-0.8, 0.6], offset: -0.02 },
+        ];
+        let floating = FloatingBody::new(&body, 0.017, 0.25, hold, approach).with_contacts(contacts);
+        let n = body.dim();
+        let mut q: Vec<f64> = seed[..n].to_vec();
+        q.extend([pose[0] + 0.1, pose[1] - 0.05, pose[2] + 0.2]);
+        check_system(&floating, &q, t)?;
+    }
 }

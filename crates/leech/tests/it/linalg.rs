@@ -163,7 +163,7 @@ impl Case {
 }
 
 fn cases() -> impl Strategy<Value = Case> {
-    let shape = (prop_oneof![Just(1usize), Just(3usize)], prop::collection::vec(1usize..40, 1..4), 0usize..10);
+    let shape = (prop_oneof![Just(1usize), Just(3usize)], prop::collection::vec(1usize..40, 1..4), 0usize..24);
     let shift = prop_oneof![Just(0.0), 0.0..1.0f64];
     (shape, 0.0..=1.0f64, shift, any::<bool>(), any::<u64>()).prop_map(
         |((block, lengths, border_rows), primal_fraction, shift, zero_constraint_corner, seed)| Case {

@@ -87,3 +87,46 @@ fn pushing_the_tubes_past_the_free_shape_loads_both_cups() {
     assert!(f.force_n[0].hypot(f.force_n[1]) > 1e-3, "{f:?}");
     check_balance(&pushed);
 }
+
+/// Forces and moments of holds and contacts against the weight.
+fn check_balance_with_contacts(held: &Held) {
+    let w = held.weight_n;
+    let mut force = [0.0, 0.0];
+    let mut moment = 0.0;
+    let mut add = |at: [f64; 2], f: [f64; 2], m: f64| {
+        force[0] += f[0];
+        force[1] += f[1];
+        moment += m + at[0] * f[1] - at[1] * f[0];
+    };
+    if let Some(r) = &held.rear {
+        add(held.unit.point_m, r.force_n, r.moment_nm);
+    }
+    if let Some(r) = &held.front {
+        add(held.endpoint_m, r.force_n, r.moment_nm);
+    }
+    for c in &held.contacts {
+        add(c.point_m, [c.normal[0] * c.force_n, c.normal[1] * c.force_n], 0.0);
+    }
+    let x_g = held.centre_of_mass[0];
+    assert!(force[0].abs() < 1e-9 * w && (force[1] - w).abs() < 1e-9 * w, "force {force:?} vs weight {w}");
+    assert!((moment - x_g * w).abs() < 1e-9 * w * 0.3, "moment {moment} vs {}", x_g * w);
+}
+
+#[test]
+fn a_body_lies_on_the_floor() {
+    let robot = Robot::builtin();
+    let floor = leech::scene::Scene::builtin("floor").unwrap();
+    // The rear cup's face on the floor: p0 sits b + offset above it.
+    let height = robot.body.base_spacing_m + robot.cup.rear_offset_m;
+    let hold = Hold::Rear(Pose::from_deg([0.0, height], 0.0));
+    let held = stance::solve_in(&robot, [0.30, 0.28], hold, &floor, &Solver::default()).unwrap();
+    assert!(held.equilibrium.stable);
+    // The stiff built-in tubes sag onto the floor near the plate.
+    assert!(!held.contacts.is_empty());
+    let radius = 0.5 * robot.tube.outer_diameter_m;
+    for c in &held.contacts {
+        assert!(c.point_m[1] >= radius - 1e-9, "{c:?}");
+        assert!(c.force_n > 0.0);
+    }
+    check_balance_with_contacts(&held);
+}

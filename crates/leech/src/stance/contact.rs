@@ -1,0 +1,127 @@
+//! Contacts between the tubes and a scene's solids: frictionless, one-sided
+//! rows found from the geometry and refreshed until they settle.
+//!
+//! # Rows
+//!
+//! A contact holds a material point `x` of a tube (a node, or a point a
+//! fraction `s` along a link where a corner pokes between nodes) on the free
+//! side of a surface, with the tube's radius `r` of clearance:
+//!
+//! ```text
+//! C(q) = n . x(q) - h >= 0,      h = n . c + r                        (m)
+//! ```
+//!
+//! with `n` the surface's outward unit normal and `c` the surface point
+//! closest to `x` (the corner itself for a corner). `x` is a sum of terms
+//! each in one coordinate (`l_j e(phi_j)`, the unit's pose), so the row's
+//! Hessian is diagonal, as the solver wants. `n`, `c` and `s` are frozen
+//! while Newton runs and refreshed from the new geometry after it
+//! converges; at the fixed point `n` is the true contact normal (the
+//! surface's normal at an edge, the direction from a vertex or corner to the
+//! point), so the frozen rows are the exact frictionless contact conditions.
+//! Their multipliers are the normal forces (N), `>= 0`.
+//!
+//! # Candidates
+//!
+//! Every node within [`ContactOptions::margin`] of a surface (its
+//! clearance included) gets a row per nearby feature (edge, half-plane,
+//! vertex), and every link within it of a convex corner gets a row at the
+//! link's closest point: a thin wall's corner can touch a link between its
+//! nodes, where node checks alone would miss it. The clamps (node 0) belong
+//! to the driving unit and are not checked.
+
+use super::floating::FloatingBody;
+use crate::geom::{dot, Vec2};
+use crate::scene::Scene;
+
+/// One contact row: a point of a chain held off a surface.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct ContactRow {
+    /// The chain: 0 for A, 1 for B.
+    pub chain: usize,
+    /// The link (0-based) the point is on.
+    pub link: usize,
+    /// How far along the link (1 at its tip: node `link + 1`).
+    pub fraction: f64,
+    /// Outward unit normal of the surface, frozen (into free space).
+    pub normal: Vec2,
+    /// `h = n . c + r` (m): the row is `n . x - h >= 0`.
+    pub offset: f64,
+}
+
+/// Tuning knobs of contact detection.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactOptions {
+    /// Points closer than this to a surface (beyond the tube's radius) get a
+    /// candidate row (m). Rows that do not touch stay inactive and cost little.
+    pub margin: f64,
+    /// Rounds of refreshing the rows at one stage before giving up.
+    pub max_rounds: usize,
+    /// Largest penetration accepted (m).
+    pub penetration_tolerance: f64,
+}
+
+impl Default for ContactOptions {
+    fn default() -> Self {
+        ContactOptions { margin: 0.005, max_rounds: 30, penetration_tolerance: 1e-9 }
+    }
+}
+
+/// Finds the contact candidates of the body at `q` in `scene`, tube radius
+/// `radius` (m), into `out` (cleared first).
+pub fn detect(
+    body: &FloatingBody<'_>,
+    q: &[f64],
+    scene: &Scene,
+    radius: f64,
+    options: &ContactOptions,
+    out: &mut Vec<ContactRow>,
+) {
+    out.clear();
+    let reach = radius + options.margin;
+    let mut near = Vec::new();
+    let corners: Vec<_> = scene.convex_corners().collect();
+    for chain in 0..2 {
+        let points = body.chain_points(q, chain);
+        // The clamp (and a rigid root piece) belong to the driving unit; the
+        // links' tips are the last points.
+        let first_tip = points.len() - body.chain_len(chain);
+        for (link, p) in points[first_tip..].iter().enumerate() {
+            scene.features_near(*p, reach, &mut near);
+            for candidate in &near {
+                let n = candidate.normal;
+                let offset = dot(n, candidate.closest) + radius;
+                out.push(ContactRow { chain, link, fraction: 1.0, normal: n, offset });
+            }
+        }
+        for (link, pair) in points[first_tip - 1..].windows(2).enumerate() {
+            for corner in &corners {
+                let (distance, s, n) = Scene::segment_corner_distance(pair[0], pair[1], corner);
+                // At a link's end the node's own vertex row covers it.
+                if distance <= reach && s > 1e-9 && s < 1.0 - 1e-9 {
+                    out.push(ContactRow { chain, link, fraction: s, normal: n, offset: dot(n, corner.point) + radius });
+                }
+            }
+        }
+    }
+}
+
+/// The deepest penetration (m, positive inside the clearance) of any node
+/// or link of the body at `q`, by the scene's exact geometry.
+pub fn penetration(body: &FloatingBody<'_>, q: &[f64], scene: &Scene, radius: f64) -> f64 {
+    let mut deepest: f64 = 0.0;
+    let corners: Vec<_> = scene.convex_corners().collect();
+    for chain in 0..2 {
+        let points = body.chain_points(q, chain);
+        let first_tip = points.len() - body.chain_len(chain);
+        for p in &points[first_tip..] {
+            deepest = deepest.max(radius - scene.signed_distance(*p).0);
+        }
+        for pair in points[first_tip - 1..].windows(2) {
+            for corner in &corners {
+                deepest = deepest.max(radius - Scene::segment_corner_distance(pair[0], pair[1], corner).0);
+            }
+        }
+    }
+    deepest
+}
