@@ -308,3 +308,62 @@ impl Held {
         }
     }
 }
+
+/// A suction cup where a hold puts it: its face, the surface's normal, and
+/// whether it holds under the hold's reaction ([`crate::cup`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct CupState {
+    /// Centre of the cup's face (m).
+    pub centre_m: Vec2,
+    /// The surface's outward normal at the face (from the surface into free space).
+    pub normal: Vec2,
+    /// The reaction moved to the face's centre: force (N) and moment (N m).
+    pub force_n: Vec2,
+    /// Moment about the face's centre (N m, counter-clockwise).
+    pub moment_nm: f64,
+    /// The verdict.
+    pub verdict: crate::cup::CupVerdict,
+}
+
+impl Held {
+    /// Where the rear cup's face is: `b + rear_offset` from `p0` along
+    /// `nu(phi0)`, the surfaces lying on chain B's side (docs/model.md section 3).
+    pub fn rear_cup_m(&self, robot: &Robot) -> Vec2 {
+        let nu = crate::geom::right_normal(self.unit.angle_rad);
+        let d = robot.body.base_spacing_m + robot.cup.rear_offset_m;
+        [self.unit.point_m[0] + d * nu[0], self.unit.point_m[1] + d * nu[1]]
+    }
+
+    /// Where the front cup's face is: `front_offset` from chain B's tip along
+    /// `nu` of the plate.
+    pub fn front_cup_m(&self, robot: &Robot) -> Vec2 {
+        let plate = self.body.endpoint_angle(&self.equilibrium.q);
+        let nu = crate::geom::right_normal(plate);
+        let d = robot.body.tip_spacing_m + robot.cup.front_offset_m;
+        [self.endpoint_m[0] + d * nu[0], self.endpoint_m[1] + d * nu[1]]
+    }
+
+    /// The cups that hold, with their verdicts: each reaction moved to its
+    /// cup's centre (`M_c = M + (p - c) x F`), the surface facing the cup
+    /// (outward normal `-nu`).
+    pub fn cups(&self, robot: &Robot) -> Result<(Option<CupState>, Option<CupState>), InputError> {
+        let state = |reaction: &Reaction, at: Vec2, centre: Vec2, angle: f64| -> Result<CupState, InputError> {
+            let nu = crate::geom::right_normal(angle);
+            let normal = [-nu[0], -nu[1]];
+            let arm = sub(at, centre);
+            let moment = reaction.moment_nm + crate::geom::cross(arm, reaction.force_n);
+            let verdict = crate::cup::verdict(&robot.cup, reaction.force_n, moment, normal)?;
+            Ok(CupState { centre_m: centre, normal, force_n: reaction.force_n, moment_nm: moment, verdict })
+        };
+        let rear = self.rear.as_ref().map(|r| state(r, self.unit.point_m, self.rear_cup_m(robot), self.unit.angle_rad));
+        let plate = self.body.endpoint_angle(&self.equilibrium.q);
+        let front = self.front.as_ref().map(|r| state(r, self.endpoint_m, self.front_cup_m(robot), plate));
+        Ok((rear.transpose()?, front.transpose()?))
+    }
+
+    /// The deepest penetration of the tubes into `scene` (m; 0 when clear).
+    pub fn penetration_m(&self, robot: &Robot, scene: &Scene) -> f64 {
+        let floating = FloatingBody::new(&self.body, robot.body.base_spacing_m, 0.0, self.hold, Approach::Load);
+        penetration(&floating, &self.equilibrium.q, scene, 0.5 * robot.tube.outer_diameter_m).max(0.0)
+    }
+}

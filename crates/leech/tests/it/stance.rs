@@ -130,3 +130,17 @@ fn a_body_lies_on_the_floor() {
     }
     check_balance_with_contacts(&held);
 }
+
+#[test]
+fn the_rear_cup_carries_the_robot_on_a_wall() {
+    let robot = Robot::builtin();
+    let held = solve(Hold::Rear(Pose::from_deg([0.0, 0.0], 90.0)), [0.25, 0.22]);
+    let (rear, front) = held.cups(&robot).unwrap();
+    assert!(front.is_none());
+    let rear = rear.unwrap();
+    // On a wall the weight is a shear on the cup: about 3.3 N against 16.7 N.
+    assert!((rear.verdict.shear_n - held.weight_n).abs() < 1e-6 * held.weight_n, "{rear:?}");
+    assert!(rear.verdict.safety_factor > 1.5 && rear.verdict.holds, "{rear:?}");
+    // The face sits b + offset from the clamp, on chain B's side (x > 0 for a wall climb upwards).
+    assert!((rear.centre_m[0] - robot.body.base_spacing_m - robot.cup.rear_offset_m).abs() < 1e-12);
+}
