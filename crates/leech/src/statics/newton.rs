@@ -299,17 +299,17 @@ impl Solver {
         // A step that no longer shrinks as the shift grows is the part that
         // restores violated rows (the least-change correction): the trust
         // radius cannot shorten it, so it is tried as it is.
-        let mut last_long = f64::INFINITY;
+        state.last_long = f64::INFINITY;
         for attempt in 0..tuning.max_trials {
             if attempt > 0 || shift != min_shift {
                 ws.factor_kkt(shift, &it.active, tuning.tiny_pivot * k);
             }
-            match self.trial(sys, it, t, ws, state, min_shift, last_long) {
+            match self.trial(sys, it, t, ws, state, min_shift) {
                 Trial::Accepted => {
                     state.damping = if shift > min_shift { tuning.damping_memory * shift } else { 0.0 };
                     return Some(shift);
                 }
-                Trial::TooLong => last_long = sup_norm(&ws.step),
+                Trial::TooLong => state.last_long = sup_norm(&ws.step),
                 Trial::Rejected => {}
             }
             shift = (tuning.damping_growth * shift).max(tuning.min_damping * k);
@@ -326,7 +326,6 @@ impl Solver {
         ws: &mut Scratch,
         state: &mut Damping,
         min_shift: f64,
-        last_long: f64,
     ) -> Trial {
         let tuning = &self.options.tuning;
         let k = sys.moment_scale();
@@ -346,7 +345,7 @@ impl Solver {
         // steps are kept within the trust radius too.
         let guarded = min_shift > 0.0 || ws.rows.iter().any(|r| r.kind == RowKind::Inequality);
         let length = sup_norm(&ws.step);
-        if guarded && length > self.options.trust_radius && length < 0.9 * last_long {
+        if guarded && length > self.options.trust_radius && length < 0.9 * state.last_long {
             return Trial::TooLong;
         }
         for row in 0..m {
@@ -381,9 +380,11 @@ impl Solver {
     }
 }
 
-/// The Levenberg shift remembered between iterations and the penalty weight.
+/// The Levenberg shift remembered between iterations, the penalty weight,
+/// and the length of the last step found too long in this iteration.
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct Damping {
     damping: f64,
     rho: f64,
+    last_long: f64,
 }
