@@ -296,10 +296,10 @@ impl Solver {
         // a fixed direction. Where the curvature is right, the plain Newton
         // step comes first: that keeps quadratic convergence.
         let mut shift = if min_shift == 0.0 { 0.0 } else { min_shift.max(state.damping) };
-        // A step that no longer shrinks as the shift grows is the part that
-        // restores violated rows (the least-change correction): the trust
-        // radius cannot shorten it, so it is tried as it is.
-        state.last_long = f64::INFINITY;
+        // However large the shift, a step keeps the part that restores the
+        // violated rows (the least-change correction): the trust radius
+        // cannot shorten that part, so it bounds the step from below.
+        state.restoring = f64::NAN;
         for attempt in 0..tuning.max_trials {
             if attempt > 0 || shift != min_shift {
                 ws.factor_kkt(shift, &it.active, tuning.tiny_pivot * k);
@@ -309,12 +309,29 @@ impl Solver {
                     state.damping = if shift > min_shift { tuning.damping_memory * shift } else { 0.0 };
                     return Some(shift);
                 }
-                Trial::TooLong => state.last_long = sup_norm(&ws.step),
-                Trial::Rejected => {}
+                Trial::TooLong if state.restoring.is_nan() => {
+                    state.restoring = self.restoring_length(it, ws, k);
+                    continue;
+                }
+                Trial::TooLong | Trial::Rejected => {}
             }
             shift = (tuning.damping_growth * shift).max(tuning.min_damping * k);
         }
         None
+    }
+
+    /// The length (rad, sup norm) of the least-change step that restores the
+    /// active rows, `-J^T (J J^T)^-1 C`: the KKT step as the shift grows
+    /// without bound, taken here with a shift of `1e6 k`. Leaves the factors
+    /// shifted: the caller factors again for its next trial.
+    fn restoring_length(&self, it: &Iterate, ws: &mut Scratch, k: f64) -> f64 {
+        ws.factor_kkt(1e6 * k, &it.active, self.options.tuning.tiny_pivot * k);
+        ws.q_trial.fill(0.0);
+        for (rhs, c) in ws.rhs.iter_mut().zip(&ws.current.constraints) {
+            *rhs = -c;
+        }
+        ws.kkt.solve(&it.active, &ws.q_trial, &ws.rhs, &mut ws.step, &mut ws.dual_step);
+        sup_norm(&ws.step)
     }
 
     /// One trial step with the current factors: solve, evaluate, accept or not.
@@ -344,8 +361,8 @@ impl Solver {
         // a full Newton step across a released contact can leap far: those
         // steps are kept within the trust radius too.
         let guarded = min_shift > 0.0 || ws.rows.iter().any(|r| r.kind == RowKind::Inequality);
-        let length = sup_norm(&ws.step);
-        if guarded && length > self.options.trust_radius && length < 0.9 * state.last_long {
+        let limit = if state.restoring.is_nan() { 0.0 } else { 2.0 * state.restoring };
+        if guarded && sup_norm(&ws.step) > self.options.trust_radius.max(limit) {
             return Trial::TooLong;
         }
         for row in 0..m {
@@ -381,10 +398,10 @@ impl Solver {
 }
 
 /// The Levenberg shift remembered between iterations, the penalty weight,
-/// and the length of the last step found too long in this iteration.
+/// and the length of this iteration's restoring step (NaN until needed).
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct Damping {
     damping: f64,
     rho: f64,
-    last_long: f64,
+    restoring: f64,
 }
