@@ -300,6 +300,7 @@ impl Solver {
         // violated rows (the least-change correction): the trust radius
         // cannot shorten that part, so it bounds the step from below.
         state.restoring = f64::NAN;
+        state.first_trial = true;
         for attempt in 0..tuning.max_trials {
             if attempt > 0 || shift != min_shift {
                 ws.factor_kkt(shift, &it.active, tuning.tiny_pivot * k);
@@ -367,9 +368,15 @@ impl Solver {
         }
         for row in 0..m {
             ws.lambda_trial[row] = if it.active[row] { it.lambda[row] - ws.dual_step[row] } else { 0.0 };
-            let scaled = (ws.lambda_trial[row] * ws.rows[row].scale / k).abs();
-            state.rho = state.rho.max(2.0 * scaled + tuning.penalty_margin);
+            // The penalty follows the Newton multipliers: with a large shift
+            // the dual step grows with it and would inflate the penalty
+            // until no step is accepted.
+            if state.first_trial {
+                let scaled = (ws.lambda_trial[row] * ws.rows[row].scale / k).abs();
+                state.rho = state.rho.max(2.0 * scaled + tuning.penalty_margin);
+            }
         }
+        state.first_trial = false;
         let phi0 = Self::merit(&ws.current, &ws.rows, &it.active, state.rho, k);
         let slope = ws.current.gradient.iter().zip(&ws.step).map(|(g, d)| g * d).sum::<f64>() / k
             - state.rho * Self::infeasibility(0.0, &ws.current, &ws.rows, &it.active, 1);
@@ -398,10 +405,12 @@ impl Solver {
 }
 
 /// The Levenberg shift remembered between iterations, the penalty weight,
-/// and the length of this iteration's restoring step (NaN until needed).
+/// the length of this iteration's restoring step (NaN until needed), and
+/// whether the next trial is the iteration's first.
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct Damping {
     damping: f64,
     rho: f64,
     restoring: f64,
+    first_trial: bool,
 }
