@@ -16,10 +16,18 @@ use leech::dynamics::{Actuation, Integrator, SimulationOptions, Start};
 use leech::error::{positive, within};
 use leech::inverse_statics::check_target;
 use leech::prelude::*;
+use leech::scene::Scene;
+use leech::stance::{Hold, Pose};
 use leech::sweep::{Grid, Model, SweepOptions};
 
 use crate::failure::Failure;
-use crate::flags::{self, Command, DiscretizationArg, FitArg, IntegratorArg, ModelArg, RobotChoice, StartArg};
+use crate::flags::{
+    self, Command, DiscretizationArg, FitArg, IntegratorArg, ModelArg, RobotChoice, SceneCommand, StartArg,
+};
+
+mod holds;
+
+use holds::{load_scene, pose, situation};
 
 /// A command with its resolved arguments.
 // One value per run, moved once: boxing the large variants would buy nothing.
@@ -38,6 +46,16 @@ pub enum Args {
     Calibrate(Calibrate),
     Compare(Compare),
     Simulate(Simulate),
+    /// `leech scene list`.
+    Scenes {
+        json: bool,
+    },
+    /// `leech scene show`: a built-in scene's file keeps its comments.
+    SceneShow {
+        scene: Scene,
+        builtin: Option<&'static str>,
+        json: bool,
+    },
 }
 
 /// Where results go: JSON or text on standard output, and the files asked for.
@@ -72,7 +90,19 @@ pub struct Shape {
     pub solver: Option<Solver>,
     /// Cold solves to time (with the two-chain model only).
     pub repeat: Option<NonZeroUsize>,
+    /// Which cups hold, where (the rear hold at the origin and the base angle by default).
+    pub hold: Hold,
+    /// What the tubes rest on.
+    pub scene: Option<Scene>,
     pub outputs: Outputs,
+}
+
+impl Shape {
+    /// Whether the body is today's clamped body: held by the rear cup at the
+    /// origin at the robot's base angle, without a scene.
+    pub fn clamped(&self) -> bool {
+        self.scene.is_none() && self.hold == Hold::Rear(Pose::from_deg([0.0, 0.0], self.robot.world.base_angle_deg))
+    }
 }
 
 /// `leech figure`.
@@ -170,13 +200,24 @@ impl Args {
                 json: a.json,
             }),
             Command::Simulate(a) => Args::Simulate(simulate(a)?),
+            Command::Scene(a) => match a.command {
+                SceneCommand::List { json } => Args::Scenes { json },
+                SceneCommand::Show { scene, json } => {
+                    let (scene, builtin) = load_scene(&scene, "scene show")?;
+                    Args::SceneShow { scene, builtin, json }
+                }
+            },
         })
     }
 
     /// Whether standard output is JSON (a failed solve then prints its status as JSON).
     pub fn json(&self) -> bool {
         match self {
-            Args::Robot { json, .. } | Args::Reach(Reach { json, .. }) | Args::Compare(Compare { json, .. }) => *json,
+            Args::Robot { json, .. }
+            | Args::Reach(Reach { json, .. })
+            | Args::Compare(Compare { json, .. })
+            | Args::Scenes { json }
+            | Args::SceneShow { json, .. } => *json,
             Args::Chain(Chain { outputs, .. })
             | Args::Shape(Shape { outputs, .. })
             | Args::Workspace(Workspace { outputs, .. })
@@ -216,9 +257,19 @@ fn chain(a: flags::ChainArgs) -> Result<Chain, Failure> {
 }
 
 fn shape(a: flags::ShapeArgs) -> Result<Shape, Failure> {
+    // --rear's angle is the clamp direction: it sets the base angle.
+    let rear = a.rear.map(|p| pose("--rear", p, 360.0)).transpose()?;
+    let base_angle = match (a.base_angle, &a.rear) {
+        (Some(deg), Some(r)) if deg != r[2] => {
+            let message =
+                format!("--rear: its angle {} deg differs from --base-angle {deg}; give one, or both alike", r[2]);
+            return Err(Failure::Input(message));
+        }
+        (deg, r) => deg.or(r.map(|r| r[2])),
+    };
     // Overrides first: the shape parameter sets the stiffness from gravity.
     let robot = tuned(&a.robot, |robot| {
-        let mut robot = at_base_angle(robot, a.base_angle)?;
+        let mut robot = at_base_angle(robot, base_angle)?;
         if let Some(g) = a.gravity {
             robot = robot.with_gravity(g)?;
         }
@@ -235,7 +286,16 @@ fn shape(a: flags::ShapeArgs) -> Result<Shape, Failure> {
         true => (Some(solver(a.max_iterations, a.time_limit)?), a.repeat.map(repeat).transpose()?),
         false => (None, None),
     };
-    Ok(Shape { robot, lengths: a.lengths, body, models, solver, repeat, outputs: a.output.into() })
+    let rear = rear.unwrap_or_else(|| Pose::from_deg([0.0, 0.0], robot.world.base_angle_deg));
+    let (hold, scene) = situation(&a, &robot, rear)?;
+    let shape =
+        Shape { robot, lengths: a.lengths, body, models, solver, repeat, hold, scene, outputs: a.output.into() };
+    if shape.repeat.is_some() && !shape.clamped() {
+        return Err(Failure::Input(
+            "--repeat: times the clamped body only (no --scene, rear hold at the origin)".into(),
+        ));
+    }
+    Ok(shape)
 }
 
 fn repeat(n: usize) -> Result<NonZeroUsize, Failure> {

@@ -4,6 +4,7 @@
 use leech::calibration::CalibrationError;
 use leech::dynamics::SimulationError;
 use leech::prelude::*;
+use leech::stance::StanceError;
 use leech_plot::figures::FigureError;
 use leech_plot::PlotError;
 
@@ -28,6 +29,15 @@ impl From<InputError> for Failure {
 impl From<SolveError> for Failure {
     fn from(e: SolveError) -> Self {
         Failure::Solve(e)
+    }
+}
+
+impl From<StanceError> for Failure {
+    fn from(e: StanceError) -> Self {
+        match e {
+            StanceError::Input(e) => e.into(),
+            StanceError::Solve(e) => e.into(),
+        }
     }
 }
 

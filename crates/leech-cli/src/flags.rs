@@ -43,6 +43,47 @@ pub enum Command {
     Compare(CompareArgs),
     /// Simulate the body's motion: settling, a step of lengths, or feeding at a speed.
     Simulate(SimulateArgs),
+    /// The built-in scenes and scene files: floors, walls, steps.
+    Scene(SceneArgs),
+}
+
+/// `leech scene`.
+#[derive(Debug, Args)]
+pub struct SceneArgs {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: SceneCommand,
+}
+
+/// The `leech scene` subcommands.
+#[derive(Debug, Subcommand)]
+pub enum SceneCommand {
+    /// List the built-in scenes with one line each.
+    List {
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Print a scene file: a built-in one with its comments, a file checked and rewritten.
+    Show {
+        /// A built-in scene's name, or a scene file (TOML).
+        #[arg(value_name = "NAME|FILE")]
+        scene: PathBuf,
+        /// Print JSON (units in the keys) instead of TOML.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+/// Which cups hold the body in `leech shape`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum HoldArg {
+    /// The rear cup (on the driving unit): today's clamped body.
+    Rear,
+    /// The front cup (on the endpoint plate); needs --front.
+    Front,
+    /// Both cups: a closed loop; needs --front.
+    Both,
 }
 
 /// Integrators for `leech simulate`.
@@ -349,16 +390,42 @@ pub struct ShapeArgs {
     /// Solve N times (cold each time, N <= 100000) and report the solve time (`solve_time_s` in JSON).
     #[arg(long, value_name = "N")]
     pub repeat: Option<usize>,
+    /// Surroundings the tubes rest on: a built-in scene's name (`leech scene list`) or a scene file.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub scene: Option<PathBuf>,
+    /// Which cups hold (default: rear).
+    #[arg(long, value_enum)]
+    pub hold: Option<HoldArg>,
+    /// The rear hold: the driving unit's point X,Y (m) and clamp direction DEG; it sets the base angle
+    /// (default: the origin at the robot's base angle).
+    #[arg(long, value_name = "X,Y,DEG", value_parser = parse_pose, allow_hyphen_values = true)]
+    pub rear: Option<[f64; 3]>,
+    /// The front hold: the endpoint X,Y (m) and the plate's angle DEG.
+    #[arg(long, value_name = "X,Y,DEG", value_parser = parse_pose, allow_hyphen_values = true)]
+    pub front: Option<[f64; 3]>,
     #[command(flatten)]
     pub output: Output,
 }
 
 /// Parses `LA,LB` into two numbers.
 fn parse_pair(text: &str) -> Result<[f64; 2], String> {
+    numbers(text, "two numbers in m separated by a comma", "a number in m")
+}
+
+/// Parses `X,Y,DEG` into three numbers.
+fn parse_pose(text: &str) -> Result<[f64; 3], String> {
+    numbers(text, "X,Y in m and DEG separated by commas", "a number")
+}
+
+/// `N` numbers separated by commas; `all` and `one` say what was expected.
+fn numbers<const N: usize>(text: &str, all: &str, one: &str) -> Result<[f64; N], String> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
-    let [a, b] = parts.as_slice() else {
-        return Err(format!("got '{text}', expected two numbers in m separated by a comma"));
-    };
-    let num = |s: &str| s.parse::<f64>().map_err(|_| format!("got '{s}' in '{text}', expected a number in m"));
-    Ok([num(a)?, num(b)?])
+    if parts.len() != N {
+        return Err(format!("got '{text}', expected {all}"));
+    }
+    let mut out = [0.0; N];
+    for (x, s) in out.iter_mut().zip(parts) {
+        *x = s.parse::<f64>().map_err(|_| format!("got '{s}' in '{text}', expected {one}"))?;
+    }
+    Ok(out)
 }

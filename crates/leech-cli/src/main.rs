@@ -17,8 +17,9 @@ use leech::calibration::Calibration;
 use leech::inverse_statics::Reacher;
 use leech::prelude::*;
 use leech::report::SolveTiming;
+use leech::stance;
 
-use args::Args;
+use args::{Args, Shape};
 use failure::Failure;
 use flags::Cli;
 
@@ -95,13 +96,7 @@ fn run(args: Args, out: &mut String) -> Result<(), Failure> {
             render::chain(out, &a, &eq)
         }
         Args::Shape(a) => {
-            let solved = match &a.solver {
-                Some(solver) => {
-                    let eq = a.body.solve(solver)?;
-                    Some((eq, a.repeat.map(|n| SolveTiming::measure(&a.body, solver, n))))
-                }
-                None => None,
-            };
+            let solved = a.solver.as_ref().map(|solver| solve_shape(&a, solver)).transpose()?;
             render::shape(out, &a, solved.as_ref())
         }
         Args::Figure(a) => {
@@ -137,8 +132,36 @@ fn run(args: Args, out: &mut String) -> Result<(), Failure> {
             bar.finish_and_clear();
             render::simulation(out, &a, &result, started.elapsed().as_secs_f64())
         }
+        Args::Scenes { json } => render::scenes(out, json),
+        Args::SceneShow { scene, builtin, json } => render::scene(out, &scene, builtin, json),
     }
 }
+
+/// The two-chain body where its holds put it. Today's clamped body is solved
+/// as always (its report and timing unchanged), then held by the rear cup,
+/// which takes one Newton step from it; its angles must not move.
+fn solve_shape(a: &Shape, solver: &Solver) -> Result<render::Solved, Failure> {
+    if !a.clamped() {
+        let held = match &a.scene {
+            Some(scene) => stance::solve_in(&a.robot, a.lengths, a.hold, scene, solver)?,
+            None => stance::solve(&a.robot, a.lengths, a.hold, solver)?,
+        };
+        return Ok(render::Solved { clamped: None, held });
+    }
+    let eq = a.body.solve(solver)?;
+    let timing = a.repeat.map(|n| SolveTiming::measure(&a.body, solver, n));
+    let held = stance::solve(&a.robot, a.lengths, a.hold, solver)?;
+    let moved = eq.q.iter().zip(&held.equilibrium.q).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
+    if moved > HELD_ANGLES_RAD {
+        eprintln!(
+            "leech: warning: holding the body moved its angles by {moved:.1e} rad; reactions are the held body's"
+        );
+    }
+    Ok(render::Solved { clamped: Some((eq, timing)), held })
+}
+
+/// How far the rear-held body's angles may be from the clamped body's (rad).
+const HELD_ANGLES_RAD: f64 = 1e-12;
 
 /// The starting robot with the fitted stiffness and mass, named as fitted.
 fn fitted(robot: &Robot, result: &Calibration) -> Result<Robot, InputError> {

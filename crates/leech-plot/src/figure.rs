@@ -3,6 +3,7 @@
 use std::path::Path;
 use std::sync::Once;
 
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
@@ -39,8 +40,10 @@ pub enum SeriesStyle {
     Dots,
     /// A dashed line (a kinematic model beside a physical one).
     Dashed,
-    /// A closed polygon, filled lightly (a reachable region).
+    /// A closed polygon, filled lightly (a reachable region, a solid).
     Area,
+    /// An arrow from the second-to-last point to the last (a force).
+    Arrow,
 }
 
 /// How data in metres is shown on the axes.
@@ -93,6 +96,51 @@ pub const PALETTE: [(u8, u8, u8); 6] =
     [(0, 114, 178), (213, 94, 0), (0, 158, 115), (204, 121, 167), (86, 180, 233), (230, 159, 0)];
 
 const FONT: &str = "sans-serif";
+
+/// An arrow head's length as a fraction of the plot's width.
+const ARROW_HEAD: f64 = 0.022;
+
+/// The chart a figure draws on: axes in axis units.
+type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+fn draw_error<E: std::error::Error + Send + Sync>(e: DrawingAreaErrorKind<E>) -> PlotError {
+    PlotError::Draw(e.to_string())
+}
+
+/// A filled arrow head with its tip at `tip`, pointing along `direction`,
+/// `length` long (axis units).
+fn arrow_head(tip: (f64, f64), direction: (f64, f64), length: f64, color: RGBColor) -> Polygon<(f64, f64)> {
+    let norm = direction.0.hypot(direction.1).max(f64::MIN_POSITIVE);
+    let (ux, uy) = (direction.0 / norm, direction.1 / norm);
+    let base = (tip.0 - length * ux, tip.1 - length * uy);
+    let half = 0.4 * length;
+    Polygon::new(
+        vec![tip, (base.0 - half * uy, base.1 + half * ux), (base.0 + half * uy, base.1 - half * ux)],
+        color.filled(),
+    )
+}
+
+/// The arrow showing gravity (-y) in corner `corner` of the plot.
+fn gravity_arrow<DB: DrawingBackend>(
+    chart: &mut Chart<'_, DB>,
+    corner: usize,
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+) -> Result<(), PlotError>
+where
+    DB::ErrorType: 'static,
+{
+    let len = (y1 - y0) * 0.08;
+    let x = if corner % 2 == 0 { x0 + (x1 - x0) * 0.06 } else { x1 - (x1 - x0) * 0.06 };
+    let y = if corner < 2 { y1 - (y1 - y0) * 0.04 } else { y0 + (y1 - y0) * 0.04 + len };
+    let black = BLACK.stroke_width(2);
+    chart.draw_series(std::iter::once(PathElement::new(vec![(x, y), (x, y - len)], black))).map_err(draw_error)?;
+    chart.draw_series(std::iter::once(arrow_head((x, y - len), (0.0, -1.0), len * 0.3, BLACK))).map_err(draw_error)?;
+    chart
+        .draw_series(std::iter::once(Text::new("g", (x + (x1 - x0) * 0.012, y - len * 0.3), (FONT, 16))))
+        .map_err(draw_error)?;
+    Ok(())
+}
 
 fn register_font() {
     static ONCE: Once = Once::new();
@@ -183,8 +231,7 @@ impl Figure {
         const Y_LABELS: u32 = 60;
         const CAPTION: u32 = 34;
         register_font();
-        let err = |e: DrawingAreaErrorKind<DB::ErrorType>| PlotError::Draw(e.to_string());
-        root.fill(&WHITE).map_err(err)?;
+        root.fill(&WHITE).map_err(draw_error)?;
         let (w, h) = self.size;
         let plot_w = w.saturating_sub(2 * MARGIN + Y_LABELS).max(1) as f64;
         let plot_h = h.saturating_sub(2 * MARGIN + X_LABELS + CAPTION).max(1) as f64;
@@ -195,7 +242,7 @@ impl Figure {
             .x_label_area_size(X_LABELS)
             .y_label_area_size(Y_LABELS)
             .build_cartesian_2d(x0..x1, y0..y1)
-            .map_err(err)?;
+            .map_err(draw_error)?;
         chart
             .configure_mesh()
             .x_desc(self.axes.x_label.as_str())
@@ -204,54 +251,15 @@ impl Figure {
             .axis_desc_style((FONT, 15))
             .light_line_style(RGBColor(235, 235, 235))
             .draw()
-            .map_err(err)?;
+            .map_err(draw_error)?;
+        // Arrow heads in axis units: the same size on the page whatever the arrow's length.
+        let head = ARROW_HEAD * (x1 - x0);
         for s in &self.series {
-            let color = RGBColor(s.color.0, s.color.1, s.color.2);
-            let scale = self.axes.scale;
-            let mm: Vec<(f64, f64)> = s.points.iter().map(|p| (p[0] * scale, p[1] * scale)).collect();
-            let width = match s.style {
-                SeriesStyle::Thick => 4,
-                _ => 2,
-            };
-            let drawn = match s.style {
-                SeriesStyle::Dots => {
-                    chart.draw_series(mm.iter().map(|p| Circle::new(*p, 3, color.filled()))).map_err(err)?
-                }
-                SeriesStyle::Dashed => chart
-                    .draw_series(DashedLineSeries::new(mm.clone(), 6, 4, color.stroke_width(width)))
-                    .map_err(err)?,
-                SeriesStyle::Area => chart
-                    .draw_series(std::iter::once(Polygon::new(mm.clone(), color.mix(0.25).filled())))
-                    .map_err(err)?,
-                _ => chart.draw_series(LineSeries::new(mm.clone(), color.stroke_width(width))).map_err(err)?,
-            };
-            if !s.label.is_empty() {
-                drawn
-                    .label(s.label.clone())
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(width)));
-            }
-            if s.style == SeriesStyle::LineAndDots {
-                chart.draw_series(mm.iter().map(|p| Circle::new(*p, 2, color.filled()))).map_err(err)?;
-            }
+            self.draw_series(&mut chart, s, head)?;
         }
         let corners = self.corners_by_emptiness((x0, x1), (y0, y1));
         if self.gravity_arrow {
-            let c = corners[1];
-            let len = (y1 - y0) * 0.08;
-            let x = if c % 2 == 0 { x0 + (x1 - x0) * 0.06 } else { x1 - (x1 - x0) * 0.06 };
-            let y = if c < 2 { y1 - (y1 - y0) * 0.04 } else { y0 + (y1 - y0) * 0.04 + len };
-            let black = BLACK.stroke_width(2);
-            chart.draw_series(std::iter::once(PathElement::new(vec![(x, y), (x, y - len)], black))).map_err(err)?;
-            let head = len * 0.3;
-            chart
-                .draw_series(std::iter::once(Polygon::new(
-                    vec![(x, y - len), (x - head * 0.4, y - len + head), (x + head * 0.4, y - len + head)],
-                    BLACK.filled(),
-                )))
-                .map_err(err)?;
-            chart
-                .draw_series(std::iter::once(Text::new("g", (x + (x1 - x0) * 0.012, y - len * 0.3), (FONT, 16))))
-                .map_err(err)?;
+            gravity_arrow(&mut chart, corners[1], (x0, x1), (y0, y1))?;
         }
         let position = match corners[0] {
             0 => SeriesLabelPosition::UpperLeft,
@@ -266,8 +274,51 @@ impl Figure {
             .border_style(RGBColor(180, 180, 180))
             .position(position)
             .draw()
-            .map_err(err)?;
-        root.present().map_err(err)?;
+            .map_err(draw_error)?;
+        root.present().map_err(draw_error)?;
+        Ok(())
+    }
+
+    /// One series, with its legend entry when it has a label; `head` is the
+    /// length of an arrow head (axis units).
+    fn draw_series<DB: DrawingBackend>(&self, chart: &mut Chart<'_, DB>, s: &Series, head: f64) -> Result<(), PlotError>
+    where
+        DB::ErrorType: 'static,
+    {
+        let color = RGBColor(s.color.0, s.color.1, s.color.2);
+        let scale = self.axes.scale;
+        let mm: Vec<(f64, f64)> = s.points.iter().map(|p| (p[0] * scale, p[1] * scale)).collect();
+        let width = match s.style {
+            SeriesStyle::Thick => 4,
+            _ => 2,
+        };
+        let drawn = match s.style {
+            SeriesStyle::Dots => {
+                chart.draw_series(mm.iter().map(|p| Circle::new(*p, 3, color.filled()))).map_err(draw_error)?
+            }
+            SeriesStyle::Dashed => chart
+                .draw_series(DashedLineSeries::new(mm.clone(), 6, 4, color.stroke_width(width)))
+                .map_err(draw_error)?,
+            SeriesStyle::Area => chart
+                .draw_series(std::iter::once(Polygon::new(mm.clone(), color.mix(0.25).filled())))
+                .map_err(draw_error)?,
+            SeriesStyle::Arrow if mm.len() >= 2 => {
+                let (from, to) = (mm[mm.len() - 2], mm[mm.len() - 1]);
+                let length = (to.0 - from.0).hypot(to.1 - from.1);
+                let tip = arrow_head(to, (to.0 - from.0, to.1 - from.1), head.min(0.5 * length), color);
+                chart.draw_series(std::iter::once(tip)).map_err(draw_error)?;
+                chart.draw_series(LineSeries::new(mm.clone(), color.stroke_width(width))).map_err(draw_error)?
+            }
+            _ => chart.draw_series(LineSeries::new(mm.clone(), color.stroke_width(width))).map_err(draw_error)?,
+        };
+        if !s.label.is_empty() {
+            drawn
+                .label(s.label.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(width)));
+        }
+        if s.style == SeriesStyle::LineAndDots {
+            chart.draw_series(mm.iter().map(|p| Circle::new(*p, 2, color.filled()))).map_err(draw_error)?;
+        }
         Ok(())
     }
 

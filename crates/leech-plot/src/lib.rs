@@ -6,7 +6,8 @@
 //! It renders to SVG or PNG with an embedded font, so it works on a machine
 //! without system fonts.
 //!
-//! [`shape`] builds the standard pictures of a body and of a single tube;
+//! [`shape`] builds the standard pictures of a body and of a single tube,
+//! [`stance`] a held body among a scene's solids with its cups and forces;
 //! [`figures`] regenerates the paper's figures with their data.
 //!
 //! ```
@@ -25,5 +26,6 @@ pub mod animation;
 pub mod figure;
 pub mod figures;
 pub mod shape;
+pub mod stance;
 
 pub use figure::{Axes, Figure, PlotError, Series, SeriesStyle};

@@ -12,6 +12,10 @@ use crate::dynamics::Sample;
 use crate::statics::{Equilibrium, Event, Solver};
 use crate::sweep::{Model, Point};
 
+mod held;
+
+pub use held::{Cups, HalfPlaneReport, HoldReport, Holds, PolygonReport, SceneReport, ShapeReport, StanceReport};
+
 /// How the solve went.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Solution {

@@ -15,7 +15,12 @@ use leech::constant_curvature::PlanarBody;
 use leech::dynamics::Simulation;
 use leech::inverse_statics::Reach;
 use leech::prelude::*;
-use leech::report::{BodyReport, CantileverReport, ConstantCurvatureReport, SampleRow, SolveTiming, SweepRow};
+use leech::report::{
+    BodyReport, CantileverReport, ConstantCurvatureReport, SampleRow, SceneReport, ShapeReport, SolveTiming,
+    StanceReport, SweepRow,
+};
+use leech::scene::Scene;
+use leech::stance::Held;
 use leech::sweep::{Model, Sweep};
 use leech_plot::figures::Output;
 use serde::Serialize;
@@ -81,41 +86,76 @@ pub fn chain(out: &mut String, a: &Chain, eq: &Equilibrium) -> Result<(), Failur
     files::pictures(&a.outputs, || leech_plot::shape::cantilever_figure(&title, &a.tube, &eq.q))
 }
 
-/// `leech shape`; `solved` is the two-chain model's equilibrium and timing when it ran.
-pub fn shape(out: &mut String, a: &Shape, solved: Option<&(Equilibrium, Option<SolveTiming>)>) -> Result<(), Failure> {
+/// The two-chain model's results: the clamped body's equilibrium and timing
+/// when the situation is today's, and the body where its holds put it.
+pub struct Solved {
+    pub clamped: Option<(Equilibrium, Option<SolveTiming>)>,
+    pub held: Held,
+}
+
+/// `leech shape`; `solved` is the two-chain model's when it ran.
+pub fn shape(out: &mut String, a: &Shape, solved: Option<&Solved>) -> Result<(), Failure> {
     let [la, lb] = a.lengths;
     let cc = PlanarBody::of(&a.robot);
     let cc_report = ConstantCurvatureReport::new(&cc, la, lb, 60);
-    let two_chain = solved.map(|(eq, timing)| {
-        (eq, BodyReport::new(&a.robot.name, a.robot.shape_parameter(), &a.body, eq), timing.as_ref())
+    let cups = solved.map(|s| s.held.cups(&a.robot)).transpose()?;
+    let two_chain = solved.zip(cups.as_ref()).map(|(s, cups)| {
+        let body = match &s.clamped {
+            Some((eq, _)) => BodyReport::new(&a.robot.name, a.robot.shape_parameter(), &a.body, eq),
+            None => BodyReport::held(&a.robot, &s.held),
+        };
+        let stance = StanceReport::new(&a.robot, &s.held, a.scene.as_ref(), cups);
+        (ShapeReport { body, stance }, s.clamped.as_ref().and_then(|(_, t)| t.as_ref()))
     });
     let with_cc = a.models.contains(&Model::ConstantCurvature);
     if a.outputs.json {
         match (&two_chain, with_cc) {
             // The timing joins the report's keys (sorted, as serde_json's maps are).
-            (Some((_, report, Some(timing))), false) => {
+            (Some((report, Some(timing))), false) => {
                 let mut v = serde_json::to_value(report).context("serializing the result")?;
                 v["solve_time_s"] = serde_json::to_value(timing).context("serializing the timing")?;
                 json(out, &v)?
             }
-            (Some((_, report, None)), false) => json(out, report)?,
-            (Some((_, report, _)), true) => json(out, &json!({ "models": [report, cc_report] }))?,
+            (Some((report, None)), false) => json(out, report)?,
+            (Some((report, _)), true) => json(out, &json!({ "models": [report, cc_report] }))?,
             (None, _) => json(out, &cc_report)?,
         }
     } else {
-        text::shape(
-            out,
-            &a.robot,
-            a.lengths,
-            two_chain.as_ref().map(|(_, r, t)| (r, *t)),
-            with_cc.then_some(&cc_report),
-        );
+        let body = two_chain.as_ref().map(|(r, t)| (&r.body, *t));
+        text::shape(out, &a.robot, a.lengths, body, with_cc.then_some(&cc_report));
+        if let Some((report, _)) = &two_chain {
+            text::stance(out, &report.stance, a.robot.cup.min_safety_factor);
+        }
     }
-    files::pictures(&a.outputs, || match (&two_chain, with_cc) {
-        (Some((eq, ..)), true) => leech_plot::shape::comparison_figure(&a.robot.name, &a.body, &eq.q, &cc),
-        (Some((eq, ..)), false) => leech_plot::shape::body_figure(&a.robot.name, &a.body, &eq.q),
+    files::pictures(&a.outputs, || match (solved.zip(cups.as_ref()), with_cc) {
+        (Some((s, _)), true) => {
+            let q = s.clamped.as_ref().map_or(&s.held.equilibrium.q, |(eq, _)| &eq.q);
+            leech_plot::shape::comparison_figure(&a.robot.name, &a.body, q, &cc)
+        }
+        (Some((s, cups)), false) => leech_plot::stance::held_figure(&a.robot, &s.held, a.scene.as_ref(), cups),
         (None, _) => leech_plot::shape::constant_curvature_figure(&a.robot.name, &cc, la, lb),
     })
+}
+
+/// `leech scene list`: each built-in scene's name and what it is.
+pub fn scenes(out: &mut String, as_json: bool) -> Result<(), Failure> {
+    if as_json {
+        let list: Vec<_> = Scene::builtin_names().map(|(name, d)| json!({ "name": name, "description": d })).collect();
+        return json(out, &json!({ "scenes": list }));
+    }
+    text::scenes(out);
+    Ok(())
+}
+
+/// `leech scene show`: a built-in scene's file with its comments, another
+/// scene as its file would be; or its JSON form.
+pub fn scene(out: &mut String, scene: &Scene, builtin: Option<&str>, as_json: bool) -> Result<(), Failure> {
+    match (as_json, builtin) {
+        (true, _) => json(out, &SceneReport::from(scene))?,
+        (false, Some(text)) => out.push_str(text),
+        (false, None) => out.push_str(&scene.to_toml_string()),
+    }
+    Ok(())
 }
 
 /// One figure of `leech figure`: its picture and table in `dir`.

@@ -4,10 +4,11 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use leech::calibration::{Calibration, ShapeComparison, ShapeError};
+use leech::cup::CupMode;
 use leech::dynamics::Simulation;
 use leech::inverse_statics::{Reach, ReachStatus};
 use leech::prelude::*;
-use leech::report::{BodyReport, CantileverReport, ConstantCurvatureReport, Solution, SolveTiming};
+use leech::report::{BodyReport, CantileverReport, ConstantCurvatureReport, Solution, SolveTiming, StanceReport};
 use leech::sweep::{Extreme, Sweep};
 
 /// `writeln!` into a `String`, which cannot fail.
@@ -70,6 +71,62 @@ pub fn shape(
     if let Some(r) = constant_curvature {
         let bend = format_args!("bend {:.3} rad", r.bend_rad);
         endpoint(out, "constant curvature", r.endpoint_m, r.endpoint_angle_rad, bend);
+    }
+}
+
+/// Where the holds put the driving unit, what each cup carries and whether
+/// it holds, and the contacts with the scene.
+pub fn stance(out: &mut String, s: &StanceReport, minimum: f64) {
+    let mm = |p: [f64; 2]| format!("({:.3}, {:.3}) mm", p[0] * 1e3, p[1] * 1e3);
+    say!(
+        out,
+        "driving unit at {}, clamp direction {:.3} deg; weight {:.4} N, centre of mass at {}",
+        mm(s.driving_unit_m),
+        s.driving_unit_angle_rad.to_degrees(),
+        s.weight_n,
+        mm(s.centre_of_mass_m)
+    );
+    for (name, hold, cup) in [("rear", &s.holds.rear, s.rear_cup_m), ("front", &s.holds.front, s.front_cup_m)] {
+        let Some(h) = hold else {
+            say!(out, "{name} cup at {}, free", mm(cup));
+            continue;
+        };
+        let (f, v) = (h.force_n, &h.verdict);
+        let mode = match v.limited_by {
+            Some(CupMode::Normal) => " (pull-off and peel)",
+            Some(CupMode::Shear) => " (sliding)",
+            None => "",
+        };
+        let verdict = match (v.holds, v.meets_minimum) {
+            _ if v.safety_factor.is_infinite() => "holds, unloaded".to_string(),
+            (true, true) => format!("holds, safety factor {:.2}{mode}", v.safety_factor),
+            (true, false) => format!("holds, safety factor {:.2} below the minimum {minimum}{mode}", v.safety_factor),
+            (false, _) => format!("FAILS, safety factor {:.2}{mode}", v.safety_factor),
+        };
+        say!(
+            out,
+            "{name} hold: force ({:.4}, {:.4}) N, moment {:.5} N m; cup at {}: {verdict}",
+            f[0],
+            f[1],
+            h.moment_nm,
+            mm(h.cup_m)
+        );
+    }
+    if let Some(scene) = &s.scene {
+        let total = s.contacts.iter().fold(0.0, |sum, c| sum + c.force_n);
+        let (n, plural) = (s.contacts.len(), if s.contacts.len() == 1 { "" } else { "s" });
+        say!(
+            out,
+            "scene {scene}: {n} contact{plural} carrying {total:.4} N in all; deepest penetration {:.1e} m",
+            s.penetration_m
+        );
+    }
+}
+
+/// `leech scene list`.
+pub fn scenes(out: &mut String) {
+    for (name, description) in leech::scene::Scene::builtin_names() {
+        say!(out, "{name:<14} {description}");
     }
 }
 

@@ -402,3 +402,5 @@ fn simulate_writes_series_animation_and_summary() {
     rejected(&["simulate", "--lengths", "0.2,0.2", "--step"]);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+mod holds;

@@ -56,6 +56,7 @@
 mod contact;
 mod floating;
 mod hold;
+mod points;
 mod scene_solve;
 
 pub use contact::{detect, penetration, ContactOptions, ContactRow};

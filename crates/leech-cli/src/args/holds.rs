@@ -1,0 +1,105 @@
+//! The holds and the scene of `leech shape` (and the scene of `leech
+//! scene show`): poses checked, scene files read with a size limit, holds
+//! clear of the solids.
+
+use std::path::Path;
+
+use leech::error::within;
+use leech::geom::{add_scaled, right_normal};
+use leech::prelude::*;
+use leech::scene::{Scene, BUILTIN_SCENES, MAX_COORDINATE_M, MAX_SCENE_BYTES, ON_SURFACE_M};
+use leech::stance::{Hold, Pose};
+
+use crate::failure::Failure;
+use crate::flags::{self, HoldArg, ModelArg};
+
+/// The holds and the scene of `leech shape`, checked before any solve.
+pub(super) fn situation(a: &flags::ShapeArgs, robot: &Robot, rear: Pose) -> Result<(Hold, Option<Scene>), Failure> {
+    let given = a.scene.is_some() || a.hold.is_some() || a.rear.is_some() || a.front.is_some();
+    if given && a.model != ModelArg::TwoChain {
+        return Err(Failure::Input("--scene, --hold, --rear, --front: only with --model two-chain".into()));
+    }
+    let front = a.front.map(|p| pose("--front", p, 720.0)).transpose()?;
+    let hold = match (a.hold.unwrap_or(HoldArg::Rear), front) {
+        (HoldArg::Rear, None) => Hold::Rear(rear),
+        (HoldArg::Rear, Some(_)) => return Err(Failure::Input("--front: only with --hold front or both".into())),
+        (HoldArg::Front, Some(_)) if a.rear.is_some() => {
+            return Err(Failure::Input("--rear: only with --hold rear or both".into()))
+        }
+        (HoldArg::Front, Some(front)) => Hold::Front(front),
+        (HoldArg::Both, Some(front)) => Hold::Both { rear, front },
+        (held, None) => {
+            let name = if held == HoldArg::Front { "front" } else { "both" };
+            return Err(Failure::Input(format!(
+                "--hold {name}: needs --front X,Y,DEG (the endpoint and the plate's angle)"
+            )));
+        }
+    };
+    let scene = a.scene.as_deref().map(|p| load_scene(p, "--scene")).transpose()?.map(|(scene, _)| scene);
+    if let Some(scene) = &scene {
+        clear_of(scene, robot, hold)?;
+    }
+    Ok((hold, scene))
+}
+
+/// A pose from `X,Y,DEG`: coordinates within the scenes' bounds, the angle within `+-max_deg`.
+pub(super) fn pose(flag: &str, [x, y, deg]: [f64; 3], max_deg: f64) -> Result<Pose, InputError> {
+    let m = MAX_COORDINATE_M;
+    let point = [within(&format!("{flag} x (m)"), x, -m, m)?, within(&format!("{flag} y (m)"), y, -m, m)?];
+    Ok(Pose::from_deg(point, within(&format!("{flag} angle (deg)"), deg, -max_deg, max_deg)?))
+}
+
+/// Rejects holds inside the scene's solids (deeper than [`ON_SURFACE_M`]):
+/// the driving unit's point and
+/// the rear cup's centre, the endpoint and the front cup's centre (each cup
+/// sits on chain B's side: `b` or `c` plus its offset along `nu`).
+fn clear_of(scene: &Scene, robot: &Robot, hold: Hold) -> Result<(), Failure> {
+    let cup = |pose: Pose, offset: f64| add_scaled(pose.point_m, offset, right_normal(pose.angle_rad));
+    let mut points = Vec::new();
+    if let Some(p) = hold.rear() {
+        let offset = robot.body.base_spacing_m + robot.cup.rear_offset_m;
+        points.extend([("--rear", "the driving unit", p.point_m), ("--rear", "the rear cup's centre", cup(p, offset))]);
+    }
+    if let Some(p) = hold.front() {
+        let offset = robot.body.tip_spacing_m + robot.cup.front_offset_m;
+        points.extend([("--front", "the endpoint", p.point_m), ("--front", "the front cup's centre", cup(p, offset))]);
+    }
+    // A point on a surface is clear, to rounding.
+    match points.into_iter().find(|(_, _, p)| !scene.is_free(*p, -ON_SURFACE_M)) {
+        Some((flag, what, [x, y])) => Err(Failure::Input(format!(
+            "{flag}: {what} at ({:.1}, {:.1}) mm is inside a solid of the scene, expected free space or a surface",
+            x * 1e3,
+            y * 1e3
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// A built-in scene by name (with its file's text), else a scene file.
+pub(super) fn load_scene(given: &Path, flag: &str) -> Result<(Scene, Option<&'static str>), Failure> {
+    if let Some(b) = given.to_str().and_then(|name| BUILTIN_SCENES.iter().find(|s| s.name == name)) {
+        return Ok((Scene::builtin(b.name)?, Some(b.toml)));
+    }
+    if !given.exists() {
+        let names: Vec<&str> = BUILTIN_SCENES.iter().map(|s| s.name).collect();
+        let given = given.display();
+        return Err(Failure::Input(format!(
+            "{flag}: got '{given}', expected a scene file or one of {}",
+            names.join(", ")
+        )));
+    }
+    let text = read_at_most(given, flag, MAX_SCENE_BYTES).map_err(Failure::Input)?;
+    Ok((Scene::from_toml_str(&text, &given.display().to_string())?, None))
+}
+
+/// A text file of at most `limit` bytes, never reading more than one byte past it.
+fn read_at_most(path: &Path, flag: &str, limit: usize) -> Result<String, String> {
+    use std::io::Read;
+    let cannot = |e: std::io::Error| format!("{flag}: cannot read '{}': {e}", path.display());
+    let mut bytes = Vec::new();
+    std::fs::File::open(path).and_then(|f| f.take(limit as u64 + 1).read_to_end(&mut bytes)).map_err(cannot)?;
+    if bytes.len() > limit {
+        return Err(format!("{flag}: '{}' has more than {limit} bytes, expected at most {limit}", path.display()));
+    }
+    String::from_utf8(bytes).map_err(|_| format!("{flag}: '{}' is not UTF-8 text", path.display()))
+}
