@@ -47,13 +47,27 @@ pub(super) fn distance(a: &[f64], b: &[f64]) -> f64 {
 /// `out = base - J_A^T lambda` for an interleaved Jacobian of stride `m`
 /// (inactive rows carry zero multipliers, so they drop out).
 pub(super) fn transposed_product(base: &[f64], jac: &[f64], lambda: &[f64], out: &mut [f64]) {
-    let m = lambda.len();
-    if m == 0 {
-        out.copy_from_slice(base);
-        return;
+    match lambda.len() {
+        0 => out.copy_from_slice(base),
+        // The clamped body's three weld rows: unrolled, as the solver's hot path.
+        3 => transposed_product_fixed::<3>(base, jac, lambda, out),
+        m => {
+            for ((o, b), j) in out.iter_mut().zip(base).zip(jac.chunks_exact(m)) {
+                *o = j.iter().zip(lambda).fold(*b, |acc, (a, l)| acc - a * l);
+            }
+        }
     }
-    for ((o, b), j) in out.iter_mut().zip(base).zip(jac.chunks_exact(m)) {
-        *o = j.iter().zip(lambda).fold(*b, |acc, (a, l)| acc - a * l);
+}
+
+/// [`transposed_product`] for `M` rows known at compile time (the same sums in the same order).
+fn transposed_product_fixed<const M: usize>(base: &[f64], jac: &[f64], lambda: &[f64], out: &mut [f64]) {
+    let lambda: &[f64; M] = lambda.try_into().expect("M multipliers");
+    for ((o, b), j) in out.iter_mut().zip(base).zip(jac.chunks_exact(M)) {
+        let mut acc = *b;
+        for r in 0..M {
+            acc -= j[r] * lambda[r];
+        }
+        *o = acc;
     }
 }
 
@@ -88,14 +102,9 @@ impl Solver {
     }
 
     /// Scaled Euclidean norm of `(grad V - J^T lambda, C_A)`, for step acceptance.
-    fn residual_l2(ev: &Evaluation, rows: &[Row], lambda: &[f64], active: &[bool], k: f64) -> f64 {
-        let m = rows.len();
-        let mut s = 0.0;
-        for (i, g) in ev.gradient.iter().enumerate() {
-            let j = &ev.jacobian[i * m..i * m + m];
-            let ri = j.iter().zip(lambda).fold(*g, |acc, (a, l)| acc - a * l);
-            s += (ri / k) * (ri / k);
-        }
+    /// `r` is `grad V - J^T lambda` of `ev`.
+    fn residual_l2(ev: &Evaluation, rows: &[Row], r: &[f64], active: &[bool], k: f64) -> f64 {
+        let s = r.iter().fold(0.0, |s, ri| s + (ri / k) * (ri / k));
         Self::infeasibility(s, ev, rows, active, 2)
     }
 
@@ -380,13 +389,14 @@ impl Solver {
         let phi0 = Self::merit(&ws.current, &ws.rows, &it.active, state.rho, k);
         let slope = ws.current.gradient.iter().zip(&ws.step).map(|(g, d)| g * d).sum::<f64>() / k
             - state.rho * Self::infeasibility(0.0, &ws.current, &ws.rows, &it.active, 1);
-        let r0 = Self::residual_l2(&ws.current, &ws.rows, &it.lambda, &it.active, k).sqrt();
+        let r0 = Self::residual_l2(&ws.current, &ws.rows, &ws.residual, &it.active, k).sqrt();
         for i in 0..ws.n {
             ws.q_trial[i] = it.q[i] + ws.step[i];
         }
         sys.evaluate(&ws.q_trial, t, &mut ws.trial);
         let phi = Self::merit(&ws.trial, &ws.rows, &it.active, state.rho, k);
-        let r_trial = Self::residual_l2(&ws.trial, &ws.rows, &ws.lambda_trial, &it.active, k).sqrt();
+        transposed_product(&ws.trial.gradient, &ws.trial.jacobian, &ws.lambda_trial, &mut ws.residual_trial);
+        let r_trial = Self::residual_l2(&ws.trial, &ws.rows, &ws.residual_trial, &it.active, k).sqrt();
         // A decrease lost in rounding is no progress: accepting it would
         // spend the iteration budget on null steps.
         let measurable = phi0 - phi > tuning.measurable_decrease * phi0.abs().max(1.0);
