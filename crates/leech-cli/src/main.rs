@@ -72,7 +72,8 @@ fn exit_code(failure: Failure, json: bool) -> ExitCode {
 fn clap_failure(e: &clap::Error) -> ExitCode {
     use clap::error::ErrorKind;
     if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
-        print!("{e}");
+        // `leech --help | head` closes the pipe early: not an error.
+        render::emit(&e.to_string());
         return ExitCode::SUCCESS;
     }
     // One line: clap's message without its usage and help hints.

@@ -404,3 +404,22 @@ fn simulate_writes_series_animation_and_summary() {
 }
 
 mod holds;
+
+/// Help into a pipe closed early (`leech shape --help | head -0`) is not a panic.
+#[test]
+fn help_into_a_closed_pipe_does_not_panic() {
+    use std::process::{Command, Stdio};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_leech"))
+        .args(["shape", "--help"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Close the reading end at once: the help is written into a closed pipe
+    // (the process takes milliseconds to start; this takes microseconds).
+    drop(child.stdout.take());
+    let output = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(output.status.success(), "{:?}", output.status);
+}
