@@ -6,6 +6,7 @@ mod continuum;
 mod cup;
 mod derivatives;
 mod dynamics;
+mod holds_references;
 mod inverse_statics;
 mod limits;
 mod linalg;

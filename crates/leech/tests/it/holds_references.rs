@@ -1,0 +1,313 @@
+//! Holds and contacts against independent references: `validation/holds_references.py`
+//! writes the model again from its equations (floating driving unit, weld, holds, frictionless
+//! contacts) and solves it with SciPy (`trust-constr`, then SLSQP and Newton on the active set);
+//! the results are committed as `tests/data/holds.json`.
+//!
+//! Every case is solved by leech the ordinary way (`stance::solve`, or `stance::solve_in` with
+//! the case's scene) and must match: angles to 1e-7 rad, positions to 1e-7 m, reactions and
+//! contact forces to 1e-6 N (N m), and balance the weight to 1e-9. A case leech does not solve
+//! or does not match is marked `known_failure` in the fixture: the test then checks that it still
+//! fails the same way, so that a fix shows up here (remove the mark then).
+
+use std::collections::BTreeMap;
+
+use leech::prelude::*;
+use leech::scene::Scene;
+use leech::stance::{self, Held, Hold, Pose, StanceError};
+use serde_json::Value;
+
+const ANGLE_TOLERANCE_RAD: f64 = 1e-7;
+const POSITION_TOLERANCE_M: f64 = 1e-7;
+const FORCE_TOLERANCE_N: f64 = 1e-6;
+const BALANCE_TOLERANCE: f64 = 1e-9;
+
+fn fixture() -> Value {
+    let path = format!("{}/tests/data/holds.json", env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
+    serde_json::from_str(&text).expect("fixture is JSON")
+}
+
+fn num(v: &Value) -> f64 {
+    v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
+}
+
+fn numbers(v: &Value) -> Vec<f64> {
+    v.as_array().unwrap_or_else(|| panic!("not a list: {v}")).iter().map(num).collect()
+}
+
+fn pair(v: &Value) -> [f64; 2] {
+    let x = numbers(v);
+    assert_eq!(x.len(), 2, "{v}");
+    [x[0], x[1]]
+}
+
+fn pose(v: &Value) -> Option<Pose> {
+    (!v.is_null()).then(|| Pose { point_m: pair(&v["point_m"]), angle_rad: num(&v["angle_rad"]) })
+}
+
+fn hold(case: &Value) -> Hold {
+    match (pose(&case["rear"]), pose(&case["front"])) {
+        (Some(rear), None) => Hold::Rear(rear),
+        (None, Some(front)) => Hold::Front(front),
+        (Some(rear), Some(front)) => Hold::Both { rear, front },
+        (None, None) => panic!("{}: no hold", case["name"]),
+    }
+}
+
+/// The built-in robot in the case's discretization.
+fn robot(case: &Value) -> Robot {
+    match case["discretization"].as_str() {
+        Some("paper") => Robot::builtin(),
+        Some("midpoint") => Robot::builtin().with_discretization(Discretization::Midpoint),
+        other => panic!("{}: discretization {other:?}", case["name"]),
+    }
+}
+
+fn solve(case: &Value) -> Result<Held, StanceError> {
+    let robot = robot(case);
+    let lengths = pair(&case["lengths_m"]);
+    let solver = Solver::default();
+    match case["scene_toml"].as_str() {
+        None => stance::solve(&robot, lengths, hold(case), &solver),
+        Some(text) => {
+            let name = case["name"].as_str().unwrap();
+            let scene = Scene::from_toml_str(text, name).unwrap_or_else(|e| panic!("{name}: {e}"));
+            stance::solve_in(&robot, lengths, hold(case), &scene, &solver)
+        }
+    }
+}
+
+/// The comparison of one case: what differs beyond its tolerance (one line each), and the
+/// largest difference of each kind.
+#[derive(Default)]
+struct Comparison {
+    failures: Vec<String>,
+    largest: BTreeMap<&'static str, f64>,
+}
+
+impl Comparison {
+    /// Compares `ours` with `theirs` entry by entry: `kind` is "rad", "m" or "N".
+    fn close(&mut self, what: &str, kind: &'static str, ours: &[f64], theirs: &[f64], tolerance: f64) {
+        if ours.len() != theirs.len() {
+            self.failures.push(format!("{what}: {} values, reference {}", ours.len(), theirs.len()));
+            return;
+        }
+        let (i, diff) = ours.iter().zip(theirs).map(|(a, b)| (a - b).abs()).enumerate().fold((0, 0.0), |m, (i, d)| {
+            if d > m.1 || d.is_nan() {
+                (i, d)
+            } else {
+                m
+            }
+        });
+        let largest = self.largest.entry(kind).or_insert(0.0);
+        *largest = largest.max(diff);
+        if !(diff <= tolerance) {
+            self.failures.push(format!(
+                "{what}[{i}]: leech {} vs reference {} (max diff {diff:.3e} > {tolerance:e})",
+                ours[i], theirs[i]
+            ));
+        }
+    }
+}
+
+/// Everything that differs beyond its tolerance, one line each (empty: leech matches).
+fn differences(case: &Value, held: &Held) -> Comparison {
+    let mut out = Comparison::default();
+    let q = &held.equilibrium.q;
+    let na = held.body.chain_a().len();
+    let nb = held.body.chain_b().len();
+    out.close("angles A (rad)", "rad", &q[..na], &numbers(&case["angles_a_rad"]), ANGLE_TOLERANCE_RAD);
+    out.close("angles B (rad)", "rad", &q[na..na + nb], &numbers(&case["angles_b_rad"]), ANGLE_TOLERANCE_RAD);
+    out.close("unit point (m)", "m", &held.unit.point_m, &numbers(&case["unit_point_m"]), POSITION_TOLERANCE_M);
+    out.close("unit angle (rad)", "rad", &[held.unit.angle_rad], &[num(&case["unit_angle_rad"])], ANGLE_TOLERANCE_RAD);
+    out.close("endpoint (m)", "m", &held.endpoint_m, &numbers(&case["endpoint_m"]), POSITION_TOLERANCE_M);
+    let plate = held.body.endpoint_angle(q);
+    out.close("plate angle (rad)", "rad", &[plate], &[num(&case["plate_angle_rad"])], ANGLE_TOLERANCE_RAD);
+    let weight = num(&case["weight_n"]);
+    out.close("weight (N)", "weight N", &[held.weight_n], &[weight], 1e-12 * weight);
+    // A contact on the last link of either chain (the nodes a front hold fixes) cannot be told
+    // from the front hold's reaction: the reference leaves those rows out, so add leech's forces
+    // there to its front reaction (force, and moment about the endpoint).
+    let fixed: Vec<(String, u64)> = case["fixed_nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| (v[0].as_str().unwrap().to_string(), v[1].as_u64().unwrap()))
+        .collect();
+    let is_fixed = |c: &stance::ContactForce| fixed.contains(&(c.chain.to_string(), c.node as u64));
+    let mut front = held.front;
+    for c in held.contacts.iter().filter(|c| is_fixed(c)) {
+        let r = front.as_mut().expect("fixed nodes only with a front hold");
+        let f = [c.force_n * c.normal[0], c.force_n * c.normal[1]];
+        let arm = [c.point_m[0] - held.endpoint_m[0], c.point_m[1] - held.endpoint_m[1]];
+        r.force_n[0] += f[0];
+        r.force_n[1] += f[1];
+        r.moment_nm += arm[0] * f[1] - arm[1] * f[0];
+    }
+    for (key, ours) in [("rear_reaction", &held.rear), ("front_reaction", &front)] {
+        match (ours, case[key].is_null()) {
+            (Some(r), false) => {
+                let theirs = [numbers(&case[key]["force_n"]), vec![num(&case[key]["moment_nm"])]].concat();
+                let ours = [r.force_n[0], r.force_n[1], r.moment_nm];
+                out.close(&format!("{key} (N, N, N m)"), "N", &ours, &theirs, FORCE_TOLERANCE_N);
+            }
+            (None, true) => {}
+            _ => out.failures.push(format!("{key}: leech {ours:?}, reference {}", case[key])),
+        }
+    }
+    // Contacts: the force vectors summed per touching point (chain, node, fraction), a point
+    // missing on one side counting as no force; the points where both push must coincide.
+    let key = |chain: &str, node: u64, fraction: f64| (chain.to_string(), node, (fraction * 1e6).round() as i64);
+    let mut forces: BTreeMap<_, ([f64; 2], [f64; 2], Option<[f64; 2]>, Option<[f64; 2]>)> = BTreeMap::new();
+    for c in held.contacts.iter().filter(|c| !is_fixed(c)) {
+        let e = forces.entry(key(c.chain, c.node as u64, c.fraction)).or_default();
+        e.0[0] += c.force_n * c.normal[0];
+        e.0[1] += c.force_n * c.normal[1];
+        e.2 = Some(c.point_m);
+    }
+    for c in case["contacts"].as_array().unwrap() {
+        let f = num(&c["force_n"]);
+        let n = pair(&c["normal"]);
+        let e = forces
+            .entry(key(c["chain"].as_str().unwrap(), c["node"].as_u64().unwrap(), num(&c["fraction"])))
+            .or_default();
+        e.1[0] += f * n[0];
+        e.1[1] += f * n[1];
+        e.3 = Some(pair(&c["point_m"]));
+    }
+    for ((chain, node, fraction), (ours, theirs, at_ours, at_theirs)) in &forces {
+        let name = format!("contact force on {chain} node {node} (+{:.6}) (N)", *fraction as f64 * 1e-6);
+        out.close(&name, "N", ours, theirs, FORCE_TOLERANCE_N);
+        if let (Some(a), Some(b)) = (at_ours, at_theirs) {
+            out.close(&format!("contact point on {chain} node {node} (m)"), "m", a, b, POSITION_TOLERANCE_M);
+        }
+    }
+    if !held.equilibrium.stable {
+        out.failures.push("leech's equilibrium is not stable".into());
+    }
+    out
+}
+
+/// Force and moment balance of leech's reactions and contact forces against the weight.
+fn balance(held: &Held) -> Result<(), String> {
+    let w = held.weight_n;
+    let (mut force, mut moment) = ([0.0, 0.0], 0.0);
+    let mut add = |at: [f64; 2], f: [f64; 2], m: f64| {
+        force[0] += f[0];
+        force[1] += f[1];
+        moment += m + at[0] * f[1] - at[1] * f[0];
+    };
+    if let Some(r) = &held.rear {
+        add(held.unit.point_m, r.force_n, r.moment_nm);
+    }
+    if let Some(r) = &held.front {
+        add(held.endpoint_m, r.force_n, r.moment_nm);
+    }
+    for c in &held.contacts {
+        add(c.point_m, [c.force_n * c.normal[0], c.force_n * c.normal[1]], 0.0);
+    }
+    let gravity = held.centre_of_mass[0] * w;
+    let ok = force[0].abs() <= BALANCE_TOLERANCE * w
+        && (force[1] - w).abs() <= BALANCE_TOLERANCE * w
+        && (moment - gravity).abs() <= BALANCE_TOLERANCE * w * 0.3;
+    if ok {
+        Ok(())
+    } else {
+        Err(format!("force {force:?} vs weight {w}, moment {moment} vs {gravity}"))
+    }
+}
+
+/// The reference is sound: converged, stable, balanced, clear of the solids, and its two
+/// polishing methods agree.
+fn check_reference(case: &Value) {
+    let name = case["name"].as_str().unwrap();
+    let newton = &case["residuals"]["newton"];
+    for key in ["stationarity", "equality", "violation", "complementarity", "negative_force"] {
+        assert!(num(&newton[key]) < 1e-12, "{name}: reference Newton {key} {}", newton[key]);
+    }
+    assert!(case["stable"].as_bool().unwrap() && num(&case["reduced_hessian_min"]) > 0.0, "{name}");
+    for key in ["force_x_rel", "force_y_rel", "moment_rel"] {
+        assert!(num(&case["balance"][key]) < 1e-12, "{name}: reference balance {key}");
+    }
+    if !case["penetration_m"].is_null() {
+        assert!(num(&case["penetration_m"]) < 1e-12, "{name}: reference penetrates");
+    }
+    let slsqp = &case["agreement"]["slsqp_vs_newton"];
+    assert!(num(&slsqp["q"]) < 1e-6 && num(&slsqp["multipliers"]) < 1e-5, "{name}: SLSQP vs Newton {slsqp}");
+    for c in case["contacts"].as_array().unwrap() {
+        assert!(num(&c["force_n"]) > 0.0, "{name}: {c}");
+    }
+    // Where a second path (feeding the tubes) was followed, it ends on the same equilibrium.
+    if !case["feeding_path"].is_null() {
+        assert!(num(&case["feeding_path"]["max_abs_diff_q"]) < 1e-9, "{name}: feeding path");
+    }
+}
+
+#[test]
+fn holds_and_contacts_match_the_scipy_references() {
+    let doc = fixture();
+    // The fixture was made for the built-in robot.
+    let builtin = Robot::builtin();
+    let r = &doc["robot"];
+    for (key, ours) in [
+        ("l", builtin.tube.element_length_m),
+        ("m", builtin.tube.element_mass_kg),
+        ("k", builtin.tube.joint_stiffness_nm_per_rad),
+        ("r", 0.5 * builtin.tube.outer_diameter_m),
+        ("b", builtin.body.base_spacing_m),
+        ("c", builtin.body.tip_spacing_m),
+        ("ms", builtin.body.payload_kg),
+        ("g", builtin.world.gravity_m_per_s2),
+        ("Md", builtin.driving_unit.mass_kg),
+        ("rear_offset", builtin.cup.rear_offset_m),
+        ("front_offset", builtin.cup.front_offset_m),
+    ] {
+        assert_eq!(num(&r[key]), ours, "built-in robot's {key} changed: regenerate the fixture");
+    }
+    let cases = doc["cases"].as_array().unwrap();
+    assert!(cases.len() >= 8, "at least eight cases");
+    assert!(cases.iter().filter(|c| !c["scene_toml"].is_null()).count() >= 4, "contact cases");
+    let mut report = Vec::new();
+    for case in cases {
+        let name = case["name"].as_str().unwrap();
+        check_reference(case);
+        let result = solve(case);
+        let outcome = match &result {
+            Err(e) => Err(format!("error: {e}")),
+            Ok(held) => {
+                let mut comparison = differences(case, held);
+                if let Err(e) = balance(held) {
+                    comparison.failures.push(format!("balance: {e}"));
+                }
+                // Shown with --nocapture: how close each case is.
+                let largest: Vec<String> = comparison.largest.iter().map(|(k, v)| format!("{k} {v:.1e}")).collect();
+                println!("{name}: largest differences {}", largest.join(", "));
+                if comparison.failures.is_empty() {
+                    Ok(())
+                } else {
+                    Err(comparison.failures.join("; "))
+                }
+            }
+        };
+        match (case["known_failure"].as_str(), outcome) {
+            (None, Ok(())) => {}
+            (None, Err(e)) => report.push(format!("{name}: {e}")),
+            (Some(known), Ok(())) => report.push(format!(
+                "{name}: marked known_failure ({known}) but leech now matches the reference: remove the mark"
+            )),
+            (Some(known), Err(e)) => {
+                println!("{name}: known failure, still failing: {e}");
+                // Still failing: the same way?
+                let patterns = case["known_failure_contains"].as_array().expect("known_failure_contains");
+                for p in patterns {
+                    let p = p.as_str().unwrap();
+                    if !e.contains(p) {
+                        report.push(format!("{name}: fails differently from its mark ({known}): {e}"));
+                        break;
+                    }
+                }
+            }
+        }
+    }
+    assert!(report.is_empty(), "\n{}", report.join("\n"));
+}
