@@ -327,6 +327,29 @@ pub struct CupState {
 }
 
 impl Held {
+    /// Everything the surfaces exert on the robot, summed: the holds'
+    /// reactions and the contact forces (N), and their moment about the
+    /// origin (N m, counter-clockwise). At equilibrium it carries the weight:
+    /// `(0, W)` and `x_G W`.
+    pub fn support(&self) -> Reaction {
+        let mut total = Reaction { force_n: [0.0, 0.0], moment_nm: 0.0 };
+        let mut add = |at: Vec2, force: Vec2, moment: f64| {
+            total.force_n[0] += force[0];
+            total.force_n[1] += force[1];
+            total.moment_nm += moment + crate::geom::cross(at, force);
+        };
+        if let Some(r) = &self.rear {
+            add(self.unit.point_m, r.force_n, r.moment_nm);
+        }
+        if let Some(r) = &self.front {
+            add(self.endpoint_m, r.force_n, r.moment_nm);
+        }
+        for c in &self.contacts {
+            add(c.point_m, [c.force_n * c.normal[0], c.force_n * c.normal[1]], 0.0);
+        }
+        total
+    }
+
     /// Where the rear cup's face is: `b + rear_offset` from `p0` along
     /// `nu(phi0)`, the surfaces lying on chain B's side (docs/model.md section 3).
     pub fn rear_cup_m(&self, robot: &Robot) -> Vec2 {

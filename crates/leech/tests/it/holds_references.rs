@@ -191,21 +191,7 @@ fn differences(case: &Value, held: &Held) -> Comparison {
 /// Force and moment balance of leech's reactions and contact forces against the weight.
 fn balance(held: &Held) -> Result<(), String> {
     let w = held.weight_n;
-    let (mut force, mut moment) = ([0.0, 0.0], 0.0);
-    let mut add = |at: [f64; 2], f: [f64; 2], m: f64| {
-        force[0] += f[0];
-        force[1] += f[1];
-        moment += m + at[0] * f[1] - at[1] * f[0];
-    };
-    if let Some(r) = &held.rear {
-        add(held.unit.point_m, r.force_n, r.moment_nm);
-    }
-    if let Some(r) = &held.front {
-        add(held.endpoint_m, r.force_n, r.moment_nm);
-    }
-    for c in &held.contacts {
-        add(c.point_m, [c.force_n * c.normal[0], c.force_n * c.normal[1]], 0.0);
-    }
+    let stance::Reaction { force_n: force, moment_nm: moment } = held.support();
     let gravity = held.centre_of_mass[0] * w;
     let ok = force[0].abs() <= BALANCE_TOLERANCE * w
         && (force[1] - w).abs() <= BALANCE_TOLERANCE * w

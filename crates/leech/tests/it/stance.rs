@@ -8,26 +8,13 @@ fn solve(hold: Hold, lengths: [f64; 2]) -> Held {
     stance::solve(&Robot::builtin(), lengths, hold, &Solver::default()).unwrap()
 }
 
-/// Force and moment balance of all reactions against the weight, to 1e-9
-/// relative: the forces carry `W` upwards, the moments about the origin
-/// cancel gravity's.
+/// Force and moment balance of all reactions and contact forces against the
+/// weight, to 1e-9 relative: the forces carry `W` upwards, the moments about
+/// the origin cancel gravity's (`-x_G W`).
 fn check_balance(held: &Held) {
     let w = held.weight_n;
-    let mut force = [0.0, 0.0];
-    let mut moment = 0.0;
-    let mut add = |at: [f64; 2], r: &stance::Reaction| {
-        force[0] += r.force_n[0];
-        force[1] += r.force_n[1];
-        moment += r.moment_nm + at[0] * r.force_n[1] - at[1] * r.force_n[0];
-    };
-    if let Some(r) = &held.rear {
-        add(held.unit.point_m, r);
-    }
-    if let Some(r) = &held.front {
-        add(held.endpoint_m, r);
-    }
+    let stance::Reaction { force_n: force, moment_nm: moment } = held.support();
     assert!(force[0].abs() < 1e-9 * w && (force[1] - w).abs() < 1e-9 * w, "force {force:?} vs weight {w}");
-    // Gravity's moment about the origin is -x_G W: the reactions' must cancel it.
     let x_g = held.centre_of_mass[0];
     assert!((moment - x_g * w).abs() < 1e-9 * w * 0.3, "moment {moment} vs {}", x_g * w);
 }
@@ -88,30 +75,6 @@ fn pushing_the_tubes_past_the_free_shape_loads_both_cups() {
     check_balance(&pushed);
 }
 
-/// Forces and moments of holds and contacts against the weight.
-fn check_balance_with_contacts(held: &Held) {
-    let w = held.weight_n;
-    let mut force = [0.0, 0.0];
-    let mut moment = 0.0;
-    let mut add = |at: [f64; 2], f: [f64; 2], m: f64| {
-        force[0] += f[0];
-        force[1] += f[1];
-        moment += m + at[0] * f[1] - at[1] * f[0];
-    };
-    if let Some(r) = &held.rear {
-        add(held.unit.point_m, r.force_n, r.moment_nm);
-    }
-    if let Some(r) = &held.front {
-        add(held.endpoint_m, r.force_n, r.moment_nm);
-    }
-    for c in &held.contacts {
-        add(c.point_m, [c.normal[0] * c.force_n, c.normal[1] * c.force_n], 0.0);
-    }
-    let x_g = held.centre_of_mass[0];
-    assert!(force[0].abs() < 1e-9 * w && (force[1] - w).abs() < 1e-9 * w, "force {force:?} vs weight {w}");
-    assert!((moment - x_g * w).abs() < 1e-9 * w * 0.3, "moment {moment} vs {}", x_g * w);
-}
-
 #[test]
 fn a_body_lies_on_the_floor() {
     let robot = Robot::builtin();
@@ -128,7 +91,7 @@ fn a_body_lies_on_the_floor() {
         assert!(c.point_m[1] >= radius - 1e-9, "{c:?}");
         assert!(c.force_n > 0.0);
     }
-    check_balance_with_contacts(&held);
+    check_balance(&held);
 }
 
 #[test]
