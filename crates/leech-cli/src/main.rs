@@ -151,7 +151,8 @@ fn solve_shape(a: &Shape, solver: &Solver) -> Result<render::Solved, Failure> {
     }
     let eq = a.body.solve(solver)?;
     let timing = a.repeat.map(|n| SolveTiming::measure(&a.body, solver, n));
-    let held = stance::solve(&a.robot, a.lengths, a.hold, solver)?;
+    let rear = a.hold.rear().expect("the clamped body is held by its rear cup");
+    let held = stance::rear_held(&a.robot, &a.body, &eq, rear, solver)?;
     let moved = eq.q.iter().zip(&held.equilibrium.q).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);
     if moved > HELD_ANGLES_RAD {
         eprintln!(

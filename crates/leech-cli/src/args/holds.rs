@@ -5,10 +5,9 @@
 use std::path::Path;
 
 use leech::error::within;
-use leech::geom::{add_scaled, right_normal};
 use leech::prelude::*;
 use leech::scene::{Scene, BUILTIN_SCENES, MAX_COORDINATE_M, MAX_SCENE_BYTES, ON_SURFACE_M};
-use leech::stance::{Hold, Pose};
+use leech::stance::{self, Hold, Pose};
 
 use crate::failure::Failure;
 use crate::flags::{self, HoldArg, ModelArg};
@@ -54,15 +53,14 @@ pub(super) fn pose(flag: &str, [x, y, deg]: [f64; 3], max_deg: f64) -> Result<Po
 /// the rear cup's centre, the endpoint and the front cup's centre (each cup
 /// sits on chain B's side: `b` or `c` plus its offset along `nu`).
 fn clear_of(scene: &Scene, robot: &Robot, hold: Hold) -> Result<(), Failure> {
-    let cup = |pose: Pose, offset: f64| add_scaled(pose.point_m, offset, right_normal(pose.angle_rad));
     let mut points = Vec::new();
     if let Some(p) = hold.rear() {
-        let offset = robot.body.base_spacing_m + robot.cup.rear_offset_m;
-        points.extend([("--rear", "the driving unit", p.point_m), ("--rear", "the rear cup's centre", cup(p, offset))]);
+        let cup = stance::rear_cup_centre(robot, p);
+        points.extend([("--rear", "the driving unit", p.point_m), ("--rear", "the rear cup's centre", cup)]);
     }
     if let Some(p) = hold.front() {
-        let offset = robot.body.tip_spacing_m + robot.cup.front_offset_m;
-        points.extend([("--front", "the endpoint", p.point_m), ("--front", "the front cup's centre", cup(p, offset))]);
+        let cup = stance::front_cup_centre(robot, p);
+        points.extend([("--front", "the endpoint", p.point_m), ("--front", "the front cup's centre", cup)]);
     }
     // A point on a surface is clear, to rounding.
     match points.into_iter().find(|(_, _, p)| !scene.is_free(*p, -ON_SURFACE_M)) {

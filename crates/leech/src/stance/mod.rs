@@ -153,10 +153,7 @@ pub fn solve(robot: &Robot, lengths: [f64; 2], hold: Hold, solver: &Solver) -> R
         Hold::Rear(pose) => {
             let body = rear_body(robot, lengths, pose)?;
             let eq = body.solve(solver)?;
-            let floating = FloatingBody::new(&body, b, unit_mass, hold, Approach::Load);
-            let mut ws = Scratch::for_system(&floating);
-            let eq = solver.warm_start(&floating, &with_pose(&eq.q, pose), &mut ws)?;
-            Ok(Held::new(&floating, eq))
+            rear_held(robot, &body, &eq, pose, solver)
         }
         Hold::Front(pose) => {
             let body = robot.body(lengths[0], lengths[1])?;
@@ -171,6 +168,39 @@ pub fn solve(robot: &Robot, lengths: [f64; 2], hold: Hold, solver: &Solver) -> R
             continued(&floating, held.equilibrium.q.clone(), solver)
         }
     }
+}
+
+/// The clamped `body`'s equilibrium `eq` (its clamp at the origin, at the
+/// hold's angle) held by the rear cup at `pose`: one Newton step in the
+/// floating form, which gives the reactions and leaves the angles as they are.
+pub fn rear_held(
+    robot: &Robot,
+    body: &Body,
+    eq: &Equilibrium,
+    pose: Pose,
+    solver: &Solver,
+) -> Result<Held, StanceError> {
+    let (b, unit_mass) = (robot.body.base_spacing_m, robot.driving_unit.mass_kg);
+    let floating = FloatingBody::new(body, b, unit_mass, Hold::Rear(pose), Approach::Load);
+    let mut ws = Scratch::for_system(&floating);
+    let eq = solver.warm_start(&floating, &with_pose(&eq.q, pose), &mut ws)?;
+    Ok(Held::new(&floating, eq))
+}
+
+/// The centre of the rear cup's face for the driving unit at `unit`:
+/// `b + rear_offset` from `p0` along `nu(phi0)` (the surfaces lie on chain
+/// B's side, docs/model.md section 3).
+pub fn rear_cup_centre(robot: &Robot, unit: Pose) -> Vec2 {
+    let d = robot.body.base_spacing_m + robot.cup.rear_offset_m;
+    crate::geom::add_scaled(unit.point_m, d, crate::geom::right_normal(unit.angle_rad))
+}
+
+/// The centre of the front cup's face for the endpoint and plate at
+/// `endpoint`: `c + front_offset` from the endpoint along `nu` of the plate
+/// (`front_offset` from chain B's tip).
+pub fn front_cup_centre(robot: &Robot, endpoint: Pose) -> Vec2 {
+    let d = robot.body.tip_spacing_m + robot.cup.front_offset_m;
+    crate::geom::add_scaled(endpoint.point_m, d, crate::geom::right_normal(endpoint.angle_rad))
 }
 
 /// [`solve`] among the solids of `scene`: the tubes keep their radius of
@@ -350,21 +380,15 @@ impl Held {
         total
     }
 
-    /// Where the rear cup's face is: `b + rear_offset` from `p0` along
-    /// `nu(phi0)`, the surfaces lying on chain B's side (docs/model.md section 3).
+    /// Where the rear cup's face is ([`rear_cup_centre`]).
     pub fn rear_cup_m(&self, robot: &Robot) -> Vec2 {
-        let nu = crate::geom::right_normal(self.unit.angle_rad);
-        let d = robot.body.base_spacing_m + robot.cup.rear_offset_m;
-        [self.unit.point_m[0] + d * nu[0], self.unit.point_m[1] + d * nu[1]]
+        rear_cup_centre(robot, self.unit)
     }
 
-    /// Where the front cup's face is: `front_offset` from chain B's tip along
-    /// `nu` of the plate.
+    /// Where the front cup's face is ([`front_cup_centre`]).
     pub fn front_cup_m(&self, robot: &Robot) -> Vec2 {
         let plate = self.body.endpoint_angle(&self.equilibrium.q);
-        let nu = crate::geom::right_normal(plate);
-        let d = robot.body.tip_spacing_m + robot.cup.front_offset_m;
-        [self.endpoint_m[0] + d * nu[0], self.endpoint_m[1] + d * nu[1]]
+        front_cup_centre(robot, Pose { point_m: self.endpoint_m, angle_rad: plate })
     }
 
     /// The cups that hold, with their verdicts: each reaction moved to its
