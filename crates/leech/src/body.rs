@@ -154,17 +154,18 @@ impl Body {
     pub(crate) fn weld_with(&self, q: &[f64], scale: [f64; 2], ev: &mut Evaluation) {
         let na = self.a.len();
         let n = q.len();
-        let pa = self.a.tip_from_trig(&ev.cos[..na], &ev.sin[..na], scale[0]);
-        let pb = self.b.tip_from_trig(&ev.cos[na..], &ev.sin[na..], scale[1]);
         let (ca, sa) = (ev.cos[na - 1], ev.sin[na - 1]);
         let c = self.tip_spacing;
         let m = ev.rows();
+        // The columns' pass sums the links too: p_B - p_A without a second
+        // pass over each chain for its tip.
+        let links = self.weld_columns(scale, &ev.cos, &ev.sin, m, &mut ev.jacobian, Some(&mut ev.curvature));
+        let (ja, jb) = (self.a.first_joint(), self.b.first_joint());
         ev.constraints[..WELD_ROWS].copy_from_slice(&[
-            pb[0] - pa[0] - c * sa,
-            pb[1] - pa[1] + c * ca,
+            jb[0] - ja[0] + links[0] - c * sa,
+            jb[1] - ja[1] + links[1] + c * ca,
             q[na - 1] - q[n - 1],
         ]);
-        self.weld_columns(scale, &ev.cos, &ev.sin, m, &mut ev.jacobian, Some(&mut ev.curvature));
         let last_a = (na - 1) * m;
         ev.jacobian[last_a] -= c * ca;
         ev.jacobian[last_a + 1] -= c * sa;

@@ -441,17 +441,6 @@ impl Chain {
         }
     }
 
-    /// Tip of the last link from precomputed trigonometry, with link lengths
-    /// multiplied by `scale` (m).
-    pub(crate) fn tip_from_trig(&self, cos: &[f64], sin: &[f64], scale: f64) -> [f64; 2] {
-        let mut p = self.first_joint();
-        for j in 0..self.len() {
-            p[0] += scale * self.lengths[j] * cos[j];
-            p[1] += scale * self.lengths[j] * sin[j];
-        }
-        p
-    }
-
     /// Jacobian of the tip, `d tip / d phi_j = l_j e'(phi_j)`, as `n` columns (m/rad).
     pub fn tip_jacobian(&self, q: &[f64]) -> Vec<[f64; 2]> {
         self.lengths

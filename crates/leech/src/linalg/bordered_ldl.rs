@@ -108,7 +108,8 @@ impl BorderedLdl {
     /// * `shift`: added to the chains' diagonal and to the first `k_primal`
     ///   diagonal entries of the corner.
     /// * `tiny`: a chain pivot with `|d| <= tiny` counts as zero. A Schur
-    ///   pivot counts as zero below `1e-12` of `S`'s largest entry (or `tiny`).
+    ///   pivot counts as zero below `1e-12` once each row of `S` is scaled
+    ///   to a largest entry of 1.
     ///
     /// # Panics
     /// If a slice's length does not fit the pattern.

@@ -50,12 +50,13 @@
 //! factored by the Bunch-Kaufman `P S P^T = L D L^T` with 1 x 1 and 2 x 2
 //! pivots in [`dense_ldl`]: written here rather than taken from a library
 //! because it must work in place, allocate nothing, and report the inertia.
-//! Pivoting makes this robust where `kkt`'s unpivoted `L D L^T` of `S` needed
+//! Pivoting makes this robust where an unpivoted `L D L^T` of `S` would need
 //! an eigen-decomposition as a fallback: a tiny diagonal is passed over for a
 //! larger one or for a 2 x 2 pivot.
 //!
-//! A pivot with `|d| <= tiny` counts as zero (for `S`, `tiny` is at least
-//! `1e-12` of its largest entry, since `S` has the border's units); its
+//! A chain pivot with `|d| <= tiny` counts as zero; `S` is first scaled so
+//! that each row's largest entry is 1 (its rows mix units: shifted primal
+//! rows beside constraint rows), and its pivots below `1e-12` count as zero;
 //! direction is dropped from the solve (its reciprocal is taken as 0), which
 //! keeps every factor finite. A count with `zero > 0` means the matrix is
 //! numerically singular, or (a zero in a chain) that it cannot be factored
