@@ -228,6 +228,7 @@ pub fn solve_in(
     let short = robot.limits.tube_length_min_m.min(lengths[0]).min(lengths[1]);
     let start = solve(robot, [short; 2], first, solver)?;
     let (mut body, mut q) = (start.body, start.equilibrium.q);
+    let mut pushing = Vec::new();
     let steps = ((lengths[0] - short).max(lengths[1] - short) / FEED_STEP_M).ceil() as usize;
     for step in 1..=steps {
         let s = step as f64 / steps as f64;
@@ -241,12 +242,14 @@ pub fn solve_in(
         carried.extend_from_slice(&q[chains..]);
         body = next;
         let floating = FloatingBody::new(&body, b, unit_mass, first, Approach::Load);
-        q = scene_solve::loaded(floating, carried, scene, radius, solver)?.equilibrium.q;
+        let done = scene_solve::loaded(floating, carried, &pushing, scene, radius, solver)?;
+        pushing = done.pushing();
+        q = done.equilibrium.q;
     }
     // Once more at the final lengths (no step when they are the start's):
     // the contacts as they stand, with their forces.
     let floating = FloatingBody::new(&body, b, unit_mass, first, Approach::Load);
-    let settled = scene_solve::loaded(floating, q, scene, radius, solver)?;
+    let settled = scene_solve::loaded(floating, q, &pushing, scene, radius, solver)?;
     let Hold::Both { .. } = hold else { return Ok(Held::settled(settled)) };
     let from = Pose {
         point_m: settled.floating.endpoint(&settled.equilibrium.q),

@@ -5,6 +5,7 @@
 use super::contact::{detect, penetration, ContactOptions, ContactRow};
 use super::floating::{Approach, FloatingBody};
 use super::{Held, StanceError};
+use crate::geom::{dot, Vec2};
 use crate::scene::Scene;
 use crate::statics::{Constraints, Equilibrium, Iterate, Scratch, SolveError, Solver, Stage, StopReason};
 
@@ -15,6 +16,56 @@ pub const APPROACH_STAGES: usize = 16;
 pub(super) struct Settled<'a> {
     pub floating: FloatingBody<'a>,
     pub equilibrium: Equilibrium,
+}
+
+/// A contact that pushed in a solve: the material point (chain, link
+/// counted from the tip, node or corner), the surface's normal and the
+/// force (N). Carried from one stage or feeding step to the next, so that
+/// the next solve starts with the body resting on what held it (a contact
+/// dropped would let Newton first drop the body through the surface, then
+/// climb back out). Links are counted from the tip because feeding adds
+/// links at the clamp: the material near the tip keeps its place.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Pushing {
+    chain: usize,
+    from_tip: usize,
+    at_node: bool,
+    normal: Vec2,
+    force: f64,
+}
+
+impl Pushing {
+    /// Whether `row` of `floating` touches the same material point on the same surface.
+    fn matches(&self, floating: &FloatingBody<'_>, row: &ContactRow) -> bool {
+        row.chain == self.chain
+            && floating.chain_len(row.chain) == row.link + 1 + self.from_tip
+            && (row.fraction >= 1.0) == self.at_node
+            && dot(row.normal, self.normal) > SAME_NORMAL
+    }
+}
+
+/// Normals closer than this (cosine) count as the same surface's: an edge's
+/// is exact, a vertex's turns a little as the point moves around it.
+const SAME_NORMAL: f64 = 0.99;
+
+impl Settled<'_> {
+    /// The contacts that push at the settled equilibrium.
+    pub fn pushing(&self) -> Vec<Pushing> {
+        let first = self.floating.contact_row();
+        self.floating
+            .contacts()
+            .iter()
+            .zip(&self.equilibrium.multipliers[first..])
+            .filter(|(_, force)| **force > 0.0)
+            .map(|(row, force)| Pushing {
+                chain: row.chain,
+                from_tip: self.floating.chain_len(row.chain) - 1 - row.link,
+                at_node: row.fraction >= 1.0,
+                normal: row.normal,
+                force: *force,
+            })
+            .collect()
+    }
 }
 
 /// Takes `floating` (without contacts) from the equilibrium `q` at `t = 0`
@@ -29,24 +80,28 @@ pub(super) fn approached<'a>(
 ) -> Result<Settled<'a>, StanceError> {
     let options = ContactOptions::default();
     let mut settled = Settled { equilibrium: start(&floating, q), floating };
+    let mut pushing = Vec::new();
     for stage in 1..=APPROACH_STAGES {
         let t = stage as f64 / APPROACH_STAGES as f64;
-        settled = settle(settled, t, scene, radius, &options, solver)?;
+        settled = settle(settled, &pushing, t, scene, radius, &options, solver)?;
+        pushing = settled.pushing();
     }
     Ok(settled)
 }
 
-/// Settles `floating` (without contacts) at full load from `q`, with
-/// contact rows refreshed in `scene` until they settle.
+/// Settles `floating` (without contacts) at full load from `q`, resting on
+/// the contacts `pushing` of the last solve, with contact rows refreshed in
+/// `scene` until they settle.
 pub(super) fn loaded<'a>(
     floating: FloatingBody<'a>,
     q: Vec<f64>,
+    pushing: &[Pushing],
     scene: &Scene,
     radius: f64,
     solver: &Solver,
 ) -> Result<Settled<'a>, StanceError> {
     let settled = Settled { equilibrium: start(&floating, q), floating };
-    settle(settled, 1.0, scene, radius, &ContactOptions::default(), solver)
+    settle(settled, pushing, 1.0, scene, radius, &ContactOptions::default(), solver)
 }
 
 /// An equilibrium record for the start of a staged solve.
@@ -68,6 +123,7 @@ pub(super) fn start(floating: &FloatingBody<'_>, q: Vec<f64>) -> Equilibrium {
 /// again until the rows stop changing and nothing penetrates.
 fn settle<'a>(
     mut settled: Settled<'a>,
+    pushing: &[Pushing],
     t: f64,
     scene: &Scene,
     radius: f64,
@@ -82,6 +138,7 @@ fn settle<'a>(
     let mut iterations = settled.equilibrium.iterations;
     let mut events = std::mem::take(&mut settled.equilibrium.events);
     let mut solved = false;
+    let mut pushing = pushing.to_vec();
     for _ in 0..options.max_rounds {
         detect(&settled.floating, &settled.equilibrium.q, scene, radius, options, &mut rows);
         let deep = penetration(&settled.floating, &settled.equilibrium.q, scene, radius);
@@ -90,11 +147,12 @@ fn settle<'a>(
             settled.equilibrium.events = events;
             return Ok(settled);
         }
-        let previous = settled.floating.contacts().to_vec();
+        if solved {
+            pushing = settled.pushing();
+        }
         let floating = settled.floating.with_contacts(rows.clone());
         let mut ws = Scratch::for_system(&floating);
-        let it = warm_iterate(&floating, &settled.equilibrium, &previous);
-        let mut it = it;
+        let mut it = warm_iterate(&floating, &settled.equilibrium, &pushing);
         let residual = solver.minimize(&floating, &mut it, t, stage, &mut ws)?;
         let equilibrium = solver.finish(&floating, it, residual, &mut ws);
         iterations += equilibrium.iterations.max(1);
@@ -113,22 +171,22 @@ fn settle<'a>(
 }
 
 /// A start from `previous` for `floating`'s rows: the weld's and the holds'
-/// multipliers kept, a contact row active (with its force) where the same
-/// point pushed before, so that Newton does not first let the body fall
-/// through what holds it; violated rows join one at a time.
-fn warm_iterate(floating: &FloatingBody<'_>, previous: &Equilibrium, before: &[ContactRow]) -> Iterate {
+/// multipliers kept, and a contact row active, with its force, where one of
+/// `pushing` pushed before ([`Pushing::matches`]). Newton then does not first
+/// let the body fall through what holds it; violated rows join one at a time.
+fn warm_iterate(floating: &FloatingBody<'_>, previous: &Equilibrium, pushing: &[Pushing]) -> Iterate {
     let mut it = Iterate::new(previous.q.clone());
     let first = floating.contact_row();
     let rows = floating.rows();
     it.lambda = vec![0.0; rows];
-    it.active = vec![true; rows];
+    it.active = vec![false; rows];
+    it.active[..first].fill(true);
     it.lambda[..first].copy_from_slice(&previous.multipliers[..first]);
-    let old_first = previous.multipliers.len() - before.len();
     for (i, row) in floating.contacts().iter().enumerate() {
-        let same = before.iter().position(|b| b.chain == row.chain && b.link == row.link && b.fraction == row.fraction);
-        let force = same.map_or(0.0, |j| previous.multipliers[old_first + j]);
-        it.lambda[first + i] = force;
-        it.active[first + i] = force > 0.0;
+        if let Some(known) = pushing.iter().find(|p| p.matches(floating, row)) {
+            it.lambda[first + i] = known.force;
+            it.active[first + i] = true;
+        }
     }
     it
 }

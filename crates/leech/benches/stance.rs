@@ -1,0 +1,36 @@
+//! Benchmarks of the body in a situation (divan): held by a cup on a floor
+//! with its contacts, both cups holding, and the growth with links.
+//! `cargo bench -p leech --bench stance`.
+
+use leech::prelude::*;
+use leech::scene::Scene;
+use leech::stance::{self, Hold, Pose};
+
+fn main() {
+    divan::main();
+}
+
+/// The rear cup on the floor at the origin, the robot facing +x: the driving
+/// unit's point `b + rear_offset` above it (the cups lie on chain B's side).
+fn on_floor(robot: &Robot) -> Hold {
+    Hold::Rear(Pose::from_deg([0.0, robot.body.base_spacing_m + robot.cup.rear_offset_m], 0.0))
+}
+
+/// The built-in robot at 0.30/0.28 m on the floor, solved cold: fed from the
+/// shortest length with its contacts refreshed (`stance::solve_in`).
+#[divan::bench]
+fn floor_cold_30_28(bencher: divan::Bencher) {
+    let robot = Robot::builtin();
+    let floor = Scene::builtin("floor").unwrap();
+    let (hold, solver) = (on_floor(&robot), Solver::default());
+    bencher.bench_local(|| stance::solve_in(&robot, [0.30, 0.28], hold, &floor, &solver).unwrap());
+}
+
+/// The same on a floor with tubes cut into `links` elements each (0.30 m).
+#[divan::bench(args = [30, 100, 300], sample_count = 20)]
+fn floor_cold_links(bencher: divan::Bencher, links: usize) {
+    let robot = Robot::builtin().with_element_length(0.30 / links as f64).unwrap();
+    let floor = Scene::builtin("floor").unwrap();
+    let (hold, solver) = (on_floor(&robot), Solver::default());
+    bencher.bench_local(|| stance::solve_in(&robot, [0.30, 0.28], hold, &floor, &solver).unwrap());
+}
