@@ -17,6 +17,8 @@ const SCHUR_RELATIVE_ZERO: f64 = 1e-12;
 #[derive(Clone, Debug)]
 pub struct BorderedLdl {
     pattern: Pattern,
+    /// Border rows the buffers hold: the pattern's when made.
+    capacity: usize,
     factors: SparseFactors,
     /// `S`, then its Bunch-Kaufman factors (lower triangle by columns).
     schur: Vec<f64>,
@@ -76,6 +78,7 @@ impl BorderedLdl {
         let (blocks, b, k) = (pattern.blocks(), pattern.block_size(), pattern.border_rows());
         BorderedLdl {
             pattern: pattern.clone(),
+            capacity: k,
             factors: SparseFactors {
                 inv_pivots: vec![0.0; blocks * b * b],
                 multipliers: vec![0.0; (blocks + 1) * b * b],
@@ -92,6 +95,18 @@ impl BorderedLdl {
     /// The structure this factorization was made for.
     pub fn pattern(&self) -> &Pattern {
         &self.pattern
+    }
+
+    /// Sets the number of border rows of the next factorizations to `rows`,
+    /// at most the pattern's when this was made (the buffers are reused, so
+    /// nothing is allocated) and at least its primal rows: a working set of
+    /// constraints that changes size keeps one factorization.
+    ///
+    /// # Panics
+    /// If `rows` is out of that range.
+    pub fn set_border_rows(&mut self, rows: usize) {
+        assert!(rows <= self.capacity, "{rows} border rows: this factorization holds {}", self.capacity);
+        self.pattern.set_border_rows(rows);
     }
 
     /// Factors the matrix and returns its inertia (Sylvester's law: that of

@@ -102,6 +102,16 @@ impl Pattern {
         self.border_rows
     }
 
+    /// Changes the number of border rows (the chains and the primal rows stay).
+    ///
+    /// # Panics
+    /// On more than [`MAX_BORDER`] rows or fewer than the primal rows.
+    pub fn set_border_rows(&mut self, rows: usize) {
+        assert!(rows <= MAX_BORDER, "{rows} border rows: at most {MAX_BORDER}");
+        assert!(self.primal_rows <= rows, "{} primal rows among {rows} border rows", self.primal_rows);
+        self.border_rows = rows;
+    }
+
     /// Number of border rows that are primal unknowns (`k_primal`).
     pub fn primal_rows(&self) -> usize {
         self.primal_rows

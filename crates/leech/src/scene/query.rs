@@ -337,6 +337,15 @@ impl Scene {
         (distance, s, normal)
     }
 
+    /// Signed distance (m) from `p` to solid `solid` alone (negative inside
+    /// it), as [`Scene::signed_distance`] measures it.
+    ///
+    /// # Panics
+    /// If `solid` is not an index into [`Scene::solids`].
+    pub fn solid_distance(&self, solid: usize, p: Vec2) -> f64 {
+        solid_hit(solid, &self.solids[solid], p).distance
+    }
+
     /// Whether a disc of radius `clearance` (m) centred at `p` stays out of
     /// every solid (touching allowed). With no solids, everything is free.
     pub fn is_free(&self, p: Vec2, clearance: f64) -> bool {

@@ -31,8 +31,8 @@
 //! to the driving unit and are not checked.
 
 use super::floating::FloatingBody;
-use crate::geom::{dot, Vec2};
-use crate::scene::Scene;
+use crate::geom::{dot, norm, sub, Vec2};
+use crate::scene::{Scene, Solid};
 
 /// One contact row: a point of a chain held off a surface.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -124,4 +124,56 @@ pub fn penetration(body: &FloatingBody<'_>, q: &[f64], scene: &Scene, radius: f6
         }
     }
     deepest
+}
+
+/// Whether the body could have moved from `before` to `after` (each a
+/// floating body and its `q`; the bodies may differ in links, matched from
+/// the tip) without any point coming within `radius` of a polygon or a
+/// link of a convex corner (see the module's "Swept motion").
+pub fn swept_clear(
+    before: (&FloatingBody<'_>, &[f64]),
+    after: (&FloatingBody<'_>, &[f64]),
+    scene: &Scene,
+    radius: f64,
+) -> bool {
+    let polygons: Vec<usize> =
+        (0..scene.solids.len()).filter(|i| matches!(scene.solids[*i], Solid::Polygon { .. })).collect();
+    if polygons.is_empty() {
+        return true;
+    }
+    let corners: Vec<_> = scene.convex_corners().collect();
+    let gap = |p: Vec2, solid: usize| scene.solid_distance(solid, p) - radius;
+    (0..2).all(|chain| {
+        let old = before.0.chain_points(before.1, chain);
+        let new = after.0.chain_points(after.1, chain);
+        let (old_tips, new_tips) = (before.0.chain_len(chain), after.0.chain_len(chain));
+        let (old_first, new_first) = (old.len() - old_tips, new.len() - new_tips);
+        // Node `i` of the new shape (from its first tip) and where it was:
+        // the same material counted from the tip, or the clamp for material
+        // fed out since.
+        let was = |i: usize| {
+            let from_tip = new_tips - 1 - i;
+            if from_tip < old_tips {
+                old[old_first + old_tips - 1 - from_tip]
+            } else {
+                old[old_first - 1]
+            }
+        };
+        let nodes_clear = (0..new_tips).all(|i| {
+            let (a, b) = (was(i), new[new_first + i]);
+            let moved = norm(sub(b, a));
+            polygons.iter().all(|s| moved <= gap(a, *s) + gap(b, *s))
+        });
+        let links_clear = (0..new_tips).all(|i| {
+            let (a0, b0) = (if i == 0 { old[old_first - 1] } else { was(i - 1) }, was(i));
+            let (a1, b1) = (new[new_first + i - 1], new[new_first + i]);
+            let moved = norm(sub(a1, a0)).max(norm(sub(b1, b0)));
+            corners.iter().all(|c| {
+                let before = Scene::segment_corner_distance(a0, b0, c).0 - radius;
+                let after = Scene::segment_corner_distance(a1, b1, c).0 - radius;
+                moved <= before + after
+            })
+        });
+        nodes_clear && links_clear
+    })
 }

@@ -59,7 +59,7 @@ mod hold;
 mod points;
 mod scene_solve;
 
-pub use contact::{detect, penetration, ContactOptions, ContactRow};
+pub use contact::{detect, penetration, swept_clear, ContactOptions, ContactRow};
 pub use floating::{Approach, FloatingBody, FREE, HOLD_ROWS};
 pub use hold::{Hold, Pose};
 
@@ -227,25 +227,8 @@ pub fn solve_in(
     };
     let short = robot.limits.tube_length_min_m.min(lengths[0]).min(lengths[1]);
     let start = solve(robot, [short; 2], first, solver)?;
-    let (mut body, mut q) = (start.body, start.equilibrium.q);
-    let mut pushing = Vec::new();
-    let steps = ((lengths[0] - short).max(lengths[1] - short) / FEED_STEP_M).ceil() as usize;
-    for step in 1..=steps {
-        let s = step as f64 / steps as f64;
-        let fed = [short + s * (lengths[0] - short), short + s * (lengths[1] - short)];
-        let next = match first {
-            Hold::Rear(pose) => rear_body(robot, fed, pose)?,
-            _ => robot.body(fed[0], fed[1])?,
-        };
-        let chains = body.dim();
-        let mut carried = next.carry_over(&body, &q[..chains]);
-        carried.extend_from_slice(&q[chains..]);
-        body = next;
-        let floating = FloatingBody::new(&body, b, unit_mass, first, Approach::Load);
-        let done = scene_solve::loaded(floating, carried, &pushing, scene, radius, solver)?;
-        pushing = done.pushing();
-        q = done.equilibrium.q;
-    }
+    let feeding = Feeding { robot, hold: first, from: [short; 2], to: lengths, scene, radius, solver };
+    let (body, q, pushing) = feeding.run(start.body, start.equilibrium.q)?;
     // Once more at the final lengths (no step when they are the start's):
     // the contacts as they stand, with their forces.
     let floating = FloatingBody::new(&body, b, unit_mass, first, Approach::Load);
@@ -259,9 +242,100 @@ pub fn solve_in(
     Ok(Held::settled(scene_solve::approached(both, settled.equilibrium.q, scene, radius, solver)?))
 }
 
-/// Longest feeding step between contact refreshes (m): half the built-in
-/// robot's element, so no node crosses the clearance between refreshes.
-pub const FEED_STEP_M: f64 = 0.005;
+/// Longest feeding step between contact refreshes (m): five of the
+/// built-in robot's elements, short enough for Newton to stay on the
+/// branch a continuous feed follows.
+pub const FEED_STEP_M: f64 = 0.05;
+
+/// Shortest feeding step (m): below it a step that still fails is reported.
+pub const MIN_FEED_STEP_M: f64 = 1e-4;
+
+/// Most Newton iterations a feeding step may take before it counts as too
+/// long a step (and is halved).
+const FEED_ITERATIONS: usize = 12;
+
+/// A feeding step that took at most this many Newton iterations was easy:
+/// the next may be twice as long.
+const EASY_ITERATIONS: usize = 5;
+
+/// The tubes fed from `from` to `to` (m) with the body held by `hold` among
+/// `scene`'s solids, in steps halved when a step fails to converge, ends
+/// unstable, takes more than [`FEED_ITERATIONS`] or moves the body through
+/// a solid unseen ([`contact::swept_clear`]), and doubled after a success.
+struct Feeding<'a> {
+    robot: &'a Robot,
+    hold: Hold,
+    from: [f64; 2],
+    to: [f64; 2],
+    scene: &'a Scene,
+    radius: f64,
+    solver: &'a Solver,
+}
+
+impl Feeding<'_> {
+    /// The clamped body at the fed lengths `fraction` of the way.
+    fn body_at(&self, fraction: f64) -> Result<Body, InputError> {
+        let fed = [0, 1].map(|i| self.from[i] + fraction * (self.to[i] - self.from[i]));
+        match self.hold {
+            Hold::Rear(pose) => rear_body(self.robot, fed, pose),
+            _ => self.robot.body(fed[0], fed[1]),
+        }
+    }
+
+    fn floating<'b>(&self, body: &'b Body) -> FloatingBody<'b> {
+        let (b, unit_mass) = (self.robot.body.base_spacing_m, self.robot.driving_unit.mass_kg);
+        FloatingBody::new(body, b, unit_mass, self.hold, Approach::Load)
+    }
+
+    /// Feeds from the equilibrium `q` of `body` (at `from`); returns the body
+    /// at `to`, its equilibrium and the contacts that push.
+    fn run(&self, mut body: Body, mut q: Vec<f64>) -> Result<(Body, Vec<f64>, Vec<scene_solve::Pushing>), StanceError> {
+        let span = (self.to[0] - self.from[0]).abs().max((self.to[1] - self.from[1]).abs());
+        let (mut done, mut step) = (0.0, FEED_STEP_M);
+        let mut pushing = Vec::new();
+        // A step that needs many iterations is too long: stop it early and
+        // halve it rather than finish it (the last chance runs to the end).
+        let mut brief = self.solver.clone();
+        brief.options.max_iterations = brief.options.max_iterations.min(FEED_ITERATIONS);
+        while done < 1.0 {
+            let next_fraction = if span <= step { 1.0 } else { (done + step / span).min(1.0) };
+            let next = self.body_at(next_fraction)?;
+            let chains = body.dim();
+            let mut carried = next.carry_over(&body, &q[..chains]);
+            carried.extend_from_slice(&q[chains..]);
+            let before = self.floating(&body);
+            let last_chance = step <= MIN_FEED_STEP_M;
+            let solver = if last_chance { self.solver } else { &brief };
+            let outcome = scene_solve::loaded(self.floating(&next), carried, &pushing, self.scene, self.radius, solver);
+            let accepted = match outcome {
+                Ok(settled)
+                    if last_chance
+                        || (settled.equilibrium.stable
+                            && contact::swept_clear(
+                                (&before, &q),
+                                (&settled.floating, &settled.equilibrium.q),
+                                self.scene,
+                                self.radius,
+                            )) =>
+                {
+                    Some((settled.pushing(), settled.equilibrium.iterations, settled.equilibrium.q))
+                }
+                Err(e) if last_chance => return Err(e),
+                _ => None,
+            };
+            match accepted {
+                Some((now_pushing, iterations, now_q)) => {
+                    (pushing, q, body, done) = (now_pushing, now_q, next, next_fraction);
+                    if iterations <= EASY_ITERATIONS {
+                        step = (2.0 * step).min(FEED_STEP_M);
+                    }
+                }
+                None => step = (0.5 * step).max(MIN_FEED_STEP_M),
+            }
+        }
+        Ok((body, q, pushing))
+    }
+}
 
 /// The body clamped at the rear hold's angle (its clamp at the origin; the
 /// floating form moves it to the hold's point).

@@ -24,7 +24,7 @@ impl Solver {
         for (rhs, dc) in ws.rhs.iter_mut().zip(&ws.path.constraints) {
             *rhs = -dc;
         }
-        ws.kkt.solve(&it.active, &ws.tangent, &ws.rhs, &mut ws.step, &mut ws.lambda_tangent);
+        ws.kkt.solve(&ws.tangent, &ws.rhs, &mut ws.step, &mut ws.lambda_tangent);
         ws.tangent.copy_from_slice(&ws.step);
         ws.lambda_tangent.iter_mut().for_each(|x| *x = -*x);
     }

@@ -82,7 +82,7 @@ impl Solver {
         }
         ws.rhs.fill(0.0);
         for _ in 0..tuning.escape_iterations {
-            ws.kkt.solve(&it.active, &ws.direction, &ws.rhs, &mut ws.step, &mut ws.dual_step);
+            ws.kkt.solve(&ws.direction, &ws.rhs, &mut ws.step, &mut ws.dual_step);
             let norm = sup_norm(&ws.step);
             ws.direction.iter_mut().zip(&ws.step).for_each(|(v, s)| *v = s / norm);
         }

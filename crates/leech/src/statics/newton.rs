@@ -176,6 +176,9 @@ impl Solver {
         let inequalities = ws.rows.iter().filter(|r| r.kind == RowKind::Inequality).count();
         let mut changes = 0;
         loop {
+            if it.active.iter().filter(|a| **a).count() > ws.kkt.active_capacity() {
+                return Newton::failed(f64::INFINITY, StopReason::TooManyActiveRows);
+            }
             let out = self.newton_on_working_set(sys, it, t, budget, ws);
             if out.result.is_err() || inequalities == 0 || !self.update_active_set(it, ws, budget.tolerance) {
                 if let Ok(stable) = out.result {
@@ -340,7 +343,7 @@ impl Solver {
         for (rhs, c) in ws.rhs.iter_mut().zip(&ws.current.constraints) {
             *rhs = -c;
         }
-        ws.kkt.solve(&it.active, &ws.q_trial, &ws.rhs, &mut ws.step, &mut ws.dual_step);
+        ws.kkt.solve(&ws.q_trial, &ws.rhs, &mut ws.step, &mut ws.dual_step);
         sup_norm(&ws.step)
     }
 
@@ -362,7 +365,7 @@ impl Solver {
         for row in 0..m {
             ws.rhs[row] = -ws.current.constraints[row];
         }
-        ws.kkt.solve(&it.active, &ws.residual, &ws.rhs, &mut ws.step, &mut ws.dual_step);
+        ws.kkt.solve(&ws.residual, &ws.rhs, &mut ws.step, &mut ws.dual_step);
         ws.residual.iter_mut().for_each(|x| *x = -*x);
         // Where the curvature is corrected the quadratic model is not the
         // energy: keep such steps short, so that the descent follows the

@@ -124,6 +124,9 @@ pub enum StopReason {
     StepLimit,
     /// Inequality rows kept switching between active and inactive.
     ActiveSetCycling,
+    /// More rows would act at once than the factorization holds
+    /// ([`crate::linalg::MAX_BORDER`] less the free coordinates).
+    TooManyActiveRows,
 }
 
 impl StopReason {
@@ -140,6 +143,9 @@ impl StopReason {
             StopReason::UnstableRefused => "unstable equilibrium (the branch rule refuses to leave it)",
             StopReason::StepLimit => "continuation step limit reached",
             StopReason::ActiveSetCycling => "contacts kept switching on and off",
+            StopReason::TooManyActiveRows => {
+                "more constraint rows act at once than the solver holds (64 less the free coordinates)"
+            }
         }
     }
 }

@@ -2,7 +2,7 @@
 
 use super::evaluation::{Evaluation, PathTerms};
 use super::system::{Path, Row, StaticSystem};
-use crate::linalg::{BorderedLdl, Pattern};
+use crate::linalg::{BorderedLdl, Pattern, MAX_BORDER};
 
 /// What a factorization found about the KKT matrix of the working set.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -17,79 +17,86 @@ pub(super) enum Inertia {
 
 /// The KKT factorization of the working set, on [`BorderedLdl`]: the
 /// chains' banded Hessian bordered by the free coordinates (primal rows)
-/// and the constraint rows. Inactive rows stay in the pattern (the symbolic
-/// structure does not change with the active set) as identity rows, `y_r = 0`.
+/// and the active constraint rows, packed in row order. Inactive rows stay
+/// out of the factorization, so many candidate rows (contacts within a
+/// margin) cost nothing until they act; the border's buffers are allocated
+/// once for as many rows as fit ([`MAX_BORDER`]).
 #[derive(Clone, Debug)]
 pub(super) struct KktSolver {
     ldl: BorderedLdl,
     chains: usize,
     free: usize,
     m: usize,
-    /// The assembled border `[H_cf | J_A^T]` (chains x (f + m)) and corner
-    /// `[[H_ff, J_Af^T], [J_Af, I_inactive]]`, when they differ from `J^T`
-    /// and zero (free coordinates or inactive rows).
+    /// Border rows the factorization holds: free coordinates plus active rows.
+    capacity: usize,
+    /// The active rows in order: border row `free + s` is row `slots[s]`.
+    slots: Vec<usize>,
+    /// The assembled border `[H_cf | J_A^T]` (chains x k) and corner
+    /// `[[H_ff, J_Af^T], [J_Af, 0]]` (k x k), `k = free + active rows`, when
+    /// the border is not the Jacobian itself.
     border: Vec<f64>,
     corner: Vec<f64>,
-    /// Right-hand side and solution of the border rows (f + m).
+    /// Right-hand side and solution of the border rows (k).
     c: Vec<f64>,
     y: Vec<f64>,
-    active_rows: usize,
-    /// Whether `corner` holds an assembled matrix (else it is zero).
-    assembled: bool,
 }
 
 impl KktSolver {
     fn new(n: usize, free: usize, m: usize, blocks: &[usize]) -> KktSolver {
-        let (chains, k) = (n - free, free + m);
+        let (chains, capacity) = (n - free, (free + m).min(MAX_BORDER));
         KktSolver {
-            ldl: BorderedLdl::new(&Pattern::new(1, blocks, k, free)),
+            ldl: BorderedLdl::new(&Pattern::new(1, blocks, capacity, free)),
             chains,
             free,
             m,
-            border: vec![0.0; chains * k],
-            corner: vec![0.0; k * k],
-            c: vec![0.0; k],
-            y: vec![0.0; k],
-            active_rows: m,
-            assembled: false,
+            capacity,
+            slots: Vec::with_capacity(m),
+            border: vec![0.0; chains * capacity],
+            corner: vec![0.0; capacity * capacity],
+            c: vec![0.0; capacity],
+            y: vec![0.0; capacity],
         }
+    }
+
+    /// How many rows may be active at once.
+    pub fn active_capacity(&self) -> usize {
+        self.capacity - self.free
     }
 
     /// Whether the border is the Jacobian itself (no free coordinates, all rows active).
     fn direct(&self) -> bool {
-        self.free == 0 && self.active_rows == self.m
+        self.free == 0 && self.slots.len() == self.m
     }
 
     /// Assembles border and corner from the Lagrangian corner, the potential's
     /// border Hessian and the Jacobian of the active rows.
-    fn assemble(&mut self, ev: &Evaluation, lagrangian_corner: &[f64], active: &[bool]) {
-        let (f, m, k) = (self.free, self.m, self.free + self.m);
+    fn assemble(&mut self, ev: &Evaluation, lagrangian_corner: &[f64]) {
+        let (f, m) = (self.free, self.m);
+        let k = f + self.slots.len();
         for i in 0..self.chains {
             let row = &mut self.border[i * k..(i + 1) * k];
             row[..f].copy_from_slice(&ev.hessian_border[i * f..(i + 1) * f]);
-            for r in 0..m {
-                row[f + r] = if active[r] { ev.jacobian[i * m + r] } else { 0.0 };
+            for (dst, r) in row[f..].iter_mut().zip(&self.slots) {
+                *dst = ev.jacobian[i * m + r];
             }
         }
-        self.corner.fill(0.0);
+        let corner = &mut self.corner[..k * k];
+        corner.fill(0.0);
         for a in 0..f {
-            self.corner[a * k..a * k + f].copy_from_slice(&lagrangian_corner[a * f..(a + 1) * f]);
-            for r in 0..m {
-                let j = if active[r] { ev.jacobian[(self.chains + a) * m + r] } else { 0.0 };
-                self.corner[(f + r) * k + a] = j;
-                self.corner[a * k + f + r] = j;
-            }
-        }
-        for r in 0..m {
-            if !active[r] {
-                self.corner[(f + r) * k + f + r] = 1.0;
+            corner[a * k..a * k + f].copy_from_slice(&lagrangian_corner[a * f..(a + 1) * f]);
+            for (s, r) in self.slots.iter().enumerate() {
+                let j = ev.jacobian[(self.chains + a) * m + r];
+                corner[(f + s) * k + a] = j;
+                corner[a * k + f + s] = j;
             }
         }
     }
 
     /// Factors `[H + shift I, J_A^T; J_A, 0]` (the free coordinates shifted
     /// too) and reports the inertia of the working set's KKT matrix.
-    #[allow(clippy::too_many_arguments)]
+    ///
+    /// # Panics
+    /// If more rows are active than [`KktSolver::active_capacity`].
     pub fn factor(
         &mut self,
         diag: &[f64],
@@ -99,23 +106,24 @@ impl KktSolver {
         active: &[bool],
         tiny: f64,
     ) -> Inertia {
-        self.active_rows = active.iter().filter(|a| **a).count();
+        self.slots.clear();
+        self.slots.extend((0..self.m).filter(|r| active[*r]));
+        let k = self.free + self.slots.len();
+        self.ldl.set_border_rows(k);
         let count = if self.direct() {
-            if self.assembled {
-                self.corner.fill(0.0);
-                self.assembled = false;
-            }
-            self.ldl.factor(diag, &ev.hessian_off, &ev.jacobian, &self.corner, shift, tiny)
+            self.corner[..k * k].fill(0.0);
+            self.ldl.factor(diag, &ev.hessian_off, &ev.jacobian, &self.corner[..k * k], shift, tiny)
         } else {
-            self.assemble(ev, lagrangian_corner, active);
-            self.assembled = true;
-            self.ldl.factor(diag, &ev.hessian_off, &self.border, &self.corner, shift, tiny)
+            self.assemble(ev, lagrangian_corner);
+            let border = &self.border[..self.chains * k];
+            self.ldl.factor(diag, &ev.hessian_off, border, &self.corner[..k * k], shift, tiny)
         };
         // A minimum of the working set has exactly one negative eigenvalue
         // per active row (Sylvester: inertia(K) = inertia(H) + inertia(S)).
-        if count.zero > 0 || count.negative < self.active_rows {
+        let rows = self.slots.len();
+        if count.zero > 0 || count.negative < rows {
             Inertia::Singular
-        } else if count.negative == self.active_rows {
+        } else if count.negative == rows {
             Inertia::Minimum
         } else {
             Inertia::Indefinite
@@ -124,15 +132,19 @@ impl KktSolver {
 
     /// Solves the factored system: `(H + shift) x + J_A^T y_A = r`, `J_A x = c_A`,
     /// `y` zero on inactive rows.
-    pub fn solve(&mut self, active: &[bool], r: &[f64], c: &[f64], x: &mut [f64], y: &mut [f64]) {
+    pub fn solve(&mut self, r: &[f64], c: &[f64], x: &mut [f64], y: &mut [f64]) {
         let (n, f) = (self.chains, self.free);
+        let k = f + self.slots.len();
         self.c[..f].copy_from_slice(&r[n..]);
-        for (row, (dst, src)) in self.c[f..].iter_mut().zip(c).enumerate() {
-            *dst = if active[row] { *src } else { 0.0 };
+        for (dst, row) in self.c[f..k].iter_mut().zip(&self.slots) {
+            *dst = c[*row];
         }
-        self.ldl.solve(&r[..n], &self.c, &mut x[..n], &mut self.y);
+        self.ldl.solve(&r[..n], &self.c[..k], &mut x[..n], &mut self.y[..k]);
         x[n..].copy_from_slice(&self.y[..f]);
-        y.copy_from_slice(&self.y[f..]);
+        y.fill(0.0);
+        for (value, row) in self.y[f..k].iter().zip(&self.slots) {
+            y[*row] = *value;
+        }
     }
 }
 

@@ -77,7 +77,21 @@ fn pushing_the_tubes_past_the_free_shape_loads_both_cups() {
 
 #[test]
 fn a_body_lies_on_the_floor() {
-    let robot = Robot::builtin();
+    lies_on_the_floor(Robot::builtin());
+}
+
+/// Finely cut tubes put many nodes within the contact margin at once (more
+/// candidate rows than the factorization's border holds): only the rows
+/// that act enter it.
+#[test]
+fn a_finely_cut_body_lies_on_the_floor() {
+    let robot = Robot::builtin().with_element_length(0.001).unwrap();
+    let held = lies_on_the_floor(robot.clone());
+    let floor = leech::scene::Scene::builtin("floor").unwrap();
+    assert!(held.penetration_m(&robot, &floor) <= 1e-9);
+}
+
+fn lies_on_the_floor(robot: Robot) -> Held {
     let floor = leech::scene::Scene::builtin("floor").unwrap();
     // The rear cup's face on the floor: p0 sits b + offset above it.
     let height = robot.body.base_spacing_m + robot.cup.rear_offset_m;
@@ -92,6 +106,7 @@ fn a_body_lies_on_the_floor() {
         assert!(c.force_n > 0.0);
     }
     check_balance(&held);
+    held
 }
 
 #[test]
@@ -106,4 +121,37 @@ fn the_rear_cup_carries_the_robot_on_a_wall() {
     assert!(rear.verdict.safety_factor > 1.5 && rear.verdict.holds, "{rear:?}");
     // The face sits b + offset from the clamp, on chain B's side (x > 0 for a wall climb upwards).
     assert!((rear.centre_m[0] - robot.body.base_spacing_m - robot.cup.rear_offset_m).abs() < 1e-12);
+}
+
+/// A straight body lying along +x with chain A's clamp at `(x, y)`: the
+/// floating unknowns `(phi^A, phi^B, p0, phi0)`.
+fn straight_at(body: &leech::body::Body, x: f64, y: f64) -> Vec<f64> {
+    let mut q = vec![0.0; body.chain_a().len() + body.chain_b().len()];
+    q.extend([x, y, 0.0]);
+    q
+}
+
+#[test]
+fn a_body_moved_through_a_thin_wall_is_not_swept_clear() {
+    use leech::stance::{swept_clear, Approach, FloatingBody};
+    let robot = Robot::builtin().with_base_angle(0.0).unwrap();
+    let body = robot.body(0.10, 0.10).unwrap();
+    // A wall 20 mm thick from x = 0.30 to 0.32, 0.25 m high.
+    let wall = leech::scene::Scene::from_toml_str(
+        "name = \"wall\"\n[[polygon]]\npoints_m = [[0.30, 0.0], [0.32, 0.0], [0.32, 0.25], [0.30, 0.25]]\n",
+        "wall",
+    )
+    .unwrap();
+    let hold = Hold::Rear(Pose::from_deg([0.0, 0.1], 0.0));
+    let floating = FloatingBody::new(&body, robot.body.base_spacing_m, 0.0, hold, Approach::Load);
+    let radius = 0.5 * robot.tube.outer_diameter_m;
+    let before = straight_at(&body, 0.05, 0.1);
+    // Both shapes are clear of the wall; the move between them is not.
+    let through = straight_at(&body, 0.35, 0.1);
+    let short = straight_at(&body, 0.08, 0.1);
+    for q in [&before, &through, &short] {
+        assert!(leech::stance::penetration(&floating, q, &wall, radius) <= 0.0);
+    }
+    assert!(!swept_clear((&floating, &before), (&floating, &through), &wall, radius));
+    assert!(swept_clear((&floating, &before), (&floating, &short), &wall, radius));
 }
