@@ -34,3 +34,16 @@ fn floor_cold_links(bencher: divan::Bencher, links: usize) {
     let (hold, solver) = (on_floor(&robot), Solver::default());
     bencher.bench_local(|| stance::solve_in(&robot, [0.30, 0.28], hold, &floor, &solver).unwrap());
 }
+
+/// Both cups: the front cup attached 2 mm beyond where the free endpoint of
+/// the rear-held 0.30/0.28 m body hangs, warm from that free shape
+/// (`stance::attach_front`).
+#[divan::bench]
+fn both_warm_30_28(bencher: divan::Bencher) {
+    let robot = Robot::builtin();
+    let solver = Solver::default();
+    let rear = Pose::from_deg([0.0, 0.0], robot.world.base_angle_deg);
+    let free = stance::solve(&robot, [0.30, 0.28], Hold::Rear(rear), &solver).unwrap();
+    let front = Pose { point_m: [free.endpoint_m[0], free.endpoint_m[1] + 0.002], angle_rad: free.plate_angle() };
+    bencher.bench_local(|| stance::attach_front(&robot, &free, front, &solver).unwrap());
+}

@@ -161,13 +161,42 @@ pub fn solve(robot: &Robot, lengths: [f64; 2], hold: Hold, solver: &Solver) -> R
             let floating = FloatingBody::new(&body, b, unit_mass, hold, Approach::Load);
             continued(&floating, q, solver)
         }
-        Hold::Both { rear, .. } => {
-            let held = solve(robot, lengths, Hold::Rear(rear), solver)?;
-            let from = Pose { point_m: held.endpoint_m, angle_rad: held.body.endpoint_angle(&held.equilibrium.q) };
-            let floating = FloatingBody::new(&held.body, b, unit_mass, hold, Approach::Front(from));
-            continued(&floating, held.equilibrium.q.clone(), solver)
+        Hold::Both { rear, front } => {
+            attach_front(robot, &solve(robot, lengths, Hold::Rear(rear), solver)?, front, solver)
         }
     }
+}
+
+/// The rear-held equilibrium `held` (no scene) with the front cup attached
+/// at `front`: the front hold's target moved from where the endpoint is to
+/// `front` under full gravity (warm: from `held`'s shape). A target out of
+/// reach fails to converge.
+///
+/// ```
+/// use leech::prelude::*;
+/// use leech::stance::{self, Hold, Pose};
+/// let robot = Robot::builtin();
+/// let free = stance::solve(&robot, [0.25, 0.2], Hold::Rear(Pose::from_deg([0.0, 0.0], 90.0)), &Solver::default()).unwrap();
+/// // Attached 2 mm beyond where the endpoint hangs: both cups carry the robot.
+/// let front = Pose { point_m: [free.endpoint_m[0], free.endpoint_m[1] + 0.002], angle_rad: free.plate_angle() };
+/// let both = stance::attach_front(&robot, &free, front, &Solver::default()).unwrap();
+/// let total = both.rear.unwrap().force_n[1] + both.front.unwrap().force_n[1];
+/// assert!((total - both.weight_n).abs() < 1e-9 * both.weight_n);
+/// ```
+pub fn attach_front(robot: &Robot, held: &Held, front: Pose, solver: &Solver) -> Result<Held, StanceError> {
+    let Some(rear) = held.hold.rear() else {
+        return Err(InputError::Invalid {
+            field: "hold".into(),
+            value: "front".into(),
+            allowed: "a rear-held equilibrium to attach the front cup to".into(),
+        }
+        .into());
+    };
+    let (b, unit_mass) = (robot.body.base_spacing_m, robot.driving_unit.mass_kg);
+    let from = Pose { point_m: held.endpoint_m, angle_rad: held.plate_angle() };
+    let hold = Hold::Both { rear, front };
+    let floating = FloatingBody::new(&held.body, b, unit_mass, hold, Approach::Front(from));
+    continued(&floating, held.equilibrium.q.clone(), solver)
 }
 
 /// The clamped `body`'s equilibrium `eq` (its clamp at the origin, at the
@@ -455,6 +484,11 @@ impl Held {
             add(c.point_m, [c.force_n * c.normal[0], c.force_n * c.normal[1]], 0.0);
         }
         total
+    }
+
+    /// The plate's angle (rad): chain A's last link.
+    pub fn plate_angle(&self) -> f64 {
+        self.body.endpoint_angle(&self.equilibrium.q)
     }
 
     /// Where the rear cup's face is ([`rear_cup_centre`]).
