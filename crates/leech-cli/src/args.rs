@@ -90,7 +90,7 @@ pub struct Shape {
     pub solver: Option<Solver>,
     /// Cold solves to time (with the two-chain model only).
     pub repeat: Option<NonZeroUsize>,
-    /// Which cups hold, where (the rear hold at the origin and the base angle by default).
+    /// Which cups hold, where (by default the rear hold at the scene's start, else at the origin and the base angle).
     pub hold: Hold,
     /// What the tubes rest on.
     pub scene: Option<Scene>,
@@ -259,13 +259,16 @@ fn chain(a: flags::ChainArgs) -> Result<Chain, Failure> {
 fn shape(a: flags::ShapeArgs) -> Result<Shape, Failure> {
     // --rear's angle is the clamp direction: it sets the base angle.
     let rear = a.rear.map(|p| pose("--rear", p, 360.0)).transpose()?;
+    let scene = a.scene.as_deref().map(|p| load_scene(p, "--scene")).transpose()?.map(|(scene, _)| scene);
+    // Without --rear or --base-angle, a scene's [start] places the robot.
+    let start = scene.as_ref().and_then(|s| s.start).filter(|_| a.rear.is_none() && a.base_angle.is_none());
     let base_angle = match (a.base_angle, &a.rear) {
         (Some(deg), Some(r)) if deg != r[2] => {
             let message =
                 format!("--rear: its angle {} deg differs from --base-angle {deg}; give one, or both alike", r[2]);
             return Err(Failure::Input(message));
         }
-        (deg, r) => deg.or(r.map(|r| r[2])),
+        (deg, r) => deg.or(r.map(|r| r[2])).or(start.map(|s| s.direction_rad.to_degrees())),
     };
     // Overrides first: the shape parameter sets the stiffness from gravity.
     let robot = tuned(&a.robot, |robot| {
@@ -286,8 +289,10 @@ fn shape(a: flags::ShapeArgs) -> Result<Shape, Failure> {
         true => (Some(solver(a.max_iterations, a.time_limit)?), a.repeat.map(repeat).transpose()?),
         false => (None, None),
     };
-    let rear = rear.unwrap_or_else(|| Pose::from_deg([0.0, 0.0], robot.world.base_angle_deg));
-    let (hold, scene) = situation(&a, &robot, rear)?;
+    let rear = rear
+        .or(start.map(|s| leech::stance::rear_pose_for_cup(&robot, s.rear_cup_m, s.direction_rad)))
+        .unwrap_or_else(|| Pose::from_deg([0.0, 0.0], robot.world.base_angle_deg));
+    let hold = situation(&a, &robot, rear, scene.as_ref())?;
     let shape =
         Shape { robot, lengths: a.lengths, body, models, solver, repeat, hold, scene, outputs: a.output.into() };
     if shape.repeat.is_some() && !shape.clamped() {

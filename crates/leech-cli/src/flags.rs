@@ -397,7 +397,7 @@ pub struct ShapeArgs {
     #[arg(long, value_enum)]
     pub hold: Option<HoldArg>,
     /// The rear hold: the driving unit's point X,Y (m) and clamp direction DEG; it sets the base angle
-    /// (default: the origin at the robot's base angle).
+    /// (default: the scene's start, its rear cup on a surface; else the origin at the robot's base angle).
     #[arg(long, value_name = "X,Y,DEG", value_parser = parse_pose, allow_hyphen_values = true)]
     pub rear: Option<[f64; 3]>,
     /// The front hold: the endpoint X,Y (m) and the plate's angle DEG.

@@ -12,8 +12,13 @@ use leech::stance::{self, Hold, Pose};
 use crate::failure::Failure;
 use crate::flags::{self, HoldArg, ModelArg};
 
-/// The holds and the scene of `leech shape`, checked before any solve.
-pub(super) fn situation(a: &flags::ShapeArgs, robot: &Robot, rear: Pose) -> Result<(Hold, Option<Scene>), Failure> {
+/// The holds of `leech shape` in its scene, checked before any solve.
+pub(super) fn situation(
+    a: &flags::ShapeArgs,
+    robot: &Robot,
+    rear: Pose,
+    scene: Option<&Scene>,
+) -> Result<Hold, Failure> {
     let given = a.scene.is_some() || a.hold.is_some() || a.rear.is_some() || a.front.is_some();
     if given && a.model != ModelArg::TwoChain {
         return Err(Failure::Input("--scene, --hold, --rear, --front: only with --model two-chain".into()));
@@ -34,11 +39,10 @@ pub(super) fn situation(a: &flags::ShapeArgs, robot: &Robot, rear: Pose) -> Resu
             )));
         }
     };
-    let scene = a.scene.as_deref().map(|p| load_scene(p, "--scene")).transpose()?.map(|(scene, _)| scene);
-    if let Some(scene) = &scene {
+    if let Some(scene) = scene {
         clear_of(scene, robot, hold)?;
     }
-    Ok((hold, scene))
+    Ok(hold)
 }
 
 /// A pose from `X,Y,DEG`: coordinates within the scenes' bounds, the angle within `+-max_deg`.

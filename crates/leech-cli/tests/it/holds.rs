@@ -72,8 +72,19 @@ fn front_and_both_holds_balance_the_weight() {
 }
 
 #[test]
+fn a_scene_places_the_robot_at_its_start() {
+    // The wall's [start]: the rear cup on the wall at the origin, climbing up.
+    let v = json_of(&["shape", "--lengths", "0.25,0.2", "--scene", "wall"]);
+    let cup = pair(&v["rear_cup_m"]);
+    assert!(cup[0].abs() < 1e-12 && cup[1].abs() < 1e-12, "the rear cup's face at the origin: {cup:?}");
+    assert!((v["driving_unit_angle_rad"].as_f64().unwrap() - 90f64.to_radians()).abs() < 1e-12);
+    assert!(pair(&v["driving_unit_m"])[0] < 0.0, "the driving unit in free space, off the wall");
+    assert_balanced(&v);
+}
+
+#[test]
 fn a_floor_carries_the_tubes_it_touches() {
-    let v = json_of(&["shape", "--lengths", "0.25,0.2", "--scene", "floor", "--rear", "0,0.047,0"]);
+    let v = json_of(&["shape", "--lengths", "0.25,0.2", "--scene", "floor"]);
     assert_eq!(v["scene"], "floor");
     let cup = pair(&v["rear_cup_m"]);
     assert!(cup[0].abs() < 1e-12 && cup[1].abs() < 1e-12, "the rear cup's face on the floor: {cup:?}");
@@ -134,7 +145,7 @@ fn bad_holds_and_scenes_exit_2_naming_the_flag() {
         (&["--hold", "front", "--front", "0,0.1,1e9"], "--front angle"),
         (&["--rear", "0,0,0", "--base-angle", "90"], "--rear"),
         (&["--scene", "cliff"], "--scene"),
-        (&["--scene", "wall"], "--rear"),
+        (&["--scene", "wall", "--rear", "0,0,90"], "--rear"),
         (&["--scene", "wall", "--rear", "-0.047,0,90", "--hold", "both", "--front", "0.2,0.1,90"], "--front"),
         (&["--scene", "floor", "--model", "both"], "--scene"),
         (&["--scene", "floor", "--rear", "0,0.047,0", "--repeat", "3"], "--repeat"),

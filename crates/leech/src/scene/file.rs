@@ -2,8 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{Scene, Solid, MAX_SCENE_BYTES};
-use crate::error::InputError;
+use super::{Scene, Solid, Start, MAX_COORDINATE_M, MAX_SCENE_BYTES};
+use crate::error::{within, InputError};
 use crate::geom::Vec2;
 
 /// A `[[half_plane]]` table. Points are read as lists and checked for two
@@ -36,6 +36,19 @@ fn pair(field: String, v: &[f64]) -> Result<Vec2, InputError> {
 }
 
 /// The solids of a parsed file, half-planes first; `source` starts error fields.
+/// The `[start]` table: a finite point within the scenes' bounds and a
+/// direction within +-360 deg.
+fn start(raw: &RawStart, source: &str) -> Result<Start, InputError> {
+    let [x, y] = pair(format!("{source}: start.rear_cup_m"), &raw.rear_cup_m)?;
+    let m = MAX_COORDINATE_M;
+    let point = [
+        within(&format!("{source}: start.rear_cup_m x (m)"), x, -m, m)?,
+        within(&format!("{source}: start.rear_cup_m y (m)"), y, -m, m)?,
+    ];
+    let degrees = within(&format!("{source}: start.direction_deg"), raw.direction_deg, -360.0, 360.0)?;
+    Ok(Start { rear_cup_m: point, direction_rad: degrees.to_radians() })
+}
+
 fn solids(raw: RawScene, source: &str) -> Result<Vec<Solid>, InputError> {
     let mut solids = Vec::with_capacity(raw.half_plane.len() + raw.polygon.len());
     for (i, h) in raw.half_plane.iter().enumerate() {
@@ -56,8 +69,17 @@ fn solids(raw: RawScene, source: &str) -> Result<Vec<Solid>, InputError> {
 /// cannot say how they interleave: half-planes come first.
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+struct RawStart {
+    rear_cup_m: Vec<f64>,
+    direction_deg: f64,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct RawScene {
     name: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    start: Option<RawStart>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     half_plane: Vec<RawHalfPlane>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -81,7 +103,8 @@ impl Scene {
         let raw: RawScene =
             toml::from_str(text).map_err(|e| InputError::File { file: source.into(), message: one_line(text, &e) })?;
         let name = raw.name.clone();
-        let scene = Scene { name, solids: solids(raw, source)? };
+        let start = raw.start.as_ref().map(|s| start(s, source)).transpose()?;
+        let scene = Scene { name, solids: solids(raw, source)?, start };
         scene.validate().map_err(|e| match e {
             InputError::Invalid { field, value, allowed } => {
                 InputError::Invalid { field: format!("{source}: {field}"), value, allowed }
@@ -95,7 +118,10 @@ impl Scene {
     /// to an equal scene when the half-planes come before the polygons in
     /// [`Scene::solids`], as in every scene read from a file.
     pub fn to_toml_string(&self) -> String {
-        let mut raw = RawScene { name: self.name.clone(), half_plane: Vec::new(), polygon: Vec::new() };
+        let start = self
+            .start
+            .map(|s| RawStart { rear_cup_m: s.rear_cup_m.to_vec(), direction_deg: s.direction_rad.to_degrees() });
+        let mut raw = RawScene { name: self.name.clone(), start, half_plane: Vec::new(), polygon: Vec::new() };
         for solid in &self.solids {
             match solid {
                 Solid::HalfPlane { point_m, normal } => {

@@ -36,6 +36,9 @@
 //! use leech::scene::Scene;
 //! let scene = Scene::from_toml_str(r#"
 //! name = "thin wall"
+//! [start]                   # optional: where the robot starts by default
+//! rear_cup_m = [0.0, 0.0]   # the centre of the rear cup's face, on a surface
+//! direction_deg = 0.0       # the clamp direction; the cups lie to its right
 //! [[half_plane]]            # everything behind the line is solid
 //! point_m = [0.0, 0.0]
 //! normal = [0.0, 1.0]       # unit outward normal, into free space
@@ -44,6 +47,7 @@
 //! "#, "example").unwrap();
 //! let (d, _, normal, _) = scene.signed_distance([0.29, 0.1]);
 //! assert!((d - 0.01).abs() < 1e-12 && normal == [-1.0, 0.0]);
+//! assert_eq!(scene.start.unwrap().rear_cup_m, [0.0, 0.0]);
 //! ```
 //!
 //! Built-in scenes ([`Scene::builtin`], [`BUILTIN_SCENES`]) are such files,
@@ -88,6 +92,19 @@ pub struct Scene {
     pub name: String,
     /// The solids; [`Feature`]s refer to them by index.
     pub solids: Vec<Solid>,
+    /// Where the robot starts, when the scene says (file: `[start]`).
+    pub start: Option<Start>,
+}
+
+/// Where a scene puts the robot by default: the centre of the rear cup's
+/// face on a surface, and the direction the robot faces along it (the
+/// clamp direction `phi0`; the cups lie on chain B's side, to its right).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Start {
+    /// Centre of the rear cup's face (m).
+    pub rear_cup_m: crate::geom::Vec2,
+    /// The clamp direction (rad, counter-clockwise from +x).
+    pub direction_rad: f64,
 }
 
 /// A piece of a scene's surface: what a point's closest surface point lies on.
@@ -117,7 +134,7 @@ pub enum Feature {
 impl Scene {
     /// A checked scene.
     pub fn new(name: impl Into<String>, solids: Vec<Solid>) -> Result<Scene, InputError> {
-        let scene = Scene { name: name.into(), solids };
+        let scene = Scene { name: name.into(), solids, start: None };
         scene.validate()?;
         Ok(scene)
     }

@@ -542,7 +542,7 @@ mod tests {
     #[test]
     #[should_panic(expected = "at least one solid")]
     fn signed_distance_needs_a_solid() {
-        Scene { name: "none".into(), solids: Vec::new() }.signed_distance([0.0, 0.0]);
+        Scene { name: "none".into(), solids: Vec::new(), start: None }.signed_distance([0.0, 0.0]);
     }
 
     #[test]
@@ -552,7 +552,7 @@ mod tests {
         assert!(!scene.is_free([0.17, 0.1], 0.05) && scene.is_free([0.17, 0.1], 0.03));
         assert!(scene.inside([0.21, 0.0]) && scene.inside([0.0, -1e-9]) && !scene.inside([0.0, 0.0]));
         assert!(!scene.inside([0.23, 0.1]) && !scene.inside([0.21, 0.2500001]));
-        let empty = Scene { name: "none".into(), solids: Vec::new() };
+        let empty = Scene { name: "none".into(), solids: Vec::new(), start: None };
         assert!(empty.is_free([0.0, 0.0], 1.0) && !empty.inside([0.0, 0.0]));
         assert!(empty.surface_frame([0.0, 0.0]).is_none());
     }

@@ -224,6 +224,14 @@ pub fn rear_cup_centre(robot: &Robot, unit: Pose) -> Vec2 {
     crate::geom::add_scaled(unit.point_m, d, crate::geom::right_normal(unit.angle_rad))
 }
 
+/// The driving unit's pose that puts the rear cup's face centre at `cup`
+/// (m) with the clamp direction `direction` (rad): the inverse of
+/// [`rear_cup_centre`].
+pub fn rear_pose_for_cup(robot: &Robot, cup: Vec2, direction: f64) -> Pose {
+    let d = robot.body.base_spacing_m + robot.cup.rear_offset_m;
+    Pose { point_m: crate::geom::add_scaled(cup, -d, crate::geom::right_normal(direction)), angle_rad: direction }
+}
+
 /// The centre of the front cup's face for the endpoint and plate at
 /// `endpoint`: `c + front_offset` from the endpoint along `nu` of the plate
 /// (`front_offset` from chain B's tip).
