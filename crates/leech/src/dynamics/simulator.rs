@@ -139,7 +139,7 @@ impl<'a, S: Multibody> Simulator<'a, S> {
     }
 
     pub(super) fn evaluate(&mut self, q: &[f64]) {
-        self.ev.clear();
+        // StaticSystem::evaluate clears `ev` itself.
         self.sys.evaluate(q, self.load, &mut self.ev);
     }
 
