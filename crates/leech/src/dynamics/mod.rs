@@ -71,6 +71,7 @@ mod backward_euler;
 mod mass;
 mod midpoint;
 mod rk4;
+mod rows;
 mod scenario;
 mod simulator;
 mod stability;

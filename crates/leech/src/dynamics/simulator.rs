@@ -5,6 +5,7 @@ use super::backward_euler::EulerScratch;
 use super::mass::{self, Factors, Placed};
 use super::midpoint::MidpointScratch;
 use super::rk4::Rk4Scratch;
+use super::rows;
 use super::stability::PowerScratch;
 use super::{Integrator, Motion, StepError};
 use crate::body::Body;
@@ -94,22 +95,6 @@ fn solve_small(s: &[f64], b: &mut [f64], ldl: &mut DenseLdl) {
     solve_symmetric(s, b.len(), b, ldl, 0.0);
 }
 
-/// `out = A^T B` (`m x m`, row-major) for `A`, `B` with `m` columns laid
-/// out row by row, in one pass over their rows.
-fn gram(a: &[f64], b: &[f64], m: usize, out: &mut [f64]) {
-    out.iter_mut().for_each(|o| *o = 0.0);
-    if m == 0 {
-        return;
-    }
-    for (ra, rb) in a.chunks_exact(m).zip(b.chunks_exact(m)) {
-        for (r, x) in ra.iter().enumerate() {
-            for (o, y) in out[r * m..(r + 1) * m].iter_mut().zip(rb) {
-                *o += x * y;
-            }
-        }
-    }
-}
-
 impl<'a, S: Multibody> Simulator<'a, S> {
     /// A simulator for `sys`.
     pub fn new(sys: &'a S) -> Simulator<'a, S> {
@@ -163,16 +148,7 @@ impl<'a, S: Multibody> Simulator<'a, S> {
 
     /// `out = J x` (m) with the evaluated Jacobian, in one pass over its rows.
     fn jacobian_product(&self, x: &[f64], out: &mut [f64]) {
-        let m = self.m;
-        out.iter_mut().for_each(|o| *o = 0.0);
-        if m == 0 {
-            return;
-        }
-        for (row, xi) in self.ev.jacobian[..self.n * m].chunks_exact(m).zip(x) {
-            for (o, j) in out.iter_mut().zip(row) {
-                *o += j * xi;
-            }
-        }
+        rows::transposed_product(&self.ev.jacobian[..self.n * self.m], x, out);
     }
 
     /// `Y = A^-1 J^T` by one sweep of `m` right-hand sides with the factored
@@ -182,7 +158,7 @@ impl<'a, S: Multibody> Simulator<'a, S> {
         // J^T laid out row by row is the Jacobian itself.
         self.gauss.y.copy_from_slice(&self.ev.jacobian[..n * m]);
         self.factors.solve_columns(&self.chains, &mut self.gauss.y, m);
-        gram(&self.ev.jacobian[..n * m], &self.gauss.y, m, &mut self.gauss.schur);
+        rows::gram(&self.ev.jacobian[..n * m], &self.gauss.y, m, &mut self.gauss.schur);
     }
 
     /// Sets the target of [`Simulator::enforce`] to `-J x`.
@@ -206,11 +182,7 @@ impl<'a, S: Multibody> Simulator<'a, S> {
             *r = t - *r;
         }
         solve_small(&self.gauss.schur, &mut rhs, &mut self.gauss.ldl);
-        for i in 0..n {
-            for r in 0..m {
-                x[i] += self.gauss.y[i * m + r] * rhs[r];
-            }
-        }
+        rows::add_product(&self.gauss.y[..n * m], &rhs, x);
         self.gauss.rhs = rhs;
     }
 
@@ -299,15 +271,13 @@ impl<'a, S: Multibody> Simulator<'a, S> {
     fn least_change(&mut self, x: &mut [f64]) {
         let (n, m) = (self.n, self.m);
         let jac = &self.ev.jacobian;
-        gram(&jac[..n * m], &jac[..n * m], m, &mut self.gauss.normal);
+        rows::gram(&jac[..n * m], &jac[..n * m], m, &mut self.gauss.normal);
         let mu = &mut self.gauss.rhs;
         mu.copy_from_slice(&self.gauss.target);
         solve_small(&self.gauss.normal, mu, &mut self.gauss.ldl);
-        for i in 0..n {
-            for a in 0..m {
-                x[i] -= jac[i * m + a] * mu[a];
-            }
-        }
+        // x - j mu and x + j (-mu) round alike.
+        mu.iter_mut().for_each(|u| *u = -*u);
+        rows::add_product(&jac[..n * m], mu, x);
     }
 
     /// Checks that `motion` satisfies the constraints in position and velocity
