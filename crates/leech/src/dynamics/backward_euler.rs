@@ -122,7 +122,9 @@ impl<S: Multibody> Simulator<'_, S> {
                     for i in 0..n {
                         motion.q[i] += dt * sc.v1[i];
                         motion.v[i] = sc.v1[i];
+                        sc.dv[i] = motion.q[i] - sc.q1[i];
                     }
+                    self.least_change_from(&mut motion.q, &sc.dv);
                     return Ok(());
                 }
                 Some(false) => {}

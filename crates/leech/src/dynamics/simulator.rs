@@ -267,6 +267,23 @@ impl<'a, S: Multibody> Simulator<'a, S> {
         Ok(violation)
     }
 
+    /// Moves `q` toward `C = 0` by the least change, as the first Newton
+    /// step of [`Simulator::project`] would, from the evaluation at `q - dq`
+    /// for a small `dq` (where backward Euler stopped): `C(q) = C + J dq`
+    /// and `J(q) = J` up to `O(|dq|)` relative, which changes the step by far
+    /// less than the projection's tolerance, and saves the evaluation at `q`.
+    /// The projection still checks the result.
+    pub(super) fn least_change_from(&mut self, q: &mut [f64], dq: &[f64]) {
+        if self.m == 0 {
+            return;
+        }
+        let mut target = std::mem::take(&mut self.gauss.target);
+        self.jacobian_product(dq, &mut target);
+        target.iter_mut().zip(&self.ev.constraints).for_each(|(t, c)| *t += c);
+        self.gauss.target = target;
+        self.least_change(q);
+    }
+
     /// `x -= J^T (J J^T)^-1 r` with the evaluated Jacobian and `r` the target.
     fn least_change(&mut self, x: &mut [f64]) {
         let (n, m) = (self.n, self.m);
