@@ -90,27 +90,35 @@ impl Factors {
 
     /// Solves the factored block-diagonal system in place.
     pub(super) fn solve(&self, chains: &[Placed<'_>], x: &mut [f64]) {
-        for (b, (chain, offset)) in chains.iter().enumerate() {
-            let block = &mut x[*offset..offset + chain.len()];
-            match self.held {
-                Held::Mass => self.mass[b].solve(block),
-                Held::Iteration => self.iteration[b].solve(block),
-                Held::Nothing => unreachable!("solve before a successful factorization"),
-            }
-        }
+        self.solve_columns(chains, x, 1);
     }
 
     /// Solves for `columns` right-hand sides at once, in place, laid out
     /// row by row (entry `(i, c)` at `i * columns + c`).
     pub(super) fn solve_columns(&self, chains: &[Placed<'_>], x: &mut [f64], columns: usize) {
-        for (b, (chain, offset)) in chains.iter().enumerate() {
-            let block = &mut x[offset * columns..(offset + chain.len()) * columns];
-            match self.held {
-                Held::Mass => self.mass[b].solve_columns(block, columns),
-                Held::Iteration => self.iteration[b].solve_columns(block, columns),
-                Held::Nothing => unreachable!("solve before a successful factorization"),
-            }
+        match self.held {
+            Held::Mass => solve_blocks(&self.mass, chains, x, columns),
+            Held::Iteration => solve_blocks(&self.iteration, chains, x, columns),
+            Held::Nothing => unreachable!("solve before a successful factorization"),
         }
+    }
+}
+
+/// Solves with each chain's factors `ldl` its block of `x` (`columns`
+/// right-hand sides). The body's two chains are solved together, their
+/// sweeps interleaved ([`Ldl::solve_together`]).
+fn solve_blocks<const R: usize>(ldl: &[Ldl<R>], chains: &[Placed<'_>], x: &mut [f64], columns: usize) {
+    let block = |(chain, offset): &Placed<'_>| offset * columns..(offset + chain.len()) * columns;
+    if let ([a, b], [first, second]) = (ldl, chains) {
+        let (ra, rb) = (block(first), block(second));
+        if ra.end <= rb.start {
+            let (head, tail) = x.split_at_mut(rb.start);
+            Ldl::solve_together([a, b], [&mut head[ra], &mut tail[..rb.end - rb.start]], columns);
+            return;
+        }
+    }
+    for (ldl, placed) in ldl.iter().zip(chains) {
+        ldl.solve_columns(&mut x[block(placed)], columns);
     }
 }
 

@@ -167,19 +167,7 @@ impl<const R: usize> Ldl<R> {
 
     /// Solves `A x = b` in place (`x` holds `b` on entry).
     pub fn solve(&self, x: &mut [f64]) {
-        assert_eq!(x.len(), self.rows.len(), "right-hand side of another size");
-        let mut z = [0.0; R];
-        for (xj, r) in x.iter_mut().zip(&self.rows) {
-            let y = *xj - dot(&r.p, &z);
-            z = r.forward(&z, *xj);
-            *xj = y / r.pivot;
-        }
-        let mut w = [0.0; R];
-        for (xk, r) in x.iter_mut().zip(&self.rows).rev() {
-            let y = *xk;
-            *xk -= dot(&r.g, &w);
-            w = r.backward(&w, y);
-        }
+        Ldl::solve_together([self], [x], 1);
     }
 
     /// Solves `A X = B` in place for up to [`MAX_COLUMNS`] right-hand sides
@@ -187,25 +175,54 @@ impl<const R: usize> Ldl<R> {
     /// `j * columns + c`). One sweep serves every column: their recurrences
     /// are independent, so they overlap instead of waiting on each other.
     pub fn solve_columns(&self, x: &mut [f64], columns: usize) {
+        Ldl::solve_together([self], [x], columns);
+    }
+
+    /// [`Ldl::solve_columns`] for `K` factored matrices at once, `xs[k]`
+    /// holding the right-hand sides of `factors[k]` (the blocks of a block
+    /// diagonal matrix). The sweeps step through the matrices' rows in
+    /// lockstep: each is a chain of dependent operations, and independent
+    /// chains overlap instead of waiting each on its own previous row.
+    pub fn solve_together<const K: usize>(factors: [&Ldl<R>; K], xs: [&mut [f64]; K], columns: usize) {
         assert!(columns <= MAX_COLUMNS, "at most {MAX_COLUMNS} columns");
-        assert_eq!(x.len(), self.rows.len() * columns, "right-hand sides of another size");
-        if columns == 0 {
-            return;
+        for (f, x) in factors.iter().zip(&xs) {
+            assert_eq!(x.len(), f.rows.len() * columns, "right-hand sides of another size");
         }
-        let mut z = [[0.0; R]; MAX_COLUMNS];
-        for (xj, r) in x.chunks_exact_mut(columns).zip(&self.rows) {
-            for (xc, zc) in xj.iter_mut().zip(&mut z) {
-                let y = *xc - dot(&r.p, zc);
-                *zc = r.forward(zc, *xc);
-                *xc = y / r.pivot;
+        // A column count known at compile time keeps the recurrences in registers.
+        match columns {
+            0 => {}
+            1 => Ldl::sweep::<K, 1>(factors, xs),
+            2 => Ldl::sweep::<K, 2>(factors, xs),
+            3 => Ldl::sweep::<K, 3>(factors, xs),
+            _ => Ldl::sweep::<K, MAX_COLUMNS>(factors, xs),
+        }
+    }
+
+    /// The forward and backward sweeps of [`Ldl::solve_together`] for `C` columns.
+    fn sweep<const K: usize, const C: usize>(factors: [&Ldl<R>; K], mut xs: [&mut [f64]; K]) {
+        let n = factors.iter().map(|f| f.rows.len()).max().unwrap_or(0);
+        let mut z = [[[0.0; R]; C]; K];
+        for j in 0..n {
+            for ((f, x), z) in factors.iter().zip(&mut xs).zip(&mut z) {
+                let Some(r) = f.rows.get(j) else { continue };
+                for (xc, zc) in x[j * C..(j + 1) * C].iter_mut().zip(z) {
+                    let y = *xc - dot(&r.p, zc);
+                    *zc = r.forward(zc, *xc);
+                    *xc = y / r.pivot;
+                }
             }
         }
-        let mut w = [[0.0; R]; MAX_COLUMNS];
-        for (xk, r) in x.chunks_exact_mut(columns).zip(&self.rows).rev() {
-            for (xc, wc) in xk.iter_mut().zip(&mut w) {
-                let y = *xc;
-                *xc -= dot(&r.g, wc);
-                *wc = r.backward(wc, y);
+        // Backwards, each matrix from its own last row.
+        let mut w = [[[0.0; R]; C]; K];
+        for t in 0..n {
+            for ((f, x), w) in factors.iter().zip(&mut xs).zip(&mut w) {
+                let Some(k) = f.rows.len().checked_sub(t + 1) else { continue };
+                let r = &f.rows[k];
+                for (xc, wc) in x[k * C..(k + 1) * C].iter_mut().zip(w) {
+                    let y = *xc;
+                    *xc -= dot(&r.g, wc);
+                    *wc = r.backward(wc, y);
+                }
             }
         }
     }
