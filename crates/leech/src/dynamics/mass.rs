@@ -50,10 +50,10 @@ impl Factors {
     /// not positive.
     pub(super) fn factor_mass(&mut self, chains: &[Placed<'_>], cos: &[f64], sin: &[f64]) -> Result<(), usize> {
         self.held = Held::Nothing;
-        for ((chain, offset), ldl) in chains.iter().zip(&mut self.mass) {
+        factor_blocks(&mut self.mass, chains, |(chain, offset)| {
             let range = *offset..offset + chain.len();
-            ldl.factor(chain.mass_generators(&cos[range.clone()], &sin[range])).map_err(at(*offset))?;
-        }
+            chain.mass_generators(&cos[range.clone()], &sin[range])
+        })?;
         self.held = Held::Mass;
         Ok(())
     }
@@ -70,10 +70,10 @@ impl Factors {
         off: &[f64],
     ) -> Result<(), usize> {
         self.held = Held::Nothing;
-        for ((chain, offset), ldl) in chains.iter().zip(&mut self.iteration) {
-            let (k, o) = (chain.len(), *offset);
+        factor_blocks(&mut self.iteration, chains, |&(chain, o)| {
+            let k = chain.len();
             let range = o..o + k;
-            let rows = chain.mass_generators(&cos[range.clone()], &sin[range]).enumerate().map(|(j, m)| {
+            chain.mass_generators(&cos[range.clone()], &sin[range]).enumerate().map(move |(j, m)| {
                 let coupling = if j + 1 < k { off[o + j] } else { 0.0 };
                 Generators {
                     diagonal: m.diagonal + diag[o + j],
@@ -81,9 +81,8 @@ impl Factors {
                     q: [m.q[0], m.q[1], coupling],
                     a: [1.0, 1.0, 0.0],
                 }
-            });
-            ldl.factor(rows).map_err(at(o))?;
-        }
+            })
+        })?;
         self.held = Held::Iteration;
         Ok(())
     }
@@ -102,6 +101,27 @@ impl Factors {
             Held::Nothing => unreachable!("solve before a successful factorization"),
         }
     }
+}
+
+/// Factors each chain's block with the generators `rows` makes for it.
+/// The body's two chains are factored together, in lockstep
+/// ([`Ldl::factor_together`]). Fails with the system's row of the first
+/// pivot that is not positive.
+fn factor_blocks<'c, const R: usize, I>(
+    ldl: &mut [Ldl<R>],
+    chains: &'c [Placed<'c>],
+    rows: impl Fn(&'c Placed<'c>) -> I,
+) -> Result<(), usize>
+where
+    I: Iterator<Item = Generators<R>>,
+{
+    if let ([a, b], [first, second]) = (&mut *ldl, chains) {
+        return Ldl::factor_together([a, b], [rows(first), rows(second)]).map_err(|(k, e)| chains[k].1 + e.row);
+    }
+    for (ldl, placed) in ldl.iter_mut().zip(chains) {
+        ldl.factor(rows(placed)).map_err(at(placed.1))?;
+    }
+    Ok(())
 }
 
 /// Solves with each chain's factors `ldl` its block of `x` (`columns`

@@ -132,37 +132,47 @@ impl<const R: usize> Ldl<R> {
     /// Factors the matrix whose rows' generators `rows` yields, in order.
     /// On a pivot that is not positive the factors are left incomplete.
     pub fn factor(&mut self, rows: impl IntoIterator<Item = Generators<R>>) -> Result<(), NotPositiveDefinite> {
-        self.rows.clear();
-        let mut f = [[0.0; R]; R];
-        for (row, Generators { diagonal, p, q, a }) in rows.into_iter().enumerate() {
-            let mut fp = [0.0; R];
-            for i in 0..R {
-                fp[i] = (0..R).map(|k| f[i][k] * p[k]).sum();
-            }
-            let pivot = diagonal - (0..R).map(|i| p[i] * fp[i]).sum::<f64>();
-            if !(pivot > 0.0) {
-                return Err(NotPositiveDefinite { row, pivot });
-            }
-            let mut h = [0.0; R];
-            let mut g = [0.0; R];
-            for i in 0..R {
-                h[i] = q[i] - a[i] * fp[i];
-                g[i] = h[i] / pivot;
-            }
-            for i in 0..R {
-                for k in 0..R {
-                    f[i][k] = a[i] * f[i][k] * a[k] + h[i] * g[k];
+        Ldl::factor_together([self], [rows.into_iter()]).map_err(|(_, e)| e)
+    }
+
+    /// [`Ldl::factor`] of `K` matrices at once (the blocks of a block
+    /// diagonal matrix), `rows[k]` yielding the generators of `factors[k]`.
+    /// Their rows are factored in lockstep: each recurrence waits on its own
+    /// previous row (a division among others), and independent ones overlap.
+    /// A block whose pivot fails stops there and the others go on; the error
+    /// is the first failing block's, with its index.
+    pub fn factor_together<const K: usize, I>(
+        mut factors: [&mut Ldl<R>; K],
+        rows: [I; K],
+    ) -> Result<(), (usize, NotPositiveDefinite)>
+    where
+        I: Iterator<Item = Generators<R>>,
+    {
+        let mut rows = rows.map(|r| r.enumerate());
+        let mut f = [[[0.0; R]; R]; K];
+        let mut failed: [Option<NotPositiveDefinite>; K] = [None; K];
+        factors.iter_mut().for_each(|ldl| ldl.rows.clear());
+        loop {
+            let mut more = false;
+            for (((ldl, rows), f), failed) in factors.iter_mut().zip(&mut rows).zip(&mut f).zip(&mut failed) {
+                if failed.is_some() {
+                    continue;
+                }
+                let Some((row, generators)) = rows.next() else { continue };
+                more = true;
+                match FactorRow::next(f, generators) {
+                    Ok(factored) => ldl.rows.push(factored),
+                    Err(pivot) => *failed = Some(NotPositiveDefinite { row, pivot }),
                 }
             }
-            let mut b = [[0.0; R]; R];
-            for i in 0..R {
-                for k in 0..R {
-                    b[i][k] = if i == k { a[i] } else { 0.0 } - g[i] * p[k];
-                }
+            if !more {
+                break;
             }
-            self.rows.push(FactorRow { p, g, b, pivot });
         }
-        Ok(())
+        match failed.iter().enumerate().find_map(|(k, e)| e.map(|e| (k, e))) {
+            Some(error) => Err(error),
+            None => Ok(()),
+        }
     }
 
     /// Solves `A x = b` in place (`x` holds `b` on entry).
@@ -229,6 +239,39 @@ impl<const R: usize> Ldl<R> {
 }
 
 impl<const R: usize> FactorRow<R> {
+    /// The factors' row for the generators `generators` and the running
+    /// `f` (`F_k`, advanced to `F_(k+1)`), or the pivot if not positive.
+    #[inline]
+    fn next(f: &mut [[f64; R]; R], generators: Generators<R>) -> Result<FactorRow<R>, f64> {
+        let Generators { diagonal, p, q, a } = generators;
+        let mut fp = [0.0; R];
+        for i in 0..R {
+            fp[i] = (0..R).map(|k| f[i][k] * p[k]).sum();
+        }
+        let pivot = diagonal - (0..R).map(|i| p[i] * fp[i]).sum::<f64>();
+        if !(pivot > 0.0) {
+            return Err(pivot);
+        }
+        let mut h = [0.0; R];
+        let mut g = [0.0; R];
+        for i in 0..R {
+            h[i] = q[i] - a[i] * fp[i];
+            g[i] = h[i] / pivot;
+        }
+        for i in 0..R {
+            for k in 0..R {
+                f[i][k] = a[i] * f[i][k] * a[k] + h[i] * g[k];
+            }
+        }
+        let mut b = [[0.0; R]; R];
+        for i in 0..R {
+            for k in 0..R {
+                b[i][k] = if i == k { a[i] } else { 0.0 } - g[i] * p[k];
+            }
+        }
+        Ok(FactorRow { p, g, b, pivot })
+    }
+
     /// `z_{j+1} = a_j z_j + g_j y_j` with `y_j = b_j - p_j^T z_j`, written
     /// `b z_j + g_j b_j` so that the next row does not wait for `y_j`.
     #[inline]
