@@ -147,16 +147,36 @@ fn at(offset: usize) -> impl Fn(NotPositiveDefinite) -> usize {
     move |e| offset + e.row
 }
 
-/// `y = M x` at the point whose cosines and sines are given.
+/// `y = M x` at the point whose cosines and sines are given. The body's
+/// two chains are multiplied together ([`quasiseparable::multiply_together`]).
 pub(super) fn multiply(chains: &[Placed<'_>], cos: &[f64], sin: &[f64], x: &[f64], y: &mut [f64]) {
-    for (chain, offset) in chains {
-        let range = *offset..offset + chain.len();
-        quasiseparable::multiply(
-            chain.mass_generators(&cos[range.clone()], &sin[range.clone()]),
-            &x[range.clone()],
-            &mut y[range],
-        );
+    let range = |(chain, offset): &Placed<'_>| *offset..offset + chain.len();
+    if let [first, second] = chains {
+        let (ra, rb) = (range(first), range(second));
+        if ra.end <= rb.start {
+            let (head, tail) = y.split_at_mut(rb.start);
+            let ys = [&mut head[ra.clone()], &mut tail[..rb.end - rb.start]];
+            quasiseparable::multiply_together(
+                [chain_rows(first, cos, sin), chain_rows(second, cos, sin)],
+                [&x[ra], &x[rb]],
+                ys,
+            );
+            return;
+        }
     }
+    for placed in chains {
+        quasiseparable::multiply(chain_rows(placed, cos, sin), &x[range(placed)], &mut y[range(placed)]);
+    }
+}
+
+/// The mass generators of a placed chain from the system's trigonometry.
+fn chain_rows<'a>(
+    &(chain, offset): &Placed<'a>,
+    cos: &'a [f64],
+    sin: &'a [f64],
+) -> impl DoubleEndedIterator<Item = Generators<2>> + ExactSizeIterator + Clone + 'a {
+    let range = offset..offset + chain.len();
+    chain.mass_generators(&cos[range.clone()], &sin[range])
 }
 
 #[cfg(test)]

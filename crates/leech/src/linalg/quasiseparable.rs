@@ -301,20 +301,44 @@ pub fn multiply<const R: usize, I>(rows: I, x: &[f64], y: &mut [f64])
 where
     I: DoubleEndedIterator<Item = Generators<R>> + ExactSizeIterator + Clone,
 {
-    let n = rows.len();
-    assert!(x.len() == n && y.len() == n, "vectors of another size");
-    let mut z = [0.0; R];
-    for ((r, xj), yj) in rows.clone().zip(x).zip(y.iter_mut()) {
-        *yj = r.diagonal * xj + dot(&r.p, &z);
-        for i in 0..R {
-            z[i] = r.a[i] * z[i] + r.q[i] * xj;
+    multiply_together([rows], [x], [y]);
+}
+
+/// [`multiply`] for `K` matrices at once (the blocks of a block diagonal
+/// matrix), `ys[k] = A_k xs[k]`: their running sums are independent
+/// recurrences, advanced in lockstep so that they overlap.
+pub fn multiply_together<const K: usize, const R: usize, I>(rows: [I; K], xs: [&[f64]; K], mut ys: [&mut [f64]; K])
+where
+    I: DoubleEndedIterator<Item = Generators<R>> + ExactSizeIterator + Clone,
+{
+    let lengths = rows.each_ref().map(|r| r.len());
+    for ((n, x), y) in lengths.iter().zip(&xs).zip(&ys) {
+        assert!(x.len() == *n && y.len() == *n, "vectors of another size");
+    }
+    let n = lengths.iter().copied().max().unwrap_or(0);
+    let mut forward = rows.each_ref().map(|r| r.clone());
+    let mut z = [[0.0; R]; K];
+    for j in 0..n {
+        for (((rows, x), y), z) in forward.iter_mut().zip(&xs).zip(&mut ys).zip(&mut z) {
+            let Some(r) = rows.next() else { continue };
+            let xj = x[j];
+            y[j] = r.diagonal * xj + dot(&r.p, z);
+            for i in 0..R {
+                z[i] = r.a[i] * z[i] + r.q[i] * xj;
+            }
         }
     }
-    let mut w = [0.0; R];
-    for ((r, xj), yj) in rows.zip(x).zip(y.iter_mut()).rev() {
-        *yj += dot(&r.q, &w);
-        for i in 0..R {
-            w[i] = r.a[i] * w[i] + r.p[i] * xj;
+    let mut backward = rows.map(|r| r.rev());
+    let mut w = [[0.0; R]; K];
+    for t in 0..n {
+        for ((((rows, n), x), y), w) in backward.iter_mut().zip(&lengths).zip(&xs).zip(&mut ys).zip(&mut w) {
+            let Some(r) = rows.next() else { continue };
+            let k = n - 1 - t;
+            let xk = x[k];
+            y[k] += dot(&r.q, w);
+            for i in 0..R {
+                w[i] = r.a[i] * w[i] + r.p[i] * xk;
+            }
         }
     }
 }
