@@ -56,10 +56,11 @@
 //! L^T x = y:   x_k = y_k - g_k^T w_k,        w_{k-1} = a_k w_k + p_k x_k   (from k = n-1 down)
 //! ```
 //!
-//! (several right-hand sides share one sweep). The solves carry `z` and `w`
-//! as `z_{j+1} = (a_j - g_j p_j^T) z_j + g_j b_j` and `w_{k-1} = (a_k - g_k
-//! p_k^T)^T w_k + p_k y_k`, which no longer wait for `y_j` and `x_k`: the
-//! sweeps' dependency chains are shorter. The same sums with `q`
+//! (several right-hand sides share one sweep, and the blocks of a block
+//! diagonal matrix can share one too: [`Ldl::solve_together`]). Each sweep
+//! is a chain of dependent operations, row after row; independent chains
+//! (columns, blocks) run in lockstep and overlap, which hides that latency
+//! at no extra arithmetic. The same sums with `q`
 //! in place of `g` give `(A x)_j = d_j x_j +
 //! p_j^T z_j + q_j^T w_j` and `x^T A x = sum_j x_j (d_j x_j + 2 p_j^T z_j)`,
 //! all `O(n r)`.
@@ -89,13 +90,13 @@ pub struct NotPositiveDefinite {
     pub pivot: f64,
 }
 
-/// One row of the factors: `L`'s generators `p_j`, `g_j`, the pivot, and
-/// the solves' transition `b_j = a_j - g_j p_j^T`.
+/// One row of the factors: `L`'s generators `p_j`, `g_j`, the transition
+/// `a_j` and the pivot.
 #[derive(Clone, Copy, Debug)]
 struct FactorRow<const R: usize> {
     p: [f64; R],
     g: [f64; R],
-    b: [[f64; R]; R],
+    a: [f64; R],
     pivot: f64,
 }
 
@@ -217,7 +218,7 @@ impl<const R: usize> Ldl<R> {
                 let Some(r) = f.rows.get(j) else { continue };
                 for (xc, zc) in x[j * C..(j + 1) * C].iter_mut().zip(z) {
                     let y = *xc - dot(&r.p, zc);
-                    *zc = r.forward(zc, *xc);
+                    r.forward(zc, y);
                     *xc = y / r.pivot;
                 }
             }
@@ -229,9 +230,8 @@ impl<const R: usize> Ldl<R> {
                 let Some(k) = f.rows.len().checked_sub(t + 1) else { continue };
                 let r = &f.rows[k];
                 for (xc, wc) in x[k * C..(k + 1) * C].iter_mut().zip(w) {
-                    let y = *xc;
                     *xc -= dot(&r.g, wc);
-                    *wc = r.backward(wc, y);
+                    r.backward(wc, *xc);
                 }
             }
         }
@@ -263,27 +263,23 @@ impl<const R: usize> FactorRow<R> {
                 f[i][k] = a[i] * f[i][k] * a[k] + h[i] * g[k];
             }
         }
-        let mut b = [[0.0; R]; R];
+        Ok(FactorRow { p, g, a, pivot })
+    }
+
+    /// `z_{j+1} = a_j z_j + g_j y_j`.
+    #[inline]
+    fn forward(&self, z: &mut [f64; R], y: f64) {
         for i in 0..R {
-            for k in 0..R {
-                b[i][k] = if i == k { a[i] } else { 0.0 } - g[i] * p[k];
-            }
+            z[i] = self.a[i] * z[i] + self.g[i] * y;
         }
-        Ok(FactorRow { p, g, b, pivot })
     }
 
-    /// `z_{j+1} = a_j z_j + g_j y_j` with `y_j = b_j - p_j^T z_j`, written
-    /// `b z_j + g_j b_j` so that the next row does not wait for `y_j`.
+    /// `w_{k-1} = a_k w_k + p_k x_k`.
     #[inline]
-    fn forward(&self, z: &[f64; R], rhs: f64) -> [f64; R] {
-        std::array::from_fn(|i| self.g[i] * rhs + dot(&self.b[i], z))
-    }
-
-    /// `w_{k-1} = a_k w_k + p_k x_k` with `x_k = y_k - g_k^T w_k`, written
-    /// `b^T w_k + p_k y_k` for the same reason.
-    #[inline]
-    fn backward(&self, w: &[f64; R], y: f64) -> [f64; R] {
-        std::array::from_fn(|i| self.p[i] * y + (0..R).map(|k| self.b[k][i] * w[k]).sum::<f64>())
+    fn backward(&self, w: &mut [f64; R], x: f64) {
+        for i in 0..R {
+            w[i] = self.a[i] * w[i] + self.p[i] * x;
+        }
     }
 }
 
