@@ -90,13 +90,15 @@ impl<S: Multibody> Simulator<'_, S> {
                 sc.q1[i] = motion.q[i] + dt * sc.v1[i];
             }
             self.evaluate(&sc.q1);
-            // G = M(q1)(v1 - v0) - dt Q(q1, v1).
+            // G = M(q1)(v1 - v0) - dt Q(q1, v1); the first iterate is v1 = v0.
             self.forces(&sc.v1, &mut sc.f);
-            for i in 0..n {
-                sc.dv[i] = sc.v1[i] - motion.v[i];
-            }
-            self.mass_product(&sc.dv, &mut sc.g);
-            if iteration == 0 {
+            if iteration > 0 {
+                for i in 0..n {
+                    sc.dv[i] = sc.v1[i] - motion.v[i];
+                }
+                self.mass_product(&sc.dv, &mut sc.g);
+            } else {
+                sc.g.fill(0.0);
                 self.iteration_matrix(dt, true, &mut sc.diag, &mut sc.off);
                 let (cos, sin) = (&self.ev.cos, &self.ev.sin);
                 if self.factors.factor_iteration(&self.chains, cos, sin, &sc.diag, &sc.off).is_err() {
