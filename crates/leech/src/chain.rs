@@ -412,6 +412,9 @@ impl Chain {
         for ((c, s), phi) in cos.iter_mut().zip(sin.iter_mut()).zip(q) {
             (*s, *c) = phi.sin_cos();
         }
+        // Row j's gradient and diagonal are finished at link j + 1: carried
+        // in registers until then (the same sums in the same order).
+        let (mut grad_j, mut diag_j) = (0.0, 0.0);
         for j in 0..n {
             let (s, c) = (sin[j], cos[j]);
             let bend = q[j] - prev;
@@ -419,19 +422,19 @@ impl Chain {
             let torque = k[j] * bend;
             spring += 0.5 * torque * bend;
             if j > 0 {
-                grad[j - 1] += previous_torque - torque;
-                diag[j - 1] += k[j];
+                grad[j - 1] = grad_j + (previous_torque - torque);
+                diag[j - 1] = diag_j + k[j];
                 off[j - 1] -= k[j];
             }
             previous_torque = torque;
-            diag[j] += k[j];
             weight += masses[j] * (y + offsets[j] * scale * s);
             y += self.lengths[j] * scale * s;
             let moment = weight_scale * levers[j] * c;
-            diag[j] -= load * weight_scale * levers[j] * s;
-            grad[j] += load * moment;
+            diag_j = (diag[j] + k[j]) - load * weight_scale * levers[j] * s;
+            grad_j = grad[j] + load * moment;
         }
-        grad[n - 1] += previous_torque;
+        grad[n - 1] = grad_j + previous_torque;
+        diag[n - 1] = diag_j;
         spring + load * gravity * (weight + self.tip_mass * y)
     }
 
