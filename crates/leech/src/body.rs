@@ -188,18 +188,28 @@ impl Body {
         mut curvature: Option<&mut [f64]>,
     ) -> [f64; 2] {
         let mut sum = [0.0; 2];
-        let lengths = self.a.lengths().iter().map(|l| (l, -1.0, 0)).chain(self.b.lengths().iter().map(|l| (l, 1.0, 1)));
-        for (i, (l, sign, side)) in lengths.enumerate() {
-            let (co, si) = (cos[i], sin[i]);
-            let ls = sign * l * s[side];
-            jac[i * m] = -ls * si;
-            jac[i * m + 1] = ls * co;
-            if let Some(curvature) = curvature.as_deref_mut() {
-                curvature[i * m] = -ls * co;
-                curvature[i * m + 1] = -ls * si;
+        let na = self.a.len();
+        // One loop per chain, each with its sign and scale fixed.
+        for (chain, start, ls) in [(&self.a, 0, -s[0]), (&self.b, na, s[1])] {
+            let range = start..start + chain.len();
+            let rows = jac[start * m..range.end * m].chunks_exact_mut(m);
+            for (((l, co), si), row) in
+                chain.lengths().iter().zip(&cos[range.clone()]).zip(&sin[range.clone()]).zip(rows)
+            {
+                let ls = ls * l;
+                row[0] = -ls * si;
+                row[1] = ls * co;
+                sum[0] += ls * co;
+                sum[1] += ls * si;
             }
-            sum[0] += ls * co;
-            sum[1] += ls * si;
+            if let Some(curvature) = curvature.as_deref_mut() {
+                let rows = curvature[start * m..range.end * m].chunks_exact_mut(m);
+                for (((l, co), si), row) in chain.lengths().iter().zip(&cos[range.clone()]).zip(&sin[range]).zip(rows) {
+                    let ls = ls * l;
+                    row[0] = -ls * co;
+                    row[1] = -ls * si;
+                }
+            }
         }
         sum
     }

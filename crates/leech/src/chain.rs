@@ -395,7 +395,7 @@ impl Chain {
     /// `load * gravity`) to the block and returns the potential (J). Link
     /// lengths are multiplied by `scale` (the feeding homotopy; 1 otherwise).
     pub(crate) fn evaluate_block(&self, q: &[f64], gravity: f64, load: f64, scale: f64, b: Block<'_>) -> f64 {
-        // One fused pass: this is the solver's hot loop, called once per Newton trial.
+        // This is the solver's hot loop, called once per Newton trial.
         let n = self.len();
         let (q, k) = (&q[..n], &self.stiffness[..n]);
         let (levers, masses, offsets) = (&self.levers[..n], &self.masses[..n], &self.mass_offsets[..n]);
@@ -407,28 +407,34 @@ impl Chain {
         let mut y = self.first_joint()[1];
         let mut weight = 0.0;
         let mut previous_torque = 0.0;
+        // The trigonometry first, on its own: every register is the callee's
+        // across a call, so the sums below would otherwise go through memory.
+        for ((c, s), phi) in cos.iter_mut().zip(sin.iter_mut()).zip(q) {
+            (*s, *c) = phi.sin_cos();
+        }
+        // Row j's gradient and diagonal are finished at link j + 1: carried
+        // in registers until then (the same sums in the same order).
+        let (mut grad_j, mut diag_j) = (0.0, 0.0);
         for j in 0..n {
-            let (s, c) = q[j].sin_cos();
-            cos[j] = c;
-            sin[j] = s;
+            let (s, c) = (sin[j], cos[j]);
             let bend = q[j] - prev;
             prev = q[j];
             let torque = k[j] * bend;
             spring += 0.5 * torque * bend;
             if j > 0 {
-                grad[j - 1] += previous_torque - torque;
-                diag[j - 1] += k[j];
+                grad[j - 1] = grad_j + (previous_torque - torque);
+                diag[j - 1] = diag_j + k[j];
                 off[j - 1] -= k[j];
             }
             previous_torque = torque;
-            diag[j] += k[j];
             weight += masses[j] * (y + offsets[j] * scale * s);
             y += self.lengths[j] * scale * s;
             let moment = weight_scale * levers[j] * c;
-            diag[j] -= load * weight_scale * levers[j] * s;
-            grad[j] += load * moment;
+            diag_j = (diag[j] + k[j]) - load * weight_scale * levers[j] * s;
+            grad_j = grad[j] + load * moment;
         }
-        grad[n - 1] += previous_torque;
+        grad[n - 1] = grad_j + previous_torque;
+        diag[n - 1] = diag_j;
         spring + load * gravity * (weight + self.tip_mass * y)
     }
 

@@ -33,6 +33,42 @@ impl EulerScratch {
     }
 }
 
+/// Most simplified-Newton iterations of one step.
+const MAX_ITERATIONS: usize = 40;
+
+/// Relative size of the velocity error at which a step is converged.
+const TOLERANCE: f64 = 1e-10;
+
+/// The stopping rule of Hairer and Wanner (Solving ODEs II, IV.8): with the
+/// observed contraction `theta = |dv_k| / |dv_(k-1)|` the error left after
+/// the correction `dv_k` is about `theta / (1 - theta) |dv_k|`, which saves
+/// the iteration that would only confirm convergence.
+struct Convergence {
+    previous: f64,
+}
+
+impl Convergence {
+    fn new() -> Convergence {
+        Convergence { previous: f64::NAN }
+    }
+
+    /// Whether the iteration has converged after a correction of relative
+    /// size `residual`; `None` if it diverges (`theta >= 1`). The first
+    /// correction, without a rate yet, must itself be below the tolerance.
+    fn update(&mut self, residual: f64) -> Option<bool> {
+        let first = self.previous.is_nan();
+        let theta = residual / self.previous;
+        self.previous = residual;
+        if first {
+            Some(residual < TOLERANCE)
+        } else if !(theta < 1.0) {
+            None
+        } else {
+            Some(theta / (1.0 - theta) * residual < TOLERANCE)
+        }
+    }
+}
+
 impl<S: Multibody> Simulator<'_, S> {
     pub(super) fn backward_euler(&mut self, motion: &mut Motion, dt: f64) -> Result<(), StepError> {
         let mut sc = std::mem::take(&mut self.euler);
@@ -45,21 +81,24 @@ impl<S: Multibody> Simulator<'_, S> {
         let n = self.n;
         sc.v1.copy_from_slice(&motion.v);
         let mut residual = f64::INFINITY;
+        let mut stop = Convergence::new();
         // Simplified Newton: the matrix M + dt D + dt^2 H is factored at the
         // first iterate only and reused; the iterations converge linearly
         // at a rate of order dt, for a fraction of the cost.
-        for iteration in 0..40 {
+        for iteration in 0..MAX_ITERATIONS {
             for i in 0..n {
                 sc.q1[i] = motion.q[i] + dt * sc.v1[i];
             }
             self.evaluate(&sc.q1);
-            // G = M(q1)(v1 - v0) - dt Q(q1, v1).
+            // G = M(q1)(v1 - v0) - dt Q(q1, v1); the first iterate is v1 = v0.
             self.forces(&sc.v1, &mut sc.f);
-            for i in 0..n {
-                sc.dv[i] = sc.v1[i] - motion.v[i];
-            }
-            self.mass_product(&sc.dv, &mut sc.g);
-            if iteration == 0 {
+            if iteration > 0 {
+                for i in 0..n {
+                    sc.dv[i] = sc.v1[i] - motion.v[i];
+                }
+                self.mass_product(&sc.dv, &mut sc.g);
+            } else {
+                sc.g.fill(0.0);
                 self.iteration_matrix(dt, true, &mut sc.diag, &mut sc.off);
                 let (cos, sin) = (&self.ev.cos, &self.ev.sin);
                 if self.factors.factor_iteration(&self.chains, cos, sin, &sc.diag, &sc.off).is_err() {
@@ -77,12 +116,21 @@ impl<S: Multibody> Simulator<'_, S> {
             sc.v1.iter_mut().zip(&sc.dv).for_each(|(v, d)| *v += d);
             let scale = 1.0 + sc.v1.iter().fold(0.0f64, |m, x| m.max(x.abs()));
             residual = sc.dv.iter().fold(0.0f64, |m, x| m.max(x.abs())) / scale;
-            if residual < 1e-10 {
-                for i in 0..n {
-                    motion.q[i] += dt * sc.v1[i];
-                    motion.v[i] = sc.v1[i];
+            match stop.update(residual) {
+                Some(true) => {
+                    // q1 from the corrected v1, not the point last evaluated:
+                    // dt times the last correction there, in the stiff
+                    // springs, would move the next steps beyond the tolerance.
+                    for i in 0..n {
+                        motion.q[i] += dt * sc.v1[i];
+                        motion.v[i] = sc.v1[i];
+                        sc.dv[i] = motion.q[i] - sc.q1[i];
+                    }
+                    self.least_change_from(&mut motion.q, &sc.dv);
+                    return Ok(());
                 }
-                return Ok(());
+                Some(false) => {}
+                None => break,
             }
         }
         Err(StepError::NotConverged { integrator: Integrator::Implicit, dt, residual })

@@ -50,10 +50,10 @@ impl Factors {
     /// not positive.
     pub(super) fn factor_mass(&mut self, chains: &[Placed<'_>], cos: &[f64], sin: &[f64]) -> Result<(), usize> {
         self.held = Held::Nothing;
-        for ((chain, offset), ldl) in chains.iter().zip(&mut self.mass) {
+        factor_blocks(&mut self.mass, chains, |(chain, offset)| {
             let range = *offset..offset + chain.len();
-            ldl.factor(chain.mass_generators(&cos[range.clone()], &sin[range])).map_err(at(*offset))?;
-        }
+            chain.mass_generators(&cos[range.clone()], &sin[range])
+        })?;
         self.held = Held::Mass;
         Ok(())
     }
@@ -70,10 +70,10 @@ impl Factors {
         off: &[f64],
     ) -> Result<(), usize> {
         self.held = Held::Nothing;
-        for ((chain, offset), ldl) in chains.iter().zip(&mut self.iteration) {
-            let (k, o) = (chain.len(), *offset);
+        factor_blocks(&mut self.iteration, chains, |&(chain, o)| {
+            let k = chain.len();
             let range = o..o + k;
-            let rows = chain.mass_generators(&cos[range.clone()], &sin[range]).enumerate().map(|(j, m)| {
+            chain.mass_generators(&cos[range.clone()], &sin[range]).enumerate().map(move |(j, m)| {
                 let coupling = if j + 1 < k { off[o + j] } else { 0.0 };
                 Generators {
                     diagonal: m.diagonal + diag[o + j],
@@ -81,36 +81,64 @@ impl Factors {
                     q: [m.q[0], m.q[1], coupling],
                     a: [1.0, 1.0, 0.0],
                 }
-            });
-            ldl.factor(rows).map_err(at(o))?;
-        }
+            })
+        })?;
         self.held = Held::Iteration;
         Ok(())
     }
 
     /// Solves the factored block-diagonal system in place.
     pub(super) fn solve(&self, chains: &[Placed<'_>], x: &mut [f64]) {
-        for (b, (chain, offset)) in chains.iter().enumerate() {
-            let block = &mut x[*offset..offset + chain.len()];
-            match self.held {
-                Held::Mass => self.mass[b].solve(block),
-                Held::Iteration => self.iteration[b].solve(block),
-                Held::Nothing => unreachable!("solve before a successful factorization"),
-            }
-        }
+        self.solve_columns(chains, x, 1);
     }
 
     /// Solves for `columns` right-hand sides at once, in place, laid out
     /// row by row (entry `(i, c)` at `i * columns + c`).
     pub(super) fn solve_columns(&self, chains: &[Placed<'_>], x: &mut [f64], columns: usize) {
-        for (b, (chain, offset)) in chains.iter().enumerate() {
-            let block = &mut x[offset * columns..(offset + chain.len()) * columns];
-            match self.held {
-                Held::Mass => self.mass[b].solve_columns(block, columns),
-                Held::Iteration => self.iteration[b].solve_columns(block, columns),
-                Held::Nothing => unreachable!("solve before a successful factorization"),
-            }
+        match self.held {
+            Held::Mass => solve_blocks(&self.mass, chains, x, columns),
+            Held::Iteration => solve_blocks(&self.iteration, chains, x, columns),
+            Held::Nothing => unreachable!("solve before a successful factorization"),
         }
+    }
+}
+
+/// Factors each chain's block with the generators `rows` makes for it.
+/// The body's two chains are factored together, in lockstep
+/// ([`Ldl::factor_together`]). Fails with the system's row of the first
+/// pivot that is not positive.
+fn factor_blocks<'c, const R: usize, I>(
+    ldl: &mut [Ldl<R>],
+    chains: &'c [Placed<'c>],
+    rows: impl Fn(&'c Placed<'c>) -> I,
+) -> Result<(), usize>
+where
+    I: Iterator<Item = Generators<R>>,
+{
+    if let ([a, b], [first, second]) = (&mut *ldl, chains) {
+        return Ldl::factor_together([a, b], [rows(first), rows(second)]).map_err(|(k, e)| chains[k].1 + e.row);
+    }
+    for (ldl, placed) in ldl.iter_mut().zip(chains) {
+        ldl.factor(rows(placed)).map_err(at(placed.1))?;
+    }
+    Ok(())
+}
+
+/// Solves with each chain's factors `ldl` its block of `x` (`columns`
+/// right-hand sides). The body's two chains are solved together, their
+/// sweeps interleaved ([`Ldl::solve_together`]).
+fn solve_blocks<const R: usize>(ldl: &[Ldl<R>], chains: &[Placed<'_>], x: &mut [f64], columns: usize) {
+    let block = |(chain, offset): &Placed<'_>| offset * columns..(offset + chain.len()) * columns;
+    if let ([a, b], [first, second]) = (ldl, chains) {
+        let (ra, rb) = (block(first), block(second));
+        if ra.end <= rb.start {
+            let (head, tail) = x.split_at_mut(rb.start);
+            Ldl::solve_together([a, b], [&mut head[ra], &mut tail[..rb.end - rb.start]], columns);
+            return;
+        }
+    }
+    for (ldl, placed) in ldl.iter().zip(chains) {
+        ldl.solve_columns(&mut x[block(placed)], columns);
     }
 }
 
@@ -119,16 +147,36 @@ fn at(offset: usize) -> impl Fn(NotPositiveDefinite) -> usize {
     move |e| offset + e.row
 }
 
-/// `y = M x` at the point whose cosines and sines are given.
+/// `y = M x` at the point whose cosines and sines are given. The body's
+/// two chains are multiplied together ([`quasiseparable::multiply_together`]).
 pub(super) fn multiply(chains: &[Placed<'_>], cos: &[f64], sin: &[f64], x: &[f64], y: &mut [f64]) {
-    for (chain, offset) in chains {
-        let range = *offset..offset + chain.len();
-        quasiseparable::multiply(
-            chain.mass_generators(&cos[range.clone()], &sin[range.clone()]),
-            &x[range.clone()],
-            &mut y[range],
-        );
+    let range = |(chain, offset): &Placed<'_>| *offset..offset + chain.len();
+    if let [first, second] = chains {
+        let (ra, rb) = (range(first), range(second));
+        if ra.end <= rb.start {
+            let (head, tail) = y.split_at_mut(rb.start);
+            let ys = [&mut head[ra.clone()], &mut tail[..rb.end - rb.start]];
+            quasiseparable::multiply_together(
+                [chain_rows(first, cos, sin), chain_rows(second, cos, sin)],
+                [&x[ra], &x[rb]],
+                ys,
+            );
+            return;
+        }
     }
+    for placed in chains {
+        quasiseparable::multiply(chain_rows(placed, cos, sin), &x[range(placed)], &mut y[range(placed)]);
+    }
+}
+
+/// The mass generators of a placed chain from the system's trigonometry.
+fn chain_rows<'a>(
+    &(chain, offset): &Placed<'a>,
+    cos: &'a [f64],
+    sin: &'a [f64],
+) -> impl DoubleEndedIterator<Item = Generators<2>> + ExactSizeIterator + Clone + 'a {
+    let range = offset..offset + chain.len();
+    chain.mass_generators(&cos[range.clone()], &sin[range])
 }
 
 #[cfg(test)]

@@ -5,6 +5,7 @@ use super::backward_euler::EulerScratch;
 use super::mass::{self, Factors, Placed};
 use super::midpoint::MidpointScratch;
 use super::rk4::Rk4Scratch;
+use super::rows;
 use super::stability::PowerScratch;
 use super::{Integrator, Motion, StepError};
 use crate::body::Body;
@@ -94,22 +95,6 @@ fn solve_small(s: &[f64], b: &mut [f64], ldl: &mut DenseLdl) {
     solve_symmetric(s, b.len(), b, ldl, 0.0);
 }
 
-/// `out = A^T B` (`m x m`, row-major) for `A`, `B` with `m` columns laid
-/// out row by row, in one pass over their rows.
-fn gram(a: &[f64], b: &[f64], m: usize, out: &mut [f64]) {
-    out.iter_mut().for_each(|o| *o = 0.0);
-    if m == 0 {
-        return;
-    }
-    for (ra, rb) in a.chunks_exact(m).zip(b.chunks_exact(m)) {
-        for (r, x) in ra.iter().enumerate() {
-            for (o, y) in out[r * m..(r + 1) * m].iter_mut().zip(rb) {
-                *o += x * y;
-            }
-        }
-    }
-}
-
 impl<'a, S: Multibody> Simulator<'a, S> {
     /// A simulator for `sys`.
     pub fn new(sys: &'a S) -> Simulator<'a, S> {
@@ -139,7 +124,7 @@ impl<'a, S: Multibody> Simulator<'a, S> {
     }
 
     pub(super) fn evaluate(&mut self, q: &[f64]) {
-        self.ev.clear();
+        // StaticSystem::evaluate clears `ev` itself.
         self.sys.evaluate(q, self.load, &mut self.ev);
     }
 
@@ -163,16 +148,7 @@ impl<'a, S: Multibody> Simulator<'a, S> {
 
     /// `out = J x` (m) with the evaluated Jacobian, in one pass over its rows.
     fn jacobian_product(&self, x: &[f64], out: &mut [f64]) {
-        let m = self.m;
-        out.iter_mut().for_each(|o| *o = 0.0);
-        if m == 0 {
-            return;
-        }
-        for (row, xi) in self.ev.jacobian[..self.n * m].chunks_exact(m).zip(x) {
-            for (o, j) in out.iter_mut().zip(row) {
-                *o += j * xi;
-            }
-        }
+        rows::transposed_product(&self.ev.jacobian[..self.n * self.m], x, out);
     }
 
     /// `Y = A^-1 J^T` by one sweep of `m` right-hand sides with the factored
@@ -182,7 +158,7 @@ impl<'a, S: Multibody> Simulator<'a, S> {
         // J^T laid out row by row is the Jacobian itself.
         self.gauss.y.copy_from_slice(&self.ev.jacobian[..n * m]);
         self.factors.solve_columns(&self.chains, &mut self.gauss.y, m);
-        gram(&self.ev.jacobian[..n * m], &self.gauss.y, m, &mut self.gauss.schur);
+        rows::gram(&self.ev.jacobian[..n * m], &self.gauss.y, m, &mut self.gauss.schur);
     }
 
     /// Sets the target of [`Simulator::enforce`] to `-J x`.
@@ -206,11 +182,7 @@ impl<'a, S: Multibody> Simulator<'a, S> {
             *r = t - *r;
         }
         solve_small(&self.gauss.schur, &mut rhs, &mut self.gauss.ldl);
-        for i in 0..n {
-            for r in 0..m {
-                x[i] += self.gauss.y[i * m + r] * rhs[r];
-            }
-        }
+        rows::add_product(&self.gauss.y[..n * m], &rhs, x);
         self.gauss.rhs = rhs;
     }
 
@@ -295,19 +267,34 @@ impl<'a, S: Multibody> Simulator<'a, S> {
         Ok(violation)
     }
 
+    /// Moves `q` toward `C = 0` by the least change, as the first Newton
+    /// step of [`Simulator::project`] would, from the evaluation at `q - dq`
+    /// for a small `dq` (where backward Euler stopped): `C(q) = C + J dq`
+    /// and `J(q) = J` up to `O(|dq|)` relative, which changes the step by far
+    /// less than the projection's tolerance, and saves the evaluation at `q`.
+    /// The projection still checks the result.
+    pub(super) fn least_change_from(&mut self, q: &mut [f64], dq: &[f64]) {
+        if self.m == 0 {
+            return;
+        }
+        let mut target = std::mem::take(&mut self.gauss.target);
+        self.jacobian_product(dq, &mut target);
+        target.iter_mut().zip(&self.ev.constraints).for_each(|(t, c)| *t += c);
+        self.gauss.target = target;
+        self.least_change(q);
+    }
+
     /// `x -= J^T (J J^T)^-1 r` with the evaluated Jacobian and `r` the target.
     fn least_change(&mut self, x: &mut [f64]) {
         let (n, m) = (self.n, self.m);
         let jac = &self.ev.jacobian;
-        gram(&jac[..n * m], &jac[..n * m], m, &mut self.gauss.normal);
+        rows::gram(&jac[..n * m], &jac[..n * m], m, &mut self.gauss.normal);
         let mu = &mut self.gauss.rhs;
         mu.copy_from_slice(&self.gauss.target);
         solve_small(&self.gauss.normal, mu, &mut self.gauss.ldl);
-        for i in 0..n {
-            for a in 0..m {
-                x[i] -= jac[i * m + a] * mu[a];
-            }
-        }
+        // x - j mu and x + j (-mu) round alike.
+        mu.iter_mut().for_each(|u| *u = -*u);
+        rows::add_product(&jac[..n * m], mu, x);
     }
 
     /// Checks that `motion` satisfies the constraints in position and velocity

@@ -56,10 +56,11 @@
 //! L^T x = y:   x_k = y_k - g_k^T w_k,        w_{k-1} = a_k w_k + p_k x_k   (from k = n-1 down)
 //! ```
 //!
-//! (several right-hand sides share one sweep). The solves carry `z` and `w`
-//! as `z_{j+1} = (a_j - g_j p_j^T) z_j + g_j b_j` and `w_{k-1} = (a_k - g_k
-//! p_k^T)^T w_k + p_k y_k`, which no longer wait for `y_j` and `x_k`: the
-//! sweeps' dependency chains are shorter. The same sums with `q`
+//! (several right-hand sides share one sweep, and the blocks of a block
+//! diagonal matrix can share one too: [`Ldl::solve_together`]). Each sweep
+//! is a chain of dependent operations, row after row; independent chains
+//! (columns, blocks) run in lockstep and overlap, which hides that latency
+//! at no extra arithmetic. The same sums with `q`
 //! in place of `g` give `(A x)_j = d_j x_j +
 //! p_j^T z_j + q_j^T w_j` and `x^T A x = sum_j x_j (d_j x_j + 2 p_j^T z_j)`,
 //! all `O(n r)`.
@@ -89,13 +90,13 @@ pub struct NotPositiveDefinite {
     pub pivot: f64,
 }
 
-/// One row of the factors: `L`'s generators `p_j`, `g_j`, the pivot, and
-/// the solves' transition `b_j = a_j - g_j p_j^T`.
+/// One row of the factors: `L`'s generators `p_j`, `g_j`, the transition
+/// `a_j` and the pivot.
 #[derive(Clone, Copy, Debug)]
 struct FactorRow<const R: usize> {
     p: [f64; R],
     g: [f64; R],
-    b: [[f64; R]; R],
+    a: [f64; R],
     pivot: f64,
 }
 
@@ -132,54 +133,52 @@ impl<const R: usize> Ldl<R> {
     /// Factors the matrix whose rows' generators `rows` yields, in order.
     /// On a pivot that is not positive the factors are left incomplete.
     pub fn factor(&mut self, rows: impl IntoIterator<Item = Generators<R>>) -> Result<(), NotPositiveDefinite> {
-        self.rows.clear();
-        let mut f = [[0.0; R]; R];
-        for (row, Generators { diagonal, p, q, a }) in rows.into_iter().enumerate() {
-            let mut fp = [0.0; R];
-            for i in 0..R {
-                fp[i] = (0..R).map(|k| f[i][k] * p[k]).sum();
-            }
-            let pivot = diagonal - (0..R).map(|i| p[i] * fp[i]).sum::<f64>();
-            if !(pivot > 0.0) {
-                return Err(NotPositiveDefinite { row, pivot });
-            }
-            let mut h = [0.0; R];
-            let mut g = [0.0; R];
-            for i in 0..R {
-                h[i] = q[i] - a[i] * fp[i];
-                g[i] = h[i] / pivot;
-            }
-            for i in 0..R {
-                for k in 0..R {
-                    f[i][k] = a[i] * f[i][k] * a[k] + h[i] * g[k];
+        Ldl::factor_together([self], [rows.into_iter()]).map_err(|(_, e)| e)
+    }
+
+    /// [`Ldl::factor`] of `K` matrices at once (the blocks of a block
+    /// diagonal matrix), `rows[k]` yielding the generators of `factors[k]`.
+    /// Their rows are factored in lockstep: each recurrence waits on its own
+    /// previous row (a division among others), and independent ones overlap.
+    /// A block whose pivot fails stops there and the others go on; the error
+    /// is the first failing block's, with its index.
+    pub fn factor_together<const K: usize, I>(
+        mut factors: [&mut Ldl<R>; K],
+        rows: [I; K],
+    ) -> Result<(), (usize, NotPositiveDefinite)>
+    where
+        I: Iterator<Item = Generators<R>>,
+    {
+        let mut rows = rows.map(|r| r.enumerate());
+        let mut f = [[[0.0; R]; R]; K];
+        let mut failed: [Option<NotPositiveDefinite>; K] = [None; K];
+        factors.iter_mut().for_each(|ldl| ldl.rows.clear());
+        loop {
+            let mut more = false;
+            for (((ldl, rows), f), failed) in factors.iter_mut().zip(&mut rows).zip(&mut f).zip(&mut failed) {
+                if failed.is_some() {
+                    continue;
+                }
+                let Some((row, generators)) = rows.next() else { continue };
+                more = true;
+                match FactorRow::next(f, generators) {
+                    Ok(factored) => ldl.rows.push(factored),
+                    Err(pivot) => *failed = Some(NotPositiveDefinite { row, pivot }),
                 }
             }
-            let mut b = [[0.0; R]; R];
-            for i in 0..R {
-                for k in 0..R {
-                    b[i][k] = if i == k { a[i] } else { 0.0 } - g[i] * p[k];
-                }
+            if !more {
+                break;
             }
-            self.rows.push(FactorRow { p, g, b, pivot });
         }
-        Ok(())
+        match failed.iter().enumerate().find_map(|(k, e)| e.map(|e| (k, e))) {
+            Some(error) => Err(error),
+            None => Ok(()),
+        }
     }
 
     /// Solves `A x = b` in place (`x` holds `b` on entry).
     pub fn solve(&self, x: &mut [f64]) {
-        assert_eq!(x.len(), self.rows.len(), "right-hand side of another size");
-        let mut z = [0.0; R];
-        for (xj, r) in x.iter_mut().zip(&self.rows) {
-            let y = *xj - dot(&r.p, &z);
-            z = r.forward(&z, *xj);
-            *xj = y / r.pivot;
-        }
-        let mut w = [0.0; R];
-        for (xk, r) in x.iter_mut().zip(&self.rows).rev() {
-            let y = *xk;
-            *xk -= dot(&r.g, &w);
-            w = r.backward(&w, y);
-        }
+        Ldl::solve_together([self], [x], 1);
     }
 
     /// Solves `A X = B` in place for up to [`MAX_COLUMNS`] right-hand sides
@@ -187,43 +186,100 @@ impl<const R: usize> Ldl<R> {
     /// `j * columns + c`). One sweep serves every column: their recurrences
     /// are independent, so they overlap instead of waiting on each other.
     pub fn solve_columns(&self, x: &mut [f64], columns: usize) {
+        Ldl::solve_together([self], [x], columns);
+    }
+
+    /// [`Ldl::solve_columns`] for `K` factored matrices at once, `xs[k]`
+    /// holding the right-hand sides of `factors[k]` (the blocks of a block
+    /// diagonal matrix). The sweeps step through the matrices' rows in
+    /// lockstep: each is a chain of dependent operations, and independent
+    /// chains overlap instead of waiting each on its own previous row.
+    pub fn solve_together<const K: usize>(factors: [&Ldl<R>; K], xs: [&mut [f64]; K], columns: usize) {
         assert!(columns <= MAX_COLUMNS, "at most {MAX_COLUMNS} columns");
-        assert_eq!(x.len(), self.rows.len() * columns, "right-hand sides of another size");
-        if columns == 0 {
-            return;
+        for (f, x) in factors.iter().zip(&xs) {
+            assert_eq!(x.len(), f.rows.len() * columns, "right-hand sides of another size");
         }
-        let mut z = [[0.0; R]; MAX_COLUMNS];
-        for (xj, r) in x.chunks_exact_mut(columns).zip(&self.rows) {
-            for (xc, zc) in xj.iter_mut().zip(&mut z) {
-                let y = *xc - dot(&r.p, zc);
-                *zc = r.forward(zc, *xc);
-                *xc = y / r.pivot;
+        // A column count known at compile time keeps the recurrences in registers.
+        match columns {
+            0 => {}
+            1 => Ldl::sweep::<K, 1>(factors, xs),
+            2 => Ldl::sweep::<K, 2>(factors, xs),
+            3 => Ldl::sweep::<K, 3>(factors, xs),
+            _ => Ldl::sweep::<K, MAX_COLUMNS>(factors, xs),
+        }
+    }
+
+    /// The forward and backward sweeps of [`Ldl::solve_together`] for `C` columns.
+    fn sweep<const K: usize, const C: usize>(factors: [&Ldl<R>; K], mut xs: [&mut [f64]; K]) {
+        let n = factors.iter().map(|f| f.rows.len()).max().unwrap_or(0);
+        let mut z = [[[0.0; R]; C]; K];
+        for j in 0..n {
+            for ((f, x), z) in factors.iter().zip(&mut xs).zip(&mut z) {
+                let Some(r) = f.rows.get(j) else { continue };
+                for (xc, zc) in x[j * C..(j + 1) * C].iter_mut().zip(z) {
+                    let y = *xc - dot(&r.p, zc);
+                    r.forward(zc, y);
+                    *xc = y / r.pivot;
+                }
             }
         }
-        let mut w = [[0.0; R]; MAX_COLUMNS];
-        for (xk, r) in x.chunks_exact_mut(columns).zip(&self.rows).rev() {
-            for (xc, wc) in xk.iter_mut().zip(&mut w) {
-                let y = *xc;
-                *xc -= dot(&r.g, wc);
-                *wc = r.backward(wc, y);
+        // Backwards, each matrix from its own last row.
+        let mut w = [[[0.0; R]; C]; K];
+        for t in 0..n {
+            for ((f, x), w) in factors.iter().zip(&mut xs).zip(&mut w) {
+                let Some(k) = f.rows.len().checked_sub(t + 1) else { continue };
+                let r = &f.rows[k];
+                for (xc, wc) in x[k * C..(k + 1) * C].iter_mut().zip(w) {
+                    *xc -= dot(&r.g, wc);
+                    r.backward(wc, *xc);
+                }
             }
         }
     }
 }
 
 impl<const R: usize> FactorRow<R> {
-    /// `z_{j+1} = a_j z_j + g_j y_j` with `y_j = b_j - p_j^T z_j`, written
-    /// `b z_j + g_j b_j` so that the next row does not wait for `y_j`.
+    /// The factors' row for the generators `generators` and the running
+    /// `f` (`F_k`, advanced to `F_(k+1)`), or the pivot if not positive.
     #[inline]
-    fn forward(&self, z: &[f64; R], rhs: f64) -> [f64; R] {
-        std::array::from_fn(|i| self.g[i] * rhs + dot(&self.b[i], z))
+    fn next(f: &mut [[f64; R]; R], generators: Generators<R>) -> Result<FactorRow<R>, f64> {
+        let Generators { diagonal, p, q, a } = generators;
+        let mut fp = [0.0; R];
+        for i in 0..R {
+            fp[i] = (0..R).map(|k| f[i][k] * p[k]).sum();
+        }
+        let pivot = diagonal - (0..R).map(|i| p[i] * fp[i]).sum::<f64>();
+        if !(pivot > 0.0) {
+            return Err(pivot);
+        }
+        let mut h = [0.0; R];
+        let mut g = [0.0; R];
+        for i in 0..R {
+            h[i] = q[i] - a[i] * fp[i];
+            g[i] = h[i] / pivot;
+        }
+        for i in 0..R {
+            for k in 0..R {
+                f[i][k] = a[i] * f[i][k] * a[k] + h[i] * g[k];
+            }
+        }
+        Ok(FactorRow { p, g, a, pivot })
     }
 
-    /// `w_{k-1} = a_k w_k + p_k x_k` with `x_k = y_k - g_k^T w_k`, written
-    /// `b^T w_k + p_k y_k` for the same reason.
+    /// `z_{j+1} = a_j z_j + g_j y_j`.
     #[inline]
-    fn backward(&self, w: &[f64; R], y: f64) -> [f64; R] {
-        std::array::from_fn(|i| self.p[i] * y + (0..R).map(|k| self.b[k][i] * w[k]).sum::<f64>())
+    fn forward(&self, z: &mut [f64; R], y: f64) {
+        for i in 0..R {
+            z[i] = self.a[i] * z[i] + self.g[i] * y;
+        }
+    }
+
+    /// `w_{k-1} = a_k w_k + p_k x_k`.
+    #[inline]
+    fn backward(&self, w: &mut [f64; R], x: f64) {
+        for i in 0..R {
+            w[i] = self.a[i] * w[i] + self.p[i] * x;
+        }
     }
 }
 
@@ -241,20 +297,44 @@ pub fn multiply<const R: usize, I>(rows: I, x: &[f64], y: &mut [f64])
 where
     I: DoubleEndedIterator<Item = Generators<R>> + ExactSizeIterator + Clone,
 {
-    let n = rows.len();
-    assert!(x.len() == n && y.len() == n, "vectors of another size");
-    let mut z = [0.0; R];
-    for ((r, xj), yj) in rows.clone().zip(x).zip(y.iter_mut()) {
-        *yj = r.diagonal * xj + dot(&r.p, &z);
-        for i in 0..R {
-            z[i] = r.a[i] * z[i] + r.q[i] * xj;
+    multiply_together([rows], [x], [y]);
+}
+
+/// [`multiply`] for `K` matrices at once (the blocks of a block diagonal
+/// matrix), `ys[k] = A_k xs[k]`: their running sums are independent
+/// recurrences, advanced in lockstep so that they overlap.
+pub fn multiply_together<const K: usize, const R: usize, I>(rows: [I; K], xs: [&[f64]; K], mut ys: [&mut [f64]; K])
+where
+    I: DoubleEndedIterator<Item = Generators<R>> + ExactSizeIterator + Clone,
+{
+    let lengths = rows.each_ref().map(|r| r.len());
+    for ((n, x), y) in lengths.iter().zip(&xs).zip(&ys) {
+        assert!(x.len() == *n && y.len() == *n, "vectors of another size");
+    }
+    let n = lengths.iter().copied().max().unwrap_or(0);
+    let mut forward = rows.each_ref().map(|r| r.clone());
+    let mut z = [[0.0; R]; K];
+    for j in 0..n {
+        for (((rows, x), y), z) in forward.iter_mut().zip(&xs).zip(&mut ys).zip(&mut z) {
+            let Some(r) = rows.next() else { continue };
+            let xj = x[j];
+            y[j] = r.diagonal * xj + dot(&r.p, z);
+            for i in 0..R {
+                z[i] = r.a[i] * z[i] + r.q[i] * xj;
+            }
         }
     }
-    let mut w = [0.0; R];
-    for ((r, xj), yj) in rows.zip(x).zip(y.iter_mut()).rev() {
-        *yj += dot(&r.q, &w);
-        for i in 0..R {
-            w[i] = r.a[i] * w[i] + r.p[i] * xj;
+    let mut backward = rows.map(|r| r.rev());
+    let mut w = [[0.0; R]; K];
+    for t in 0..n {
+        for ((((rows, n), x), y), w) in backward.iter_mut().zip(&lengths).zip(&xs).zip(&mut ys).zip(&mut w) {
+            let Some(r) = rows.next() else { continue };
+            let k = n - 1 - t;
+            let xk = x[k];
+            y[k] += dot(&r.q, w);
+            for i in 0..R {
+                w[i] = r.a[i] * w[i] + r.p[i] * xk;
+            }
         }
     }
 }
