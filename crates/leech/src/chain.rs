@@ -395,7 +395,8 @@ impl Chain {
     /// `load * gravity`) to the block and returns the potential (J). Link
     /// lengths are multiplied by `scale` (the feeding homotopy; 1 otherwise).
     pub(crate) fn evaluate_block(&self, q: &[f64], gravity: f64, load: f64, scale: f64, b: Block<'_>) -> f64 {
-        // One fused pass: this is the solver's hot loop, called once per Newton trial.
+        // The solver's hot loop, called once per Newton trial: the
+        // trigonometry in a pass that vectorizes, then one fused pass.
         let n = self.len();
         let (q, k) = (&q[..n], &self.stiffness[..n]);
         let (levers, masses, offsets) = (&self.levers[..n], &self.masses[..n], &self.mass_offsets[..n]);
@@ -407,10 +408,9 @@ impl Chain {
         let mut y = self.first_joint()[1];
         let mut weight = 0.0;
         let mut previous_torque = 0.0;
+        crate::trig::sin_cos_into(q, sin, cos);
         for j in 0..n {
-            let (s, c) = q[j].sin_cos();
-            cos[j] = c;
-            sin[j] = s;
+            let (s, c) = (sin[j], cos[j]);
             let bend = q[j] - prev;
             prev = q[j];
             let torque = k[j] * bend;
