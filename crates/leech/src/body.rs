@@ -136,21 +136,25 @@ impl Body {
         q
     }
 
-    /// Adds the potential at gravity `load * gravity` with link lengths
-    /// scaled by `scale` (A, B) to `ev`, with the links' trigonometry.
+    /// Writes the potential at gravity `load * gravity` with link lengths
+    /// scaled by `scale` (A, B) over the chains' entries of `ev` (energy,
+    /// gradient, banded Hessian), with the links' trigonometry.
     pub(crate) fn potential_with(&self, q: &[f64], gravity: f64, load: f64, scale: [f64; 2], ev: &mut Evaluation) {
         let (na, n) = (self.a.len(), q.len());
         let (qa, qb) = self.split(q);
-        // The hessian_off entry between A's last link and B's first stays
-        // zero: no spring couples the chains.
         let ea = self.a.evaluate_block(qa, gravity, load, scale[0], Block::of(ev, 0..na));
         let eb = self.b.evaluate_block(qb, gravity, load, scale[1], Block::of(ev, na..n));
+        // No spring couples A's last link and B's first (if B has links).
+        if let Some(between) = ev.hessian_off.get_mut(na - 1) {
+            *between = 0.0;
+        }
         ev.energy = ea + eb;
     }
 
     /// The weld's rows (the first three of `ev`), Jacobian and curvature
     /// with link lengths scaled by `scale` (A, B), from the trigonometry in
-    /// `ev`, for the chains' coordinates `q`.
+    /// `ev`, for the chains' coordinates `q`: every entry of these rows in
+    /// the chains' columns is written.
     pub(crate) fn weld_with(&self, q: &[f64], scale: [f64; 2], ev: &mut Evaluation) {
         let na = self.a.len();
         let n = q.len();
@@ -177,7 +181,8 @@ impl Body {
 
     /// The position rows' Jacobian columns `-+ l_j s e'(phi_j)` for link
     /// lengths times `s` (A, B) and, if asked, their curvature `-+ l_j s e(phi_j)`
-    /// (the tip spacing's terms left out); returns `sum -+ l_j s e(phi_j)`.
+    /// (the tip spacing's terms left out), the angle row's zero Jacobian
+    /// (but at its two ends) and curvature with them; returns `sum -+ l_j s e(phi_j)`.
     fn weld_columns(
         &self,
         s: [f64; 2],
@@ -195,8 +200,10 @@ impl Body {
             jac[i * m] = -ls * si;
             jac[i * m + 1] = ls * co;
             if let Some(curvature) = curvature.as_deref_mut() {
+                jac[i * m + 2] = 0.0;
                 curvature[i * m] = -ls * co;
                 curvature[i * m + 1] = -ls * si;
+                curvature[i * m + 2] = 0.0;
             }
             sum[0] += ls * co;
             sum[1] += ls * si;
@@ -282,6 +289,14 @@ impl Constraints for Body {
 }
 
 impl StaticSystem for Body {
+    /// Potential and weld write every entry of `ev` (no free coordinates,
+    /// the weld's rows only): the clear, a pass over the Jacobian and
+    /// curvature per evaluation, is left out.
+    fn evaluate(&self, q: &[f64], t: f64, ev: &mut Evaluation) {
+        self.potential(q, t, ev);
+        Constraints::constraints(self, q, t, ev);
+    }
+
     fn side_measure(&self, q: &[f64], dq: &[f64]) -> f64 {
         let (qa, _) = self.split(q);
         let nu = right_normal(self.a.clamp_angle());
@@ -378,6 +393,12 @@ impl Constraints for Feeding<'_> {
 }
 
 impl StaticSystem for Feeding<'_> {
+    /// As [`Body`]'s: every entry written, no clear.
+    fn evaluate(&self, q: &[f64], t: f64, ev: &mut Evaluation) {
+        self.potential(q, t, ev);
+        Constraints::constraints(self, q, t, ev);
+    }
+
     fn side_measure(&self, q: &[f64], dq: &[f64]) -> f64 {
         self.body.side_measure(q, dq)
     }
