@@ -212,7 +212,8 @@ impl Body {
     }
 
     /// The equilibrium on the default path: tubes fed from equal lengths at
-    /// `g = 0`, then gravity raised to `g` (see the module doc).
+    /// `g = 0`, then gravity raised to `g` (see the module doc). Scratch
+    /// space comes from the thread's spare ([`Scratch::with_spare`]).
     ///
     /// ```
     /// use leech::prelude::*;
@@ -223,8 +224,7 @@ impl Body {
     /// assert!(body.constraints(&eq.q).iter().all(|c| c.abs() < 1e-12));
     /// ```
     pub fn solve(&self, solver: &Solver) -> Result<Equilibrium, SolveError> {
-        let mut ws = Scratch::for_system(self);
-        self.solve_in(solver, &mut ws)
+        Scratch::with_spare(self, |ws| self.solve_in(solver, ws))
     }
 
     /// [`Body::solve`] with caller-provided scratch space.
