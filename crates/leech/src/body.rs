@@ -190,23 +190,23 @@ impl Body {
         sin: &[f64],
         m: usize,
         jac: &mut [f64],
-        mut curvature: Option<&mut [f64]>,
+        curvature: Option<&mut [f64]>,
     ) -> [f64; 2] {
+        let na = self.a.len();
         let mut sum = [0.0; 2];
-        let lengths = self.a.lengths().iter().map(|l| (l, -1.0, 0)).chain(self.b.lengths().iter().map(|l| (l, 1.0, 1)));
-        for (i, (l, sign, side)) in lengths.enumerate() {
-            let (co, si) = (cos[i], sin[i]);
-            let ls = sign * l * s[side];
-            jac[i * m] = -ls * si;
-            jac[i * m + 1] = ls * co;
-            if let Some(curvature) = curvature.as_deref_mut() {
-                jac[i * m + 2] = 0.0;
-                curvature[i * m] = -ls * co;
-                curvature[i * m + 1] = -ls * si;
-                curvature[i * m + 2] = 0.0;
+        // Per chain, and the curvature's test out of the loops.
+        let (jac_a, jac_b) = jac.split_at_mut(na * m);
+        let (trig_a, trig_b) = ((&cos[..na], &sin[..na]), (&cos[na..], &sin[na..]));
+        match curvature {
+            Some(curvature) => {
+                let (curvature_a, curvature_b) = curvature.split_at_mut(na * m);
+                chain_columns(self.a.lengths(), -s[0], trig_a, m, jac_a, Some(curvature_a), &mut sum);
+                chain_columns(self.b.lengths(), s[1], trig_b, m, jac_b, Some(curvature_b), &mut sum);
             }
-            sum[0] += ls * co;
-            sum[1] += ls * si;
+            None => {
+                chain_columns(self.a.lengths(), -s[0], trig_a, m, jac_a, None, &mut sum);
+                chain_columns(self.b.lengths(), s[1], trig_b, m, jac_b, None, &mut sum);
+            }
         }
         sum
     }
@@ -247,6 +247,34 @@ impl Body {
     /// as sweeps and planners that follow the actuation history use it.
     pub fn solve_from(&self, solver: &Solver, q0: &[f64], ws: &mut Scratch) -> Result<Equilibrium, SolveError> {
         solver.warm_start(self, q0, ws)
+    }
+}
+
+/// One chain's part of [`Body::weld_columns`], for links of `lengths` times
+/// `factor` (the scale, negative for chain A), adding to `sum`.
+#[inline(always)]
+fn chain_columns(
+    lengths: &[f64],
+    factor: f64,
+    (cos, sin): (&[f64], &[f64]),
+    m: usize,
+    jac: &mut [f64],
+    mut curvature: Option<&mut [f64]>,
+    sum: &mut [f64; 2],
+) {
+    for (i, l) in lengths.iter().enumerate() {
+        let (co, si) = (cos[i], sin[i]);
+        let ls = l * factor;
+        jac[i * m] = -ls * si;
+        jac[i * m + 1] = ls * co;
+        if let Some(curvature) = curvature.as_deref_mut() {
+            jac[i * m + 2] = 0.0;
+            curvature[i * m] = -ls * co;
+            curvature[i * m + 1] = -ls * si;
+            curvature[i * m + 2] = 0.0;
+        }
+        sum[0] += ls * co;
+        sum[1] += ls * si;
     }
 }
 
