@@ -46,11 +46,23 @@ fn chain_cold_30(bencher: divan::Bencher) {
 }
 
 /// The same physical body (0.30/0.28 m) cut finer: the cost of a cold solve
-/// against the number of links per chain (30, 100, 300, 1000, 3000).
+/// against the number of links per chain A (30, 100, 300, 1000, 3000; chain B
+/// has 28/30 as many).
 #[divan::bench(args = [30, 100, 300, 1000, 3000], sample_count = 20)]
 fn shape_cold_links(bencher: divan::Bencher, links: usize) {
     let robot = Robot::builtin().with_element_length(0.30 / links as f64).unwrap();
     let body = robot.body(0.30, 0.28).unwrap();
+    let solver = Solver::default();
+    bencher.bench_local(|| body.solve(&solver).unwrap());
+}
+
+/// Both tubes 0.30 m cut into 3000 links each (3000 + 3000; the body above
+/// at 3000 is 3000 + 2800). Equal tubes need no feeding path (one
+/// minimization at g = 0), so only the load continuation remains.
+#[divan::bench(args = [3000], sample_count = 20)]
+fn shape_cold_equal_links(bencher: divan::Bencher, links: usize) {
+    let robot = Robot::builtin().with_element_length(0.30 / links as f64).unwrap();
+    let body = robot.body(0.30, 0.30).unwrap();
     let solver = Solver::default();
     bencher.bench_local(|| body.solve(&solver).unwrap());
 }

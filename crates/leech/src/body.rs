@@ -136,21 +136,25 @@ impl Body {
         q
     }
 
-    /// Adds the potential at gravity `load * gravity` with link lengths
-    /// scaled by `scale` (A, B) to `ev`, with the links' trigonometry.
+    /// Writes the potential at gravity `load * gravity` with link lengths
+    /// scaled by `scale` (A, B) over the chains' entries of `ev` (energy,
+    /// gradient, banded Hessian), with the links' trigonometry.
     pub(crate) fn potential_with(&self, q: &[f64], gravity: f64, load: f64, scale: [f64; 2], ev: &mut Evaluation) {
         let (na, n) = (self.a.len(), q.len());
         let (qa, qb) = self.split(q);
-        // The hessian_off entry between A's last link and B's first stays
-        // zero: no spring couples the chains.
         let ea = self.a.evaluate_block(qa, gravity, load, scale[0], Block::of(ev, 0..na));
         let eb = self.b.evaluate_block(qb, gravity, load, scale[1], Block::of(ev, na..n));
+        // No spring couples A's last link and B's first (if B has links).
+        if let Some(between) = ev.hessian_off.get_mut(na - 1) {
+            *between = 0.0;
+        }
         ev.energy = ea + eb;
     }
 
     /// The weld's rows (the first three of `ev`), Jacobian and curvature
     /// with link lengths scaled by `scale` (A, B), from the trigonometry in
-    /// `ev`, for the chains' coordinates `q`.
+    /// `ev`, for the chains' coordinates `q`: every entry of these rows in
+    /// the chains' columns is written.
     pub(crate) fn weld_with(&self, q: &[f64], scale: [f64; 2], ev: &mut Evaluation) {
         let na = self.a.len();
         let n = q.len();
@@ -177,7 +181,8 @@ impl Body {
 
     /// The position rows' Jacobian columns `-+ l_j s e'(phi_j)` for link
     /// lengths times `s` (A, B) and, if asked, their curvature `-+ l_j s e(phi_j)`
-    /// (the tip spacing's terms left out); returns `sum -+ l_j s e(phi_j)`.
+    /// (the tip spacing's terms left out), the angle row's zero Jacobian
+    /// (but at its two ends) and curvature with them; returns `sum -+ l_j s e(phi_j)`.
     fn weld_columns(
         &self,
         s: [f64; 2],
@@ -185,37 +190,30 @@ impl Body {
         sin: &[f64],
         m: usize,
         jac: &mut [f64],
-        mut curvature: Option<&mut [f64]>,
+        curvature: Option<&mut [f64]>,
     ) -> [f64; 2] {
-        let mut sum = [0.0; 2];
         let na = self.a.len();
-        // One loop per chain, each with its sign and scale fixed.
-        for (chain, start, ls) in [(&self.a, 0, -s[0]), (&self.b, na, s[1])] {
-            let range = start..start + chain.len();
-            let rows = jac[start * m..range.end * m].chunks_exact_mut(m);
-            for (((l, co), si), row) in
-                chain.lengths().iter().zip(&cos[range.clone()]).zip(&sin[range.clone()]).zip(rows)
-            {
-                let ls = ls * l;
-                row[0] = -ls * si;
-                row[1] = ls * co;
-                sum[0] += ls * co;
-                sum[1] += ls * si;
+        let mut sum = [0.0; 2];
+        // Per chain, and the curvature's test out of the loops.
+        let (jac_a, jac_b) = jac.split_at_mut(na * m);
+        let (trig_a, trig_b) = ((&cos[..na], &sin[..na]), (&cos[na..], &sin[na..]));
+        match curvature {
+            Some(curvature) => {
+                let (curvature_a, curvature_b) = curvature.split_at_mut(na * m);
+                chain_columns(self.a.lengths(), -s[0], trig_a, m, jac_a, Some(curvature_a), &mut sum);
+                chain_columns(self.b.lengths(), s[1], trig_b, m, jac_b, Some(curvature_b), &mut sum);
             }
-            if let Some(curvature) = curvature.as_deref_mut() {
-                let rows = curvature[start * m..range.end * m].chunks_exact_mut(m);
-                for (((l, co), si), row) in chain.lengths().iter().zip(&cos[range.clone()]).zip(&sin[range]).zip(rows) {
-                    let ls = ls * l;
-                    row[0] = -ls * co;
-                    row[1] = -ls * si;
-                }
+            None => {
+                chain_columns(self.a.lengths(), -s[0], trig_a, m, jac_a, None, &mut sum);
+                chain_columns(self.b.lengths(), s[1], trig_b, m, jac_b, None, &mut sum);
             }
         }
         sum
     }
 
     /// The equilibrium on the default path: tubes fed from equal lengths at
-    /// `g = 0`, then gravity raised to `g` (see the module doc).
+    /// `g = 0`, then gravity raised to `g` (see the module doc). Scratch
+    /// space comes from the thread's spare ([`Scratch::with_spare`]).
     ///
     /// ```
     /// use leech::prelude::*;
@@ -226,8 +224,7 @@ impl Body {
     /// assert!(body.constraints(&eq.q).iter().all(|c| c.abs() < 1e-12));
     /// ```
     pub fn solve(&self, solver: &Solver) -> Result<Equilibrium, SolveError> {
-        let mut ws = Scratch::for_system(self);
-        self.solve_in(solver, &mut ws)
+        Scratch::with_spare(self, |ws| self.solve_in(solver, ws))
     }
 
     /// [`Body::solve`] with caller-provided scratch space.
@@ -250,6 +247,34 @@ impl Body {
     /// as sweeps and planners that follow the actuation history use it.
     pub fn solve_from(&self, solver: &Solver, q0: &[f64], ws: &mut Scratch) -> Result<Equilibrium, SolveError> {
         solver.warm_start(self, q0, ws)
+    }
+}
+
+/// One chain's part of [`Body::weld_columns`], for links of `lengths` times
+/// `factor` (the scale, negative for chain A), adding to `sum`.
+#[inline(always)]
+fn chain_columns(
+    lengths: &[f64],
+    factor: f64,
+    (cos, sin): (&[f64], &[f64]),
+    m: usize,
+    jac: &mut [f64],
+    mut curvature: Option<&mut [f64]>,
+    sum: &mut [f64; 2],
+) {
+    for (i, l) in lengths.iter().enumerate() {
+        let (co, si) = (cos[i], sin[i]);
+        let ls = l * factor;
+        jac[i * m] = -ls * si;
+        jac[i * m + 1] = ls * co;
+        if let Some(curvature) = curvature.as_deref_mut() {
+            jac[i * m + 2] = 0.0;
+            curvature[i * m] = -ls * co;
+            curvature[i * m + 1] = -ls * si;
+            curvature[i * m + 2] = 0.0;
+        }
+        sum[0] += ls * co;
+        sum[1] += ls * si;
     }
 }
 
@@ -292,6 +317,14 @@ impl Constraints for Body {
 }
 
 impl StaticSystem for Body {
+    /// Potential and weld write every entry of `ev` (no free coordinates,
+    /// the weld's rows only): the clear, a pass over the Jacobian and
+    /// curvature per evaluation, is left out.
+    fn evaluate(&self, q: &[f64], t: f64, ev: &mut Evaluation) {
+        self.potential(q, t, ev);
+        Constraints::constraints(self, q, t, ev);
+    }
+
     fn side_measure(&self, q: &[f64], dq: &[f64]) -> f64 {
         let (qa, _) = self.split(q);
         let nu = right_normal(self.a.clamp_angle());
@@ -388,6 +421,12 @@ impl Constraints for Feeding<'_> {
 }
 
 impl StaticSystem for Feeding<'_> {
+    /// As [`Body`]'s: every entry written, no clear.
+    fn evaluate(&self, q: &[f64], t: f64, ev: &mut Evaluation) {
+        self.potential(q, t, ev);
+        Constraints::constraints(self, q, t, ev);
+    }
+
     fn side_measure(&self, q: &[f64], dq: &[f64]) -> f64 {
         self.body.side_measure(q, dq)
     }

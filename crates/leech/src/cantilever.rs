@@ -64,10 +64,11 @@ impl Cantilever {
     /// assert!(tip[1] < 0.0 && tip[0] > 0.19); // a stiff horizontal tube sags a little
     /// ```
     pub fn solve(&self, solver: &Solver) -> Result<Equilibrium, SolveError> {
-        let mut ws = Scratch::for_system(self);
-        let mut state = Iterate::new(self.chain.straight());
-        let residual = solver.continuation(self, &mut state, 0.0, Stage::Load, &mut ws)?;
-        Ok(solver.finish(self, state, residual, &mut ws))
+        Scratch::with_spare(self, |ws| {
+            let mut state = Iterate::new(self.chain.straight());
+            let residual = solver.continuation(self, &mut state, 0.0, Stage::Load, ws)?;
+            Ok(solver.finish(self, state, residual, ws))
+        })
     }
 
     /// The equilibrium reached from `q0` with gravity on (warm start).

@@ -391,11 +391,13 @@ impl Chain {
     }
 
     /// Fused statics evaluation for the solver: fills `cos`/`sin` of every
-    /// link, adds the potential's gradient and Hessian (springs and gravity
-    /// `load * gravity`) to the block and returns the potential (J). Link
+    /// link, writes the potential's gradient and Hessian (springs and gravity
+    /// `load * gravity`) over the block (every entry: it need not be cleared)
+    /// and returns the potential (J). Link
     /// lengths are multiplied by `scale` (the feeding homotopy; 1 otherwise).
     pub(crate) fn evaluate_block(&self, q: &[f64], gravity: f64, load: f64, scale: f64, b: Block<'_>) -> f64 {
-        // This is the solver's hot loop, called once per Newton trial.
+        // The solver's hot loop, called once per Newton trial: the
+        // trigonometry in a pass that vectorizes, then one fused pass.
         let n = self.len();
         let (q, k) = (&q[..n], &self.stiffness[..n]);
         let (levers, masses, offsets) = (&self.levers[..n], &self.masses[..n], &self.mass_offsets[..n]);
@@ -407,14 +409,9 @@ impl Chain {
         let mut y = self.first_joint()[1];
         let mut weight = 0.0;
         let mut previous_torque = 0.0;
-        // The trigonometry first, on its own: every register is the callee's
-        // across a call, so the sums below would otherwise go through memory.
-        for ((c, s), phi) in cos.iter_mut().zip(sin.iter_mut()).zip(q) {
-            (*s, *c) = phi.sin_cos();
-        }
-        // Row j's gradient and diagonal are finished at link j + 1: carried
-        // in registers until then (the same sums in the same order).
-        let (mut grad_j, mut diag_j) = (0.0, 0.0);
+        // Link j's own terms wait here until joint j + 1 completes them.
+        let (mut own_grad, mut own_diag) = (0.0, 0.0);
+        crate::trig::sin_cos_into(q, sin, cos);
         for j in 0..n {
             let (s, c) = (sin[j], cos[j]);
             let bend = q[j] - prev;
@@ -422,19 +419,19 @@ impl Chain {
             let torque = k[j] * bend;
             spring += 0.5 * torque * bend;
             if j > 0 {
-                grad[j - 1] = grad_j + (previous_torque - torque);
-                diag[j - 1] = diag_j + k[j];
-                off[j - 1] -= k[j];
+                grad[j - 1] = own_grad + (previous_torque - torque);
+                diag[j - 1] = own_diag + k[j];
+                off[j - 1] = -k[j];
             }
             previous_torque = torque;
             weight += masses[j] * (y + offsets[j] * scale * s);
             y += self.lengths[j] * scale * s;
             let moment = weight_scale * levers[j] * c;
-            diag_j = (diag[j] + k[j]) - load * weight_scale * levers[j] * s;
-            grad_j = grad[j] + load * moment;
+            own_diag = k[j] - load * weight_scale * levers[j] * s;
+            own_grad = load * moment;
         }
-        grad[n - 1] = grad_j + previous_torque;
-        diag[n - 1] = diag_j;
+        grad[n - 1] = own_grad + previous_torque;
+        diag[n - 1] = own_diag;
         spring + load * gravity * (weight + self.tip_mass * y)
     }
 

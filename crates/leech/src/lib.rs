@@ -85,6 +85,7 @@ pub mod scene;
 pub mod stance;
 pub mod statics;
 pub mod sweep;
+mod trig;
 
 /// The types most programs need.
 pub mod prelude {

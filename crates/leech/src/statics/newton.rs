@@ -88,10 +88,8 @@ impl Solver {
         }
     }
 
-    /// Writes `r = grad V - J^T lambda` into `r` and returns the scaled sup
-    /// norm of `(r, C_A)`.
-    fn residual(ev: &Evaluation, rows: &[Row], it: &Iterate, k: f64, r: &mut [f64]) -> f64 {
-        transposed_product(&ev.gradient, &ev.jacobian, &it.lambda, r);
+    /// The scaled sup norm of `(r, C_A)`, `r = grad V - J^T lambda` of `ev`.
+    fn residual_norm(ev: &Evaluation, rows: &[Row], it: &Iterate, k: f64, r: &[f64]) -> f64 {
         let mut norm = sup_norm(r) / k;
         for (row, spec) in rows.iter().enumerate() {
             if it.active[row] {
@@ -235,8 +233,13 @@ impl Solver {
         // After a tiny unshifted step from a minimum, the last factors still
         // give the stability verdict and a tangent good enough for a predictor.
         let mut factors_fresh = false;
+        // An accepted trial leaves its residual, which is the new point's.
+        let mut residual_known = false;
         loop {
-            let res = Self::residual(&ws.current, &ws.rows, it, k, &mut ws.residual);
+            if !residual_known {
+                transposed_product(&ws.current.gradient, &ws.current.jacobian, &it.lambda, &mut ws.residual);
+            }
+            let res = Self::residual_norm(&ws.current, &ws.rows, it, k, &ws.residual);
             if !res.is_finite() {
                 return Newton::failed(res, StopReason::NonFinite);
             }
@@ -268,6 +271,7 @@ impl Solver {
             }
             match self.take_step(sys, it, t, ws, &mut state, min_shift) {
                 Some(shift) => {
+                    residual_known = true;
                     factors_fresh =
                         inertia == Inertia::Minimum && shift == 0.0 && sup_norm(&ws.step) < tuning.reuse_factors_step;
                 }
@@ -360,13 +364,16 @@ impl Solver {
         let tuning = &self.options.tuning;
         let k = sys.moment_scale();
         let m = ws.rows.len();
-        // The step solves (H + shift I) dq + J_A^T y = -r, J_A dq = -C_A.
-        ws.residual.iter_mut().for_each(|x| *x = -*x);
-        for row in 0..m {
-            ws.rhs[row] = -ws.current.constraints[row];
+        // The step solves (H + shift I) dq + J_A^T y = -r, J_A dq = -C_A:
+        // the negative of the solution for (r, C_A), exactly (the solve is
+        // linear and negation exact).
+        ws.kkt.solve(&ws.residual, &ws.current.constraints, &mut ws.step, &mut ws.dual_step);
+        ws.dual_step.iter_mut().for_each(|y| *y = -*y);
+        let mut longest = 0.0f64;
+        for d in ws.step.iter_mut() {
+            *d = -*d;
+            longest = longest.max(d.abs());
         }
-        ws.kkt.solve(&ws.residual, &ws.rhs, &mut ws.step, &mut ws.dual_step);
-        ws.residual.iter_mut().for_each(|x| *x = -*x);
         // Where the curvature is corrected the quadratic model is not the
         // energy: keep such steps short, so that the descent follows the
         // valley a damped motion would and cannot hop into a distant basin.
@@ -375,7 +382,7 @@ impl Solver {
         // steps are kept within the trust radius too.
         let guarded = min_shift > 0.0 || ws.rows.iter().any(|r| r.kind == RowKind::Inequality);
         let limit = if state.restoring.is_nan() { 0.0 } else { 2.0 * state.restoring };
-        if guarded && sup_norm(&ws.step) > self.options.trust_radius.max(limit) {
+        if guarded && longest > self.options.trust_radius.max(limit) {
             return Trial::TooLong;
         }
         for row in 0..m {
@@ -390,12 +397,15 @@ impl Solver {
         }
         state.first_trial = false;
         let phi0 = Self::merit(&ws.current, &ws.rows, &it.active, state.rho, k);
-        let slope = ws.current.gradient.iter().zip(&ws.step).map(|(g, d)| g * d).sum::<f64>() / k
-            - state.rho * Self::infeasibility(0.0, &ws.current, &ws.rows, &it.active, 1);
-        let r0 = Self::residual_l2(&ws.current, &ws.rows, &ws.residual, &it.active, k).sqrt();
+        // One pass for the slope, the residual's norm and the trial point.
+        let (mut descent, mut squares) = (0.0, 0.0);
         for i in 0..ws.n {
+            descent += ws.current.gradient[i] * ws.step[i];
+            squares += (ws.residual[i] / k) * (ws.residual[i] / k);
             ws.q_trial[i] = it.q[i] + ws.step[i];
         }
+        let slope = descent / k - state.rho * Self::infeasibility(0.0, &ws.current, &ws.rows, &it.active, 1);
+        let r0 = Self::infeasibility(squares, &ws.current, &ws.rows, &it.active, 2).sqrt();
         sys.evaluate(&ws.q_trial, t, &mut ws.trial);
         let phi = Self::merit(&ws.trial, &ws.rows, &it.active, state.rho, k);
         transposed_product(&ws.trial.gradient, &ws.trial.jacobian, &ws.lambda_trial, &mut ws.residual_trial);
@@ -408,9 +418,10 @@ impl Solver {
         // a falling residual may be heading for a saddle.
         let decrease = min_shift == 0.0 && r_trial <= (1.0 - tuning.residual_decrease) * r0;
         if phi.is_finite() && (armijo || decrease) {
-            it.q.copy_from_slice(&ws.q_trial);
+            std::mem::swap(&mut it.q, &mut ws.q_trial);
             it.lambda.copy_from_slice(&ws.lambda_trial);
             std::mem::swap(&mut ws.current, &mut ws.trial);
+            std::mem::swap(&mut ws.residual, &mut ws.residual_trial);
             return Trial::Accepted;
         }
         Trial::Rejected

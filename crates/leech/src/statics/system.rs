@@ -83,7 +83,9 @@ pub trait StaticSystem: Potential + Constraints {
     /// [`BranchRule`]: super::BranchRule
     fn side_measure(&self, q: &[f64], dq: &[f64]) -> f64;
 
-    /// Evaluates the potential and the constraints into `ev` (cleared here).
+    /// Evaluates the potential and the constraints into `ev` (cleared here;
+    /// a system whose potential and constraints write every entry instead
+    /// of adding to it may leave the clear out).
     fn evaluate(&self, q: &[f64], t: f64, ev: &mut Evaluation) {
         ev.clear();
         self.potential(q, t, ev);
