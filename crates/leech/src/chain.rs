@@ -397,7 +397,7 @@ impl Chain {
     /// lengths are multiplied by `scale` (the feeding homotopy; 1 otherwise).
     pub(crate) fn evaluate_block(&self, q: &[f64], gravity: f64, load: f64, scale: f64, b: Block<'_>) -> f64 {
         // The solver's hot loop, called once per Newton trial: the
-        // trigonometry in a pass that vectorizes, then one fused pass.
+        // trigonometry in a pass of its own, then one fused pass.
         let n = self.len();
         let (q, k) = (&q[..n], &self.stiffness[..n]);
         let (levers, masses, offsets) = (&self.levers[..n], &self.masses[..n], &self.mass_offsets[..n]);
@@ -411,7 +411,11 @@ impl Chain {
         let mut previous_torque = 0.0;
         // Link j's own terms wait here until joint j + 1 completes them.
         let (mut own_grad, mut own_diag) = (0.0, 0.0);
-        crate::trig::sin_cos_into(q, sin, cos);
+        // The trigonometry first, on its own: every register is the callee's
+        // across a call, so the sums below would otherwise go through memory.
+        for ((c, s), phi) in cos.iter_mut().zip(sin.iter_mut()).zip(q) {
+            (*s, *c) = phi.sin_cos();
+        }
         for j in 0..n {
             let (s, c) = (sin[j], cos[j]);
             let bend = q[j] - prev;

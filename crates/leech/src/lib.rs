@@ -85,7 +85,6 @@ pub mod scene;
 pub mod stance;
 pub mod statics;
 pub mod sweep;
-mod trig;
 
 /// The types most programs need.
 pub mod prelude {
