@@ -886,14 +886,6 @@ KNOWN_FAILURES = {
         "0.231 m and end on the stored equilibrium (stable, the same to 1e-15 as the direct solve)",
         ["error: load: not converged", "no descent step found"],
     ),
-    "k_floor_both_preload": (
-        "stance::solve_in returns an error while the front target moves (tubes 10 mm past the free pose): "
-        "'warm start: not converged after 6 iterations (residual 5.308e-6): singular constraint Jacobian' "
-        "(5 mm past: the same after 5 iterations, residual 8.217e-7). Chain B's tip, which the front hold "
-        "fixes, sits on the floor's clearance: its contact row is a combination of the hold's and the weld's "
-        "rows. The reference leaves the rows of the nodes a hold fixes out (their force is the hold's)",
-        ["error: warm start: not converged", "singular constraint Jacobian"],
-    ),
 }
 
 

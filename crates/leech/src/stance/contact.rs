@@ -28,7 +28,9 @@
 //! vertex), and every link within it of a convex corner gets a row at the
 //! link's closest point: a thin wall's corner can touch a link between its
 //! nodes, where node checks alone would miss it. The clamps (node 0) belong
-//! to the driving unit and are not checked.
+//! to the driving unit and are not checked; with the front cup holding,
+//! neither are the last links, which the plate's pose fixes
+//! ([`FloatingBody::held_by_front`]).
 
 use super::floating::FloatingBody;
 use crate::geom::{dot, norm, sub, Vec2};
@@ -87,6 +89,9 @@ pub fn detect(
         // links' tips are the last points.
         let first_tip = points.len() - body.chain_len(chain);
         for (link, p) in points[first_tip..].iter().enumerate() {
+            if body.held_by_front(chain, link, 1.0) {
+                continue;
+            }
             scene.features_near(*p, reach, &mut near);
             for candidate in &near {
                 let n = candidate.normal;
@@ -98,7 +103,7 @@ pub fn detect(
             for corner in &corners {
                 let (distance, s, n) = Scene::segment_corner_distance(pair[0], pair[1], corner);
                 // At a link's end the node's own vertex row covers it.
-                if distance <= reach && s > 1e-9 && s < 1.0 - 1e-9 {
+                if distance <= reach && s > 1e-9 && s < 1.0 - 1e-9 && !body.held_by_front(chain, link, s) {
                     out.push(ContactRow { chain, link, fraction: s, normal: n, offset: dot(n, corner.point) + radius });
                 }
             }
@@ -107,19 +112,26 @@ pub fn detect(
 }
 
 /// The deepest penetration (m, positive inside the clearance) of any node
-/// or link of the body at `q`, by the scene's exact geometry.
+/// or link of the body at `q`, by the scene's exact geometry. The points the
+/// front hold fixes ([`FloatingBody::held_by_front`]) are left out: where
+/// they are is the hold's pose, which no solve can change.
 pub fn penetration(body: &FloatingBody<'_>, q: &[f64], scene: &Scene, radius: f64) -> f64 {
     let mut deepest: f64 = 0.0;
     let corners: Vec<_> = scene.convex_corners().collect();
     for chain in 0..2 {
         let points = body.chain_points(q, chain);
         let first_tip = points.len() - body.chain_len(chain);
-        for p in &points[first_tip..] {
-            deepest = deepest.max(radius - scene.signed_distance(*p).0);
+        for (link, p) in points[first_tip..].iter().enumerate() {
+            if !body.held_by_front(chain, link, 1.0) {
+                deepest = deepest.max(radius - scene.signed_distance(*p).0);
+            }
         }
-        for pair in points[first_tip - 1..].windows(2) {
+        for (link, pair) in points[first_tip - 1..].windows(2).enumerate() {
             for corner in &corners {
-                deepest = deepest.max(radius - Scene::segment_corner_distance(pair[0], pair[1], corner).0);
+                let (distance, s, _) = Scene::segment_corner_distance(pair[0], pair[1], corner);
+                if !body.held_by_front(chain, link, s) {
+                    deepest = deepest.max(radius - distance);
+                }
             }
         }
     }

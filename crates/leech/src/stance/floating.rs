@@ -123,6 +123,17 @@ impl<'a> FloatingBody<'a> {
         self.hold
     }
 
+    /// Whether the front hold fixes the point a fraction `fraction` along
+    /// link `link` of chain `c` (1: the link's tip). The plate's pose fixes
+    /// each chain's last link, chain A's by the hold and chain B's by the
+    /// weld: a contact row there would be a combination of their rows (a
+    /// singular Jacobian), and a surface's push there is part of the front
+    /// reaction.
+    pub fn held_by_front(&self, c: usize, link: usize, fraction: f64) -> bool {
+        let n = self.chain_len(c);
+        self.hold.front().is_some() && (link + 1 == n || (link + 2 == n && fraction >= 1.0))
+    }
+
     fn chains(&self) -> usize {
         self.body.chain_a().len() + self.body.chain_b().len()
     }
