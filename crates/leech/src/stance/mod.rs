@@ -59,11 +59,13 @@ mod floating;
 mod hold;
 mod points;
 mod scene_solve;
+mod tube;
 
 pub use contact::{detect, penetration, swept_clear, ContactOptions, ContactRow, Touching};
 pub use feeding::{FEED_STEP_M, MIN_FEED_STEP_M};
 pub use floating::{Approach, FloatingBody, FREE, HOLD_ROWS};
 pub use hold::{Hold, Pose};
+pub use tube::{tube_in, Tube, TubeHeld, TUBE_FEED_START_M};
 
 use crate::body::{Body, WELD_ROWS};
 use crate::error::InputError;
@@ -111,7 +113,9 @@ pub struct Held {
 /// A surface pushing on a tube.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct ContactForce {
-    /// `"a"` (centre tube) or `"b"` (side pair).
+    /// `"a"` (centre tube) or `"b"` (side pair); empty for the single tube
+    /// ([`Tube`]), which has one chain (and then left out of JSON).
+    #[serde(skip_serializing_if = "str::is_empty")]
     pub chain: &'static str,
     /// The node (0 is the clamp; node `i` the tip of link `i`); for a corner
     /// touching a link between nodes, the link's start node.
