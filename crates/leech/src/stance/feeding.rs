@@ -30,16 +30,14 @@ pub(super) trait Fed {
     /// What the tubes are at one fed length (it owns the chains).
     type Shape;
     /// The system solved for a shape, borrowing it.
-    type System<'s>: Touching
-    where
-        Self: 's;
+    type System<'s>: Touching;
 
     /// The largest length any tube is fed by over the whole feed (m).
     fn span(&self) -> f64;
     /// The shape `fraction` of the way (0: the start, 1: the end).
     fn shape_at(&self, fraction: f64) -> Result<Self::Shape, InputError>;
     /// The system (without contacts) of `shape`.
-    fn system<'s>(&'s self, shape: &'s Self::Shape) -> Self::System<'s>;
+    fn system<'s>(&self, shape: &'s Self::Shape) -> Self::System<'s>;
     /// A state `q` of `shape` carried over to `next` (a warm start).
     fn carried(&self, next: &Self::Shape, shape: &Self::Shape, q: &[f64]) -> Vec<f64>;
 }

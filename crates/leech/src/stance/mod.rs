@@ -1,4 +1,6 @@
 //! The body in a situation: which cups hold it, where, and the forces on them.
+//! (The single clamped tube resting on a scene's solids is [`tube`]; both
+//! share the contact machinery through [`Touching`].)
 //!
 //! # Equations
 //!
@@ -59,7 +61,7 @@ mod floating;
 mod hold;
 mod points;
 mod scene_solve;
-mod tube;
+pub mod tube;
 
 pub use contact::{detect, penetration, swept_clear, ContactOptions, ContactRow, Touching};
 pub use feeding::{FEED_STEP_M, MIN_FEED_STEP_M};
@@ -296,10 +298,7 @@ struct BodyFeed<'a> {
 
 impl Fed for BodyFeed<'_> {
     type Shape = Body;
-    type System<'s>
-        = FloatingBody<'s>
-    where
-        Self: 's;
+    type System<'s> = FloatingBody<'s>;
 
     fn span(&self) -> f64 {
         (self.to[0] - self.from[0]).abs().max((self.to[1] - self.from[1]).abs())
@@ -314,7 +313,7 @@ impl Fed for BodyFeed<'_> {
         }
     }
 
-    fn system<'s>(&'s self, body: &'s Body) -> FloatingBody<'s> {
+    fn system<'s>(&self, body: &'s Body) -> FloatingBody<'s> {
         let (b, unit_mass) = (self.robot.body.base_spacing_m, self.robot.driving_unit.mass_kg);
         FloatingBody::new(body, b, unit_mass, self.hold, Approach::Load)
     }

@@ -7,7 +7,7 @@
 //! the cantilever's (springs and gravity, J). Each contact adds a
 //! frictionless one-sided row on a material point `x` of the tube (a link's
 //! tip, or a point a fraction `s` along a link where a corner pokes between
-//! nodes), as for the two-tube body ([`super::contact`]):
+//! nodes), as for the two-tube body ([`super::detect`] finds them):
 //!
 //! ```text
 //! C(phi) = n . x(phi) - h >= 0,   h = n . c + r                       (m)
@@ -228,10 +228,7 @@ struct TubeFeed<'a> {
 
 impl Fed for TubeFeed<'_> {
     type Shape = Cantilever;
-    type System<'s>
-        = Tube<'s>
-    where
-        Self: 's;
+    type System<'s> = Tube<'s>;
 
     fn span(&self) -> f64 {
         self.to - self.from
@@ -242,7 +239,7 @@ impl Fed for TubeFeed<'_> {
         self.spec.fed_to((self.from + fraction * (self.to - self.from)).min(self.to))
     }
 
-    fn system<'s>(&'s self, tube: &'s Cantilever) -> Tube<'s> {
+    fn system<'s>(&self, tube: &'s Cantilever) -> Tube<'s> {
         Tube::new(tube)
     }
 
