@@ -73,9 +73,13 @@ pub struct Outputs {
 /// `leech chain`: a built tube.
 pub struct Chain {
     pub tube: Cantilever,
+    /// What it was built from (a tube in a scene is fed from a shorter length).
+    pub spec: CantileverSpec,
     pub elements: usize,
     pub shape_parameter: f64,
     pub solver: Solver,
+    /// What the tube rests on, with the tube's radius (m).
+    pub scene: Option<(Scene, f64)>,
     pub outputs: Outputs,
 }
 
@@ -247,13 +251,49 @@ fn chain(a: flags::ChainArgs) -> Result<Chain, Failure> {
         gravity_m_per_s2: a.gravity,
         discretization: a.discretization.into(),
     };
+    let tube = spec.build()?;
+    let solver = solver(a.max_iterations, a.time_limit)?;
+    let scene = a.scene.as_deref().map(|path| tube_scene(path, a.outer_diameter, &tube)).transpose()?;
     Ok(Chain {
-        tube: spec.build()?,
+        tube,
         elements: spec.elements,
         shape_parameter: spec.shape_parameter(),
-        solver: solver(a.max_iterations, a.time_limit)?,
+        spec,
+        solver,
+        scene,
         outputs: a.output.into(),
     })
+}
+
+/// The scene of `leech chain --scene` and the tube's radius (m): the
+/// diameter above 0 and at most the tube's length, the clamp (the origin)
+/// not inside a solid.
+fn tube_scene(path: &Path, diameter: Option<f64>, tube: &Cantilever) -> Result<(Scene, f64), Failure> {
+    let length = tube.chain().tube_length();
+    let diameter = diameter.unwrap_or(Robot::builtin().tube.outer_diameter_m);
+    if !(diameter.is_finite() && diameter > 0.0 && diameter <= length) {
+        return Err(Failure::Input(format!(
+            "--outer-diameter: got {diameter}, expected a number of m above 0 and at most the tube's length ({length} m)"
+        )));
+    }
+    let (scene, _) = load_scene(path, "--scene")?;
+    let on_surface = -leech::scene::ON_SURFACE_M;
+    if !scene.is_free([0.0, 0.0], on_surface) {
+        return Err(Failure::Input(
+            "--scene: the clamp at the origin is inside a solid of the scene, expected free space or a surface".into(),
+        ));
+    }
+    // A tube fed straight into a solid has nowhere to go: say so rather than fail to converge.
+    let chain = tube.chain();
+    let ahead =
+        leech::geom::add_scaled(chain.clamp_point(), chain.lengths()[0], leech::geom::unit(chain.clamp_angle()));
+    if !scene.is_free(ahead, on_surface) {
+        let deg = chain.clamp_angle().to_degrees();
+        return Err(Failure::Input(format!(
+            "--base-angle: got {deg} deg, which points the tube into a solid of the scene; expected a direction into free space"
+        )));
+    }
+    Ok((scene, 0.5 * diameter))
 }
 
 fn shape(a: flags::ShapeArgs) -> Result<Shape, Failure> {

@@ -356,6 +356,14 @@ pub struct ChainArgs {
     /// Wall-clock limit for the solve (s).
     #[arg(long, value_name = "S", default_value_t = 60.0)]
     pub time_limit: f64,
+    /// Surroundings the tube rests on (its clamp stays at the origin): a built-in scene's name
+    /// (`leech scene list`) or a scene file.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub scene: Option<PathBuf>,
+    /// The tube's outer diameter (m), its clearance from the scene (default: the built-in robot's
+    /// [tube] outer_diameter_m).
+    #[arg(long, value_name = "M", requires = "scene")]
+    pub outer_diameter: Option<f64>,
     #[command(flatten)]
     pub output: Output,
 }

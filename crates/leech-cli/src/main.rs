@@ -92,10 +92,16 @@ fn clap_failure(e: &clap::Error) -> ExitCode {
 fn run(args: Args, out: &mut String) -> Result<(), Failure> {
     match args {
         Args::Robot { robot, json } => render::robot(out, robot.as_ref(), json),
-        Args::Chain(a) => {
-            let eq = a.tube.solve(&a.solver)?;
-            render::chain(out, &a, &eq)
-        }
+        Args::Chain(a) => match &a.scene {
+            None => {
+                let eq = a.tube.solve(&a.solver)?;
+                render::chain(out, &a, &eq)
+            }
+            Some((scene, radius)) => {
+                let held = stance::tube_in(&a.spec, scene, *radius, &a.solver)?;
+                render::chain_in_scene(out, &a, scene, &held)
+            }
+        },
         Args::Shape(a) => {
             let solved = a.solver.as_ref().map(|solver| solve_shape(&a, solver)).transpose()?;
             render::shape(out, &a, solved.as_ref())

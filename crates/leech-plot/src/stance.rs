@@ -6,7 +6,7 @@ use leech::geom::{add_scaled, dot, sub, unit, Vec2};
 use leech::report::Cups;
 use leech::robot::Robot;
 use leech::scene::{Scene, Solid};
-use leech::stance::{CupState, Held};
+use leech::stance::{ContactForce, CupState, Held, TubeHeld};
 
 use crate::figure::{Figure, SeriesStyle, PALETTE};
 
@@ -50,7 +50,9 @@ pub fn held_figure(robot: &Robot, held: &Held, scene: Option<&Scene>, cups: &Cup
     ];
     let mut extent: Vec<Vec2> = a.iter().chain(&b).chain(faces.iter().flatten()).copied().collect();
     let (lo, hi) = bounds(&extent);
-    let forces = Forces::new(held, cups, ARROW_SHARE * (hi[0] - lo[0]).max(hi[1] - lo[1]));
+    // The holds' reactions at their cups' centres.
+    let reactions = [&cups.0, &cups.1].into_iter().flatten().map(|c| (c.centre_m, c.force_n)).collect();
+    let forces = Forces::new(reactions, &held.contacts, ARROW_SHARE * (hi[0] - lo[0]).max(hi[1] - lo[1]));
     extent.extend(forces.reactions.iter().chain(&forces.contacts).flatten());
     if let Some(scene) = scene {
         solids(&mut fig, scene, bounds(&extent));
@@ -67,8 +69,26 @@ pub fn held_figure(robot: &Robot, held: &Held, scene: Option<&Scene>, cups: &Cup
         let (label, color) = verdict(name, cup.as_ref(), robot.cup.min_safety_factor);
         fig.push(label, segment.to_vec(), SeriesStyle::Thick, color);
     }
-    forces.push(&mut fig);
+    forces.push(&mut fig, "hold reactions");
     fig.gravity_arrow = held.body.gravity() > 0.0;
+    fig
+}
+
+/// The single tube `held` in `scene` ([`crate::shape::cantilever_figure`]
+/// with the solids around it), the clamp's force and the contact forces as
+/// arrows on one scale.
+pub fn tube_figure(title: &str, held: &TubeHeld, scene: &Scene) -> Figure {
+    let mut fig = crate::shape::cantilever_figure(title, &held.tube, &held.equilibrium.q);
+    let mut extent = held.points_m.clone();
+    let (lo, hi) = bounds(&extent);
+    let clamp = vec![(held.tube.chain().clamp_point(), held.clamp.force_n)];
+    let forces = Forces::new(clamp, &held.contacts, ARROW_SHARE * (hi[0] - lo[0]).max(hi[1] - lo[1]));
+    extent.extend(forces.reactions.iter().chain(&forces.contacts).flatten());
+    // The solids first: the tube is drawn over them.
+    let tube = std::mem::take(&mut fig.series);
+    solids(&mut fig, scene, bounds(&extent));
+    fig.series.extend(tube);
+    forces.push(&mut fig, "clamp force");
     fig
 }
 
@@ -100,14 +120,12 @@ struct Forces {
 }
 
 impl Forces {
-    /// Arrows of the forces on the robot from where they act: the holds'
-    /// reactions at their cups' centres, the contacts at the touching points;
-    /// the largest about `longest` (m) long.
-    fn new(held: &Held, cups: &Cups, longest: f64) -> Forces {
-        let reactions: Vec<(Vec2, Vec2)> =
-            [&cups.0, &cups.1].into_iter().flatten().map(|c| (c.centre_m, c.force_n)).collect();
+    /// Arrows of the forces on the robot from where they act: the
+    /// reactions (each a point and a force, N) and the contacts at the
+    /// touching points; the largest about `longest` (m) long.
+    fn new(reactions: Vec<(Vec2, Vec2)>, contacts: &[ContactForce], longest: f64) -> Forces {
         let contacts: Vec<(Vec2, Vec2)> =
-            held.contacts.iter().map(|c| (c.point_m, [c.force_n * c.normal[0], c.force_n * c.normal[1]])).collect();
+            contacts.iter().map(|c| (c.point_m, [c.force_n * c.normal[0], c.force_n * c.normal[1]])).collect();
         let largest = reactions.iter().chain(&contacts).map(|(_, f)| f[0].hypot(f[1])).fold(0.0, f64::max);
         let mm_per_n = round_down(1e3 * longest / largest);
         if !mm_per_n.is_finite() {
@@ -123,11 +141,12 @@ impl Forces {
         }
     }
 
-    /// The arrows as series, the scale in the first of each kind's legend entry.
-    fn push(self, fig: &mut Figure) {
+    /// The arrows as series, the scale in the first of each kind's legend
+    /// entry; the reactions called `reactions`.
+    fn push(self, fig: &mut Figure, reactions: &str) {
         let scale = format!("{} mm = 1 N", self.mm_per_n);
         for (i, s) in self.reactions.into_iter().enumerate() {
-            let label = if i == 0 { format!("hold reactions ({scale})") } else { String::new() };
+            let label = if i == 0 { format!("{reactions} ({scale})") } else { String::new() };
             fig.push(label, s.to_vec(), SeriesStyle::Arrow, REACTION);
         }
         for (i, s) in self.contacts.into_iter().enumerate() {

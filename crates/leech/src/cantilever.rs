@@ -148,6 +148,34 @@ pub struct CantileverSpec {
 impl CantileverSpec {
     /// Validates the values and builds the tube (length `n l`).
     pub fn build(&self) -> Result<Cantilever, crate::error::InputError> {
+        self.built(None)
+    }
+
+    /// The tube fed out to `length` (m, above 0 and at most `n l`), the last
+    /// element cut short where the length is not a whole number of them: the
+    /// tube on its way to its full length.
+    ///
+    /// ```
+    /// use leech::cantilever::CantileverSpec;
+    /// use leech::chain::Discretization;
+    /// let spec = CantileverSpec {
+    ///     elements: 10, element_length_m: 0.01, element_mass_kg: 0.001, joint_stiffness_nm_per_rad: 0.5,
+    ///     tip_mass_kg: 0.0, base_angle_deg: 0.0, gravity_m_per_s2: 9.81, discretization: Discretization::Paper,
+    /// };
+    /// assert_eq!(spec.fed_to(0.045).unwrap().chain().len(), 5);
+    /// assert!(spec.fed_to(0.2).is_err());
+    /// ```
+    pub fn fed_to(&self, length: f64) -> Result<Cantilever, crate::error::InputError> {
+        self.built(Some(length))
+    }
+
+    /// The full length `n l` (m).
+    pub fn length_m(&self) -> f64 {
+        self.elements as f64 * self.element_length_m
+    }
+
+    /// Builds the tube at `length` (m; `n l` when `None`), checking every value.
+    fn built(&self, length: Option<f64>) -> Result<Cantilever, crate::error::InputError> {
         use crate::error::{non_negative, positive, within, InputError};
         if self.elements == 0 || self.elements > crate::chain::MAX_LINKS {
             return Err(InputError::invalid(
@@ -157,8 +185,13 @@ impl CantileverSpec {
             ));
         }
         let l = positive("element_length_m", self.element_length_m)?;
+        let full = self.elements as f64 * l;
+        let tube_length = match length {
+            Some(length) => within("tube_length_m", positive("tube_length_m", length)?, 0.0, full)?,
+            None => full,
+        };
         let spec = crate::chain::ChainSpec {
-            tube_length: self.elements as f64 * l,
+            tube_length,
             element_length: l,
             element_mass: positive("element_mass_kg", self.element_mass_kg)?,
             stiffness: positive("joint_stiffness_nm_per_rad", self.joint_stiffness_nm_per_rad)?,

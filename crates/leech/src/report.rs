@@ -147,6 +147,39 @@ impl CantileverReport {
     }
 }
 
+/// The result of `leech chain --scene`: the tube's report, then what it
+/// rests on and what the clamp carries.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TubeInSceneReport {
+    /// The tube's own report, its keys first.
+    #[serde(flatten)]
+    pub tube: CantileverReport,
+    /// The surfaces pushing on the tube.
+    pub contacts: Vec<crate::stance::ContactForce>,
+    /// The clamp's force on the tube (N).
+    pub clamp_force_n: [f64; 2],
+    /// The clamp's moment on the tube about the clamp (N m, counter-clockwise).
+    pub clamp_moment_nm: f64,
+    /// Deepest penetration of the tube into the scene (m).
+    pub penetration_m: f64,
+    /// The scene's name.
+    pub scene: String,
+}
+
+impl TubeInSceneReport {
+    /// The report of `held`, a tube in `scene`.
+    pub fn new(shape_parameter: f64, held: &crate::stance::TubeHeld, scene: &crate::scene::Scene) -> Self {
+        TubeInSceneReport {
+            tube: CantileverReport::new(shape_parameter, &held.tube, &held.equilibrium),
+            contacts: held.contacts.clone(),
+            clamp_force_n: held.clamp.force_n,
+            clamp_moment_nm: held.clamp.moment_nm,
+            penetration_m: held.penetration_m,
+            scene: scene.name.clone(),
+        }
+    }
+}
+
 /// Points along each chain of the constant-curvature model.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ArcChains {

@@ -17,10 +17,10 @@ use leech::inverse_statics::Reach;
 use leech::prelude::*;
 use leech::report::{
     BodyReport, CantileverReport, ConstantCurvatureReport, SampleRow, SceneReport, ShapeReport, SolveTiming,
-    StanceReport, SweepRow,
+    StanceReport, SweepRow, TubeInSceneReport,
 };
 use leech::scene::Scene;
-use leech::stance::Held;
+use leech::stance::{Held, TubeHeld};
 use leech::sweep::{Model, Sweep};
 use leech_plot::figures::Output;
 use serde::Serialize;
@@ -84,6 +84,21 @@ pub fn chain(out: &mut String, a: &Chain, eq: &Equilibrium) -> Result<(), Failur
     }
     let title = format!("single tube: {} elements, Pi = {:.3}", a.elements, report.shape_parameter);
     files::pictures(&a.outputs, || leech_plot::shape::cantilever_figure(&title, &a.tube, &eq.q))
+}
+
+/// `leech chain --scene`: the tube's report with its contacts and the
+/// clamp's reaction; the picture adds the scene and the forces.
+pub fn chain_in_scene(out: &mut String, a: &Chain, scene: &Scene, held: &TubeHeld) -> Result<(), Failure> {
+    let report = TubeInSceneReport::new(a.shape_parameter, held, scene);
+    if a.outputs.json {
+        json(out, &report)?;
+    } else {
+        text::chain(out, a.elements, &report.tube);
+        text::tube_in_scene(out, &report);
+    }
+    let title =
+        format!("single tube: {} elements, Pi = {:.3}, on {}", a.elements, report.tube.shape_parameter, scene.name);
+    files::pictures(&a.outputs, || leech_plot::stance::tube_figure(&title, held, scene))
 }
 
 /// The two-chain model's results: the clamped body's equilibrium and timing

@@ -8,7 +8,9 @@ use leech::cup::CupMode;
 use leech::dynamics::Simulation;
 use leech::inverse_statics::{Reach, ReachStatus};
 use leech::prelude::*;
-use leech::report::{BodyReport, CantileverReport, ConstantCurvatureReport, Solution, SolveTiming, StanceReport};
+use leech::report::{
+    BodyReport, CantileverReport, ConstantCurvatureReport, Solution, SolveTiming, StanceReport, TubeInSceneReport,
+};
 use leech::sweep::{Extreme, Sweep};
 
 /// `writeln!` into a `String`, which cannot fail.
@@ -42,6 +44,25 @@ pub fn chain(out: &mut String, elements: usize, r: &CantileverReport) {
     say!(out, "tube of {elements} elements, {:.4} m, shape parameter Pi = {:.4}", r.length_m, r.shape_parameter);
     say!(out, "tip at ({:.3}, {:.3}) mm", r.tip_m[0] * 1e3, r.tip_m[1] * 1e3);
     solution(out, &r.solution);
+}
+
+/// `leech chain --scene`: the clamp's reaction and each contact.
+pub fn tube_in_scene(out: &mut String, r: &TubeInSceneReport) {
+    let [fx, fy] = r.clamp_force_n;
+    say!(out, "scene {}: clamp force ({fx:.4}, {fy:.4}) N, moment {:.5} N m", r.scene, r.clamp_moment_nm);
+    for c in &r.contacts {
+        let [x, y] = c.point_m;
+        say!(
+            out,
+            "contact at node {} + {:.3}: ({:.3}, {:.3}) mm, {:.4} N",
+            c.node,
+            c.fraction,
+            x * 1e3,
+            y * 1e3,
+            c.force_n
+        );
+    }
+    say!(out, "penetration {:.1e} m", r.penetration_m);
 }
 
 /// `leech shape`: the two-chain model's report (with its timing) and the

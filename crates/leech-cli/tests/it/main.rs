@@ -404,6 +404,7 @@ fn simulate_writes_series_animation_and_summary() {
 }
 
 mod holds;
+mod tube;
 
 /// Help into a pipe closed early (`leech shape --help | head -0`) is not a panic.
 #[test]

@@ -28,13 +28,61 @@
 //! vertex), and every link within it of a convex corner gets a row at the
 //! link's closest point: a thin wall's corner can touch a link between its
 //! nodes, where node checks alone would miss it. The clamps (node 0) belong
-//! to the driving unit and are not checked; with the front cup holding,
-//! neither are the last links, which the plate's pose fixes
-//! ([`FloatingBody::held_by_front`]).
+//! to the driving unit (or the fixed clamp) and are not checked; with the
+//! front cup holding, neither are the last links, which the plate's pose
+//! fixes ([`Touching::held_by_front`]).
+//!
+//! # Systems
+//!
+//! Everything here works on any [`Touching`] system: the two-tube body
+//! ([`super::FloatingBody`]) and the single clamped tube ([`super::Tube`]).
 
-use super::floating::FloatingBody;
+use crate::chain::Chain;
 use crate::geom::{dot, norm, sub, Vec2};
 use crate::scene::{Scene, Solid};
+use crate::statics::{Evaluation, Stage, StaticSystem};
+
+/// A static system whose chains may touch a scene's solids: what contact
+/// detection and the staged solves among solids need of it. Its contact
+/// rows are its last rows.
+pub trait Touching: StaticSystem + Sized {
+    /// Number of chains.
+    fn chain_count(&self) -> usize;
+    /// Chain `c`'s centre line where it is (m): the clamp, the first joint
+    /// when there is a rigid root piece, then every link's tip (the last
+    /// [`Touching::chain_len`] points).
+    fn chain_points(&self, q: &[f64], c: usize) -> Vec<Vec2>;
+    /// Number of links of chain `c`.
+    fn chain_len(&self, c: usize) -> usize;
+    /// The contact rows.
+    fn contacts(&self) -> &[ContactRow];
+    /// The same system with these contact rows (replacing any it had).
+    fn with_contacts(self, contacts: Vec<ContactRow>) -> Self;
+    /// The stage the system's solves run at (for the solver's reports).
+    fn stage(&self) -> Stage;
+
+    /// Whether a hold fixes the point a fraction `fraction` along link
+    /// `link` of chain `c` (1: the link's tip): such points get no contact
+    /// rows (a row there would be a combination of the hold's) and count for
+    /// no penetration. None by default.
+    fn held_by_front(&self, _c: usize, _link: usize, _fraction: f64) -> bool {
+        false
+    }
+
+    /// The first contact row's index.
+    fn contact_row(&self) -> usize {
+        self.rows() - self.contacts().len()
+    }
+
+    /// Where contact row `contact` touches (m).
+    fn contact_point(&self, q: &[f64], contact: &ContactRow) -> Vec2 {
+        let points = self.chain_points(q, contact.chain);
+        // The link's start is the point before its tip.
+        let tip = points.len() - self.chain_len(contact.chain) + contact.link;
+        let (a, b) = (points[tip - 1], points[tip]);
+        [a[0] + contact.fraction * (b[0] - a[0]), a[1] + contact.fraction * (b[1] - a[1])]
+    }
+}
 
 /// One contact row: a point of a chain held off a surface.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -49,6 +97,33 @@ pub struct ContactRow {
     pub normal: Vec2,
     /// `h = n . c + r` (m): the row is `n . x - h >= 0`.
     pub offset: f64,
+}
+
+/// Contact row `row`'s terms in the angles of `chain` (its coordinates
+/// from `first` in `q`), after the potential filled `ev`'s trigonometry:
+/// the point is `x = start + sum_{j < link} l_j e(phi_j) + s l_link e(phi_link)`,
+/// so `dC/dphi_j = lever_j n . e'(phi_j)` and `d2C/dphi_j^2 = -lever_j n . e(phi_j)`
+/// (diagonal). Returns `x` (m); the caller writes the row's value and any
+/// other coordinates' terms.
+pub(super) fn chain_terms(
+    chain: &Chain,
+    first: usize,
+    start: Vec2,
+    row: usize,
+    contact: &ContactRow,
+    ev: &mut Evaluation,
+) -> Vec2 {
+    let (m, normal) = (ev.rows(), contact.normal);
+    let mut x = start;
+    for (j, l) in chain.lengths()[..=contact.link].iter().enumerate() {
+        let i = first + j;
+        let lever = if j == contact.link { contact.fraction * l } else { *l };
+        let (c, s) = (ev.cos[i], ev.sin[i]);
+        x = [x[0] + lever * c, x[1] + lever * s];
+        ev.jacobian[i * m + row] = lever * (normal[1] * c - normal[0] * s);
+        ev.curvature[i * m + row] = -lever * (normal[0] * c + normal[1] * s);
+    }
+    x
 }
 
 /// Tuning knobs of contact detection.
@@ -71,8 +146,8 @@ impl Default for ContactOptions {
 
 /// Finds the contact candidates of the body at `q` in `scene`, tube radius
 /// `radius` (m), into `out` (cleared first).
-pub fn detect(
-    body: &FloatingBody<'_>,
+pub fn detect<S: Touching>(
+    body: &S,
     q: &[f64],
     scene: &Scene,
     radius: f64,
@@ -83,7 +158,7 @@ pub fn detect(
     let reach = radius + options.margin;
     let mut near = Vec::new();
     let corners: Vec<_> = scene.convex_corners().collect();
-    for chain in 0..2 {
+    for chain in 0..body.chain_count() {
         let points = body.chain_points(q, chain);
         // The clamp (and a rigid root piece) belong to the driving unit; the
         // links' tips are the last points.
@@ -112,13 +187,13 @@ pub fn detect(
 }
 
 /// The deepest penetration (m, positive inside the clearance) of any node
-/// or link of the body at `q`, by the scene's exact geometry. The points the
-/// front hold fixes ([`FloatingBody::held_by_front`]) are left out: where
-/// they are is the hold's pose, which no solve can change.
-pub fn penetration(body: &FloatingBody<'_>, q: &[f64], scene: &Scene, radius: f64) -> f64 {
+/// or link of the body at `q`, by the scene's exact geometry. The points a
+/// hold fixes ([`Touching::held_by_front`]) are left out: where they are is
+/// the hold's pose, which no solve can change.
+pub fn penetration<S: Touching>(body: &S, q: &[f64], scene: &Scene, radius: f64) -> f64 {
     let mut deepest: f64 = 0.0;
     let corners: Vec<_> = scene.convex_corners().collect();
-    for chain in 0..2 {
+    for chain in 0..body.chain_count() {
         let points = body.chain_points(q, chain);
         let first_tip = points.len() - body.chain_len(chain);
         for (link, p) in points[first_tip..].iter().enumerate() {
@@ -139,12 +214,12 @@ pub fn penetration(body: &FloatingBody<'_>, q: &[f64], scene: &Scene, radius: f6
 }
 
 /// Whether the body could have moved from `before` to `after` (each a
-/// floating body and its `q`; the bodies may differ in links, matched from
+/// system and its `q`; the systems may differ in links, matched from
 /// the tip) without any point coming within `radius` of a polygon or a
 /// link of a convex corner (see the module's "Swept motion").
-pub fn swept_clear(
-    before: (&FloatingBody<'_>, &[f64]),
-    after: (&FloatingBody<'_>, &[f64]),
+pub fn swept_clear<A: Touching, B: Touching>(
+    before: (&A, &[f64]),
+    after: (&B, &[f64]),
     scene: &Scene,
     radius: f64,
 ) -> bool {
@@ -155,7 +230,7 @@ pub fn swept_clear(
     }
     let corners: Vec<_> = scene.convex_corners().collect();
     let gap = |p: Vec2, solid: usize| scene.solid_distance(solid, p) - radius;
-    (0..2).all(|chain| {
+    (0..after.0.chain_count()).all(|chain| {
         let old = before.0.chain_points(before.1, chain);
         let new = after.0.chain_points(after.1, chain);
         let (old_tips, new_tips) = (before.0.chain_len(chain), after.0.chain_len(chain));

@@ -1,12 +1,12 @@
 //! The body with a floating driving unit: the chains' angles plus the
 //! unit's pose `(p0, phi0)`, under the weld and the holds.
 
-use super::contact::ContactRow;
+use super::contact::{chain_terms, ContactRow, Touching};
 use super::hold::{Hold, Pose};
 use crate::body::{Body, WELD_ROWS};
 use crate::chain::Chain;
 use crate::geom::{dot, right_normal, unit, Vec2};
-use crate::statics::{Constraints, Evaluation, Path, PathTerms, Potential, Row, RowKind, StaticSystem};
+use crate::statics::{Constraints, Evaluation, Path, PathTerms, Potential, Row, RowKind, Stage, StaticSystem};
 
 /// Free coordinates: `p0` (x, y; m) and `phi0` (rad), after the chains' angles.
 pub const FREE: usize = 3;
@@ -79,7 +79,7 @@ impl<'a> FloatingBody<'a> {
 
     /// The first contact row's index.
     pub fn contact_row(&self) -> usize {
-        self.rows() - self.contacts.len()
+        Touching::contact_row(self)
     }
 
     /// Chain `c`'s centre line where it is (m): the clamp, the first joint
@@ -121,17 +121,6 @@ impl<'a> FloatingBody<'a> {
     /// The holds.
     pub fn hold(&self) -> Hold {
         self.hold
-    }
-
-    /// Whether the front hold fixes the point a fraction `fraction` along
-    /// link `link` of chain `c` (1: the link's tip). The plate's pose fixes
-    /// each chain's last link, chain A's by the hold and chain B's by the
-    /// weld: a contact row there would be a combination of their rows (a
-    /// singular Jacobian), and a surface's push there is part of the front
-    /// reaction.
-    pub fn held_by_front(&self, c: usize, link: usize, fraction: f64) -> bool {
-        let n = self.chain_len(c);
-        self.hold.front().is_some() && (link + 1 == n || (link + 2 == n && fraction >= 1.0))
     }
 
     fn chains(&self) -> usize {
@@ -386,17 +375,10 @@ impl FloatingBody<'_> {
         let (n, m) = (self.chains(), ev.rows());
         let att = &self.attachments()[contact.chain];
         let normal = contact.normal;
-        let mut x = self.shift(att, [q[n], q[n + 1]], q[n + 2]);
+        let shift = self.shift(att, [q[n], q[n + 1]], q[n + 2]);
         let first = att.chain.first_joint();
-        x = [x[0] + first[0], x[1] + first[1]];
-        for (j, l) in att.chain.lengths()[..=contact.link].iter().enumerate() {
-            let i = att.first + j;
-            let lever = if j == contact.link { contact.fraction * l } else { *l };
-            let (c, s) = (ev.cos[i], ev.sin[i]);
-            x = [x[0] + lever * c, x[1] + lever * s];
-            ev.jacobian[i * m + row] = lever * (normal[1] * c - normal[0] * s);
-            ev.curvature[i * m + row] = -lever * (normal[0] * c + normal[1] * s);
-        }
+        let start = [shift[0] + first[0], shift[1] + first[1]];
+        let x = chain_terms(att.chain, att.first, start, row, contact, ev);
         ev.constraints[row] = dot(normal, x) - contact.offset;
         let [_, d1, d2] = att.offset(q[n + 2], att.chain.root_length());
         ev.jacobian[n * m + row] = normal[0];
@@ -407,11 +389,48 @@ impl FloatingBody<'_> {
 
     /// Where contact row `contact` touches (m).
     pub fn contact_point(&self, q: &[f64], contact: &ContactRow) -> Vec2 {
-        let points = self.chain_points(q, contact.chain);
-        // The link's start is the point before its tip.
-        let tip = points.len() - self.chain_len(contact.chain) + contact.link;
-        let (a, b) = (points[tip - 1], points[tip]);
-        [a[0] + contact.fraction * (b[0] - a[0]), a[1] + contact.fraction * (b[1] - a[1])]
+        Touching::contact_point(self, q, contact)
+    }
+}
+
+/// The inherent methods of the same names, for the contact machinery.
+impl Touching for FloatingBody<'_> {
+    fn chain_count(&self) -> usize {
+        2
+    }
+
+    fn chain_points(&self, q: &[f64], c: usize) -> Vec<Vec2> {
+        FloatingBody::chain_points(self, q, c)
+    }
+
+    fn chain_len(&self, c: usize) -> usize {
+        FloatingBody::chain_len(self, c)
+    }
+
+    fn contacts(&self) -> &[ContactRow] {
+        &self.contacts
+    }
+
+    fn with_contacts(self, contacts: Vec<ContactRow>) -> Self {
+        FloatingBody::with_contacts(self, contacts)
+    }
+
+    /// With the front cup holding, the plate's pose fixes each chain's last
+    /// link, chain A's by the hold and chain B's by the weld: a contact row
+    /// there would be a combination of their rows (a singular Jacobian), and
+    /// a surface's push there is part of the front reaction.
+    fn held_by_front(&self, c: usize, link: usize, fraction: f64) -> bool {
+        let n = self.chain_len(c);
+        self.hold.front().is_some() && (link + 1 == n || (link + 2 == n && fraction >= 1.0))
+    }
+
+    /// A load raises gravity; a front approach moves a target under full
+    /// gravity, a warm start's continuation.
+    fn stage(&self) -> Stage {
+        match self.approach {
+            Approach::Load => Stage::Load,
+            Approach::Front(_) => Stage::WarmStart,
+        }
     }
 }
 

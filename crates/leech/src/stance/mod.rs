@@ -1,4 +1,6 @@
 //! The body in a situation: which cups hold it, where, and the forces on them.
+//! (The single clamped tube resting on a scene's solids is [`tube`]; both
+//! share the contact machinery through [`Touching`].)
 //!
 //! # Equations
 //!
@@ -54,14 +56,18 @@
 //!   a stretched body.
 
 mod contact;
+mod feeding;
 mod floating;
 mod hold;
 mod points;
 mod scene_solve;
+pub mod tube;
 
-pub use contact::{detect, penetration, swept_clear, ContactOptions, ContactRow};
+pub use contact::{detect, penetration, swept_clear, ContactOptions, ContactRow, Touching};
+pub use feeding::{FEED_STEP_M, MIN_FEED_STEP_M};
 pub use floating::{Approach, FloatingBody, FREE, HOLD_ROWS};
 pub use hold::{Hold, Pose};
+pub use tube::{tube_in, Tube, TubeHeld, TUBE_FEED_START_M};
 
 use crate::body::{Body, WELD_ROWS};
 use crate::error::InputError;
@@ -69,6 +75,7 @@ use crate::geom::{rotate, sub, Vec2};
 use crate::robot::Robot;
 use crate::scene::Scene;
 use crate::statics::{Equilibrium, Iterate, Potential, Scratch, SolveError, Solver, Stage};
+use feeding::{Fed, Feeding};
 
 /// The force (N) and moment (N m, counter-clockwise) a hold's surface exerts
 /// on the robot, about the hold point.
@@ -108,7 +115,9 @@ pub struct Held {
 /// A surface pushing on a tube.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct ContactForce {
-    /// `"a"` (centre tube) or `"b"` (side pair).
+    /// `"a"` (centre tube) or `"b"` (side pair); empty for the single tube
+    /// ([`Tube`]), which has one chain (and then left out of JSON).
+    #[serde(skip_serializing_if = "str::is_empty")]
     pub chain: &'static str,
     /// The node (0 is the clamp; node `i` the tip of link `i`); for a corner
     /// touching a link between nodes, the link's start node.
@@ -264,54 +273,39 @@ pub fn solve_in(
     };
     let short = robot.limits.tube_length_min_m.min(lengths[0]).min(lengths[1]);
     let start = solve(robot, [short; 2], first, solver)?;
-    let feeding = Feeding { robot, hold: first, from: [short; 2], to: lengths, scene, radius, solver };
-    let (body, q, pushing) = feeding.run(start.body, start.equilibrium.q)?;
+    let fed = BodyFeed { robot, hold: first, from: [short; 2], to: lengths };
+    let (body, q, pushing) = Feeding { fed, scene, radius, solver }.run(start.body, start.equilibrium.q)?;
     // Once more at the final lengths (no step when they are the start's):
     // the contacts as they stand, with their forces.
     let floating = FloatingBody::new(&body, b, unit_mass, first, Approach::Load);
     let settled = scene_solve::loaded(floating, q, &pushing, scene, radius, solver)?;
     let Hold::Both { .. } = hold else { return Ok(Held::settled(settled)) };
     let from = Pose {
-        point_m: settled.floating.endpoint(&settled.equilibrium.q),
+        point_m: settled.system.endpoint(&settled.equilibrium.q),
         angle_rad: body.endpoint_angle(&settled.equilibrium.q),
     };
     let both = FloatingBody::new(&body, b, unit_mass, hold, Approach::Front(from));
     Ok(Held::settled(scene_solve::approached(both, settled.equilibrium.q, scene, radius, solver)?))
 }
 
-/// Longest feeding step between contact refreshes (m): five of the
-/// built-in robot's elements, short enough for Newton to stay on the
-/// branch a continuous feed follows.
-pub const FEED_STEP_M: f64 = 0.05;
-
-/// Shortest feeding step (m): below it a step that still fails is reported.
-pub const MIN_FEED_STEP_M: f64 = 1e-4;
-
-/// Most Newton iterations a feeding step may take before it counts as too
-/// long a step (and is halved).
-const FEED_ITERATIONS: usize = 12;
-
-/// A feeding step that took at most this many Newton iterations was easy:
-/// the next may be twice as long.
-const EASY_ITERATIONS: usize = 5;
-
-/// The tubes fed from `from` to `to` (m) with the body held by `hold` among
-/// `scene`'s solids, in steps halved when a step fails to converge, ends
-/// unstable, takes more than [`FEED_ITERATIONS`] or moves the body through
-/// a solid unseen ([`contact::swept_clear`]), and doubled after a success.
-struct Feeding<'a> {
+/// The body's tubes fed from `from` to `to` (m), held by `hold`.
+struct BodyFeed<'a> {
     robot: &'a Robot,
     hold: Hold,
     from: [f64; 2],
     to: [f64; 2],
-    scene: &'a Scene,
-    radius: f64,
-    solver: &'a Solver,
 }
 
-impl Feeding<'_> {
-    /// The clamped body at the fed lengths `fraction` of the way.
-    fn body_at(&self, fraction: f64) -> Result<Body, InputError> {
+impl Fed for BodyFeed<'_> {
+    type Shape = Body;
+    type System<'s> = FloatingBody<'s>;
+
+    fn span(&self) -> f64 {
+        (self.to[0] - self.from[0]).abs().max((self.to[1] - self.from[1]).abs())
+    }
+
+    /// The clamped body at the fed lengths.
+    fn shape_at(&self, fraction: f64) -> Result<Body, InputError> {
         let fed = [0, 1].map(|i| self.from[i] + fraction * (self.to[i] - self.from[i]));
         match self.hold {
             Hold::Rear(pose) => rear_body(self.robot, fed, pose),
@@ -319,58 +313,17 @@ impl Feeding<'_> {
         }
     }
 
-    fn floating<'b>(&self, body: &'b Body) -> FloatingBody<'b> {
+    fn system<'s>(&self, body: &'s Body) -> FloatingBody<'s> {
         let (b, unit_mass) = (self.robot.body.base_spacing_m, self.robot.driving_unit.mass_kg);
         FloatingBody::new(body, b, unit_mass, self.hold, Approach::Load)
     }
 
-    /// Feeds from the equilibrium `q` of `body` (at `from`); returns the body
-    /// at `to`, its equilibrium and the contacts that push.
-    fn run(&self, mut body: Body, mut q: Vec<f64>) -> Result<(Body, Vec<f64>, Vec<scene_solve::Pushing>), StanceError> {
-        let span = (self.to[0] - self.from[0]).abs().max((self.to[1] - self.from[1]).abs());
-        let (mut done, mut step) = (0.0, FEED_STEP_M);
-        let mut pushing = Vec::new();
-        // A step that needs many iterations is too long: stop it early and
-        // halve it rather than finish it (the last chance runs to the end).
-        let mut brief = self.solver.clone();
-        brief.options.max_iterations = brief.options.max_iterations.min(FEED_ITERATIONS);
-        while done < 1.0 {
-            let next_fraction = if span <= step { 1.0 } else { (done + step / span).min(1.0) };
-            let next = self.body_at(next_fraction)?;
-            let chains = body.dim();
-            let mut carried = next.carry_over(&body, &q[..chains]);
-            carried.extend_from_slice(&q[chains..]);
-            let before = self.floating(&body);
-            let last_chance = step <= MIN_FEED_STEP_M;
-            let solver = if last_chance { self.solver } else { &brief };
-            let outcome = scene_solve::loaded(self.floating(&next), carried, &pushing, self.scene, self.radius, solver);
-            let accepted = match outcome {
-                Ok(settled)
-                    if last_chance
-                        || (settled.equilibrium.stable
-                            && contact::swept_clear(
-                                (&before, &q),
-                                (&settled.floating, &settled.equilibrium.q),
-                                self.scene,
-                                self.radius,
-                            )) =>
-                {
-                    Some((settled.pushing(), settled.equilibrium.iterations, settled.equilibrium.q))
-                }
-                Err(e) if last_chance => return Err(e),
-                _ => None,
-            };
-            match accepted {
-                Some((now_pushing, iterations, now_q)) => {
-                    (pushing, q, body, done) = (now_pushing, now_q, next, next_fraction);
-                    if iterations <= EASY_ITERATIONS {
-                        step = (2.0 * step).min(FEED_STEP_M);
-                    }
-                }
-                None => step = (0.5 * step).max(MIN_FEED_STEP_M),
-            }
-        }
-        Ok((body, q, pushing))
+    /// The chains' angles carried over, the driving unit's pose kept.
+    fn carried(&self, next: &Body, body: &Body, q: &[f64]) -> Vec<f64> {
+        let chains = body.dim();
+        let mut carried = next.carry_over(body, &q[..chains]);
+        carried.extend_from_slice(&q[chains..]);
+        carried
     }
 }
 
@@ -421,24 +374,7 @@ impl Held {
         let rear = hold.rear().map(|_| reaction(WELD_ROWS));
         let front_row = WELD_ROWS + if rear.is_some() { HOLD_ROWS } else { 0 };
         let front = hold.front().map(|_| reaction(front_row));
-        let first = floating.contact_row();
-        let contacts = floating
-            .contacts()
-            .iter()
-            .zip(&equilibrium.multipliers[first..])
-            .filter(|(_, force)| **force > 0.0)
-            .map(|(c, force)| {
-                let at_node = c.fraction >= 1.0;
-                ContactForce {
-                    chain: if c.chain == 0 { "a" } else { "b" },
-                    node: if at_node { c.link + 1 } else { c.link },
-                    fraction: if at_node { 0.0 } else { c.fraction },
-                    point_m: floating.contact_point(&equilibrium.q, c),
-                    normal: c.normal,
-                    force_n: *force,
-                }
-            })
-            .collect();
+        let contacts = scene_solve::contact_forces(floating, &equilibrium, |c| if c == 0 { "a" } else { "b" });
         Held {
             contacts,
             hold,

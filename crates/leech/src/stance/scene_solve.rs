@@ -1,20 +1,20 @@
-//! Solving a held body among a scene's solids: the load (or the front
-//! hold's approach) applied in stages, the contact rows refreshed at each
-//! until they settle.
+//! Solving a held body (or a clamped tube: any [`Touching`] system) among a
+//! scene's solids: the load (or the front hold's approach) applied in
+//! stages, the contact rows refreshed at each until they settle.
 
-use super::contact::{detect, penetration, ContactOptions, ContactRow};
-use super::floating::{Approach, FloatingBody};
-use super::{Held, StanceError};
+use super::contact::{detect, penetration, ContactOptions, ContactRow, Touching};
+use super::floating::FloatingBody;
+use super::{ContactForce, Held, StanceError};
 use crate::geom::{dot, Vec2};
 use crate::scene::Scene;
-use crate::statics::{Constraints, Equilibrium, Iterate, Scratch, SolveError, Solver, Stage, StopReason};
+use crate::statics::{Equilibrium, Iterate, Scratch, SolveError, Solver, StopReason};
 
 /// Stages the front hold's approach is applied in.
 pub const APPROACH_STAGES: usize = 16;
 
 /// Where the contact rows stand after a settle.
-pub(super) struct Settled<'a> {
-    pub floating: FloatingBody<'a>,
+pub(super) struct Settled<S> {
+    pub system: S,
     pub equilibrium: Equilibrium,
 }
 
@@ -35,10 +35,10 @@ pub(super) struct Pushing {
 }
 
 impl Pushing {
-    /// Whether `row` of `floating` touches the same material point on the same surface.
-    fn matches(&self, floating: &FloatingBody<'_>, row: &ContactRow) -> bool {
+    /// Whether `row` of `system` touches the same material point on the same surface.
+    fn matches<S: Touching>(&self, system: &S, row: &ContactRow) -> bool {
         row.chain == self.chain
-            && floating.chain_len(row.chain) == row.link + 1 + self.from_tip
+            && system.chain_len(row.chain) == row.link + 1 + self.from_tip
             && (row.fraction >= 1.0) == self.at_node
             && dot(row.normal, self.normal) > SAME_NORMAL
     }
@@ -48,24 +48,57 @@ impl Pushing {
 /// is exact, a vertex's turns a little as the point moves around it.
 const SAME_NORMAL: f64 = 0.99;
 
-impl Settled<'_> {
+impl<S: Touching> Settled<S> {
     /// The contacts that push at the settled equilibrium.
     pub fn pushing(&self) -> Vec<Pushing> {
-        let first = self.floating.contact_row();
-        self.floating
-            .contacts()
-            .iter()
-            .zip(&self.equilibrium.multipliers[first..])
-            .filter(|(_, force)| **force > 0.0)
+        pushing_rows(&self.system, &self.equilibrium)
             .map(|(row, force)| Pushing {
                 chain: row.chain,
-                from_tip: self.floating.chain_len(row.chain) - 1 - row.link,
+                from_tip: self.system.chain_len(row.chain) - 1 - row.link,
                 at_node: row.fraction >= 1.0,
                 normal: row.normal,
-                force: *force,
+                force,
             })
             .collect()
     }
+}
+
+/// The contact rows of `system` that push at `equilibrium`, with their
+/// normal forces (N): the multipliers above zero.
+fn pushing_rows<'s, S: Touching>(
+    system: &'s S,
+    equilibrium: &'s Equilibrium,
+) -> impl Iterator<Item = (&'s ContactRow, f64)> {
+    let first = system.contact_row();
+    system
+        .contacts()
+        .iter()
+        .zip(&equilibrium.multipliers[first..])
+        .filter(|(_, force)| **force > 0.0)
+        .map(|(r, f)| (r, *f))
+}
+
+/// The contacts of `system` that push at `equilibrium`, where they touch;
+/// `chain` names a chain for the report.
+pub(super) fn contact_forces<S: Touching>(
+    system: &S,
+    equilibrium: &Equilibrium,
+    chain: impl Fn(usize) -> &'static str,
+) -> Vec<ContactForce> {
+    pushing_rows(system, equilibrium)
+        .map(|(c, force)| {
+            // A row at a link's tip is the next node's.
+            let at_node = c.fraction >= 1.0;
+            ContactForce {
+                chain: chain(c.chain),
+                node: if at_node { c.link + 1 } else { c.link },
+                fraction: if at_node { 0.0 } else { c.fraction },
+                point_m: system.contact_point(&equilibrium.q, c),
+                normal: c.normal,
+                force_n: force,
+            }
+        })
+        .collect()
 }
 
 /// Takes `floating` (without contacts) from the equilibrium `q` at `t = 0`
@@ -77,9 +110,9 @@ pub(super) fn approached<'a>(
     scene: &Scene,
     radius: f64,
     solver: &Solver,
-) -> Result<Settled<'a>, StanceError> {
+) -> Result<Settled<FloatingBody<'a>>, StanceError> {
     let options = ContactOptions::default();
-    let mut settled = Settled { equilibrium: start(&floating, q), floating };
+    let mut settled = Settled { equilibrium: start(&floating, q), system: floating };
     let mut pushing = Vec::new();
     for stage in 1..=APPROACH_STAGES {
         let t = stage as f64 / APPROACH_STAGES as f64;
@@ -89,24 +122,24 @@ pub(super) fn approached<'a>(
     Ok(settled)
 }
 
-/// Settles `floating` (without contacts) at full load from `q`, resting on
+/// Settles `system` (without contacts) at full load from `q`, resting on
 /// the contacts `pushing` of the last solve, with contact rows refreshed in
 /// `scene` until they settle.
-pub(super) fn loaded<'a>(
-    floating: FloatingBody<'a>,
+pub(super) fn loaded<S: Touching>(
+    system: S,
     q: Vec<f64>,
     pushing: &[Pushing],
     scene: &Scene,
     radius: f64,
     solver: &Solver,
-) -> Result<Settled<'a>, StanceError> {
-    let settled = Settled { equilibrium: start(&floating, q), floating };
+) -> Result<Settled<S>, StanceError> {
+    let settled = Settled { equilibrium: start(&system, q), system };
     settle(settled, pushing, 1.0, scene, radius, &ContactOptions::default(), solver)
 }
 
 /// An equilibrium record for the start of a staged solve.
-pub(super) fn start(floating: &FloatingBody<'_>, q: Vec<f64>) -> Equilibrium {
-    let rows = crate::statics::Constraints::rows(floating);
+pub(super) fn start<S: Touching>(system: &S, q: Vec<f64>) -> Equilibrium {
+    let rows = crate::statics::Constraints::rows(system);
     Equilibrium {
         q,
         multipliers: vec![0.0; rows],
@@ -121,28 +154,25 @@ pub(super) fn start(floating: &FloatingBody<'_>, q: Vec<f64>) -> Equilibrium {
 
 /// Minimizes at `t` with contact rows detected from the current shape,
 /// again until the rows stop changing and nothing penetrates.
-fn settle<'a>(
-    mut settled: Settled<'a>,
+fn settle<S: Touching>(
+    mut settled: Settled<S>,
     pushing: &[Pushing],
     t: f64,
     scene: &Scene,
     radius: f64,
     options: &ContactOptions,
     solver: &Solver,
-) -> Result<Settled<'a>, StanceError> {
-    let stage = match settled.floating.approach() {
-        Approach::Load => Stage::Load,
-        Approach::Front(_) => Stage::WarmStart,
-    };
+) -> Result<Settled<S>, StanceError> {
+    let stage = settled.system.stage();
     let mut rows = Vec::new();
     let mut iterations = settled.equilibrium.iterations;
     let mut events = std::mem::take(&mut settled.equilibrium.events);
     let mut solved = false;
     let mut pushing = pushing.to_vec();
     for _ in 0..options.max_rounds {
-        detect(&settled.floating, &settled.equilibrium.q, scene, radius, options, &mut rows);
-        let deep = penetration(&settled.floating, &settled.equilibrium.q, scene, radius);
-        if solved && same_rows(settled.floating.contacts(), &rows) && deep <= options.penetration_tolerance {
+        detect(&settled.system, &settled.equilibrium.q, scene, radius, options, &mut rows);
+        let deep = penetration(&settled.system, &settled.equilibrium.q, scene, radius);
+        if solved && same_rows(settled.system.contacts(), &rows) && deep <= options.penetration_tolerance {
             settled.equilibrium.iterations = iterations;
             settled.equilibrium.events = events;
             return Ok(settled);
@@ -150,40 +180,41 @@ fn settle<'a>(
         if solved {
             pushing = settled.pushing();
         }
-        let floating = settled.floating.with_contacts(rows.clone());
-        let mut ws = Scratch::for_system(&floating);
-        let mut it = warm_iterate(&floating, &settled.equilibrium, &pushing);
-        let residual = solver.minimize(&floating, &mut it, t, stage, &mut ws)?;
-        let equilibrium = solver.finish(&floating, it, residual, &mut ws);
+        let system = settled.system.with_contacts(rows.clone());
+        let mut ws = Scratch::for_system(&system);
+        let mut it = warm_iterate(&system, &settled.equilibrium, &pushing);
+        let residual = solver.minimize(&system, &mut it, t, stage, &mut ws)?;
+        let equilibrium = solver.finish(&system, it, residual, &mut ws);
         iterations += equilibrium.iterations.max(1);
         events.extend(equilibrium.events.iter().cloned());
-        settled = Settled { floating, equilibrium };
+        settled = Settled { system, equilibrium };
         settled.equilibrium.iterations = iterations;
         solved = true;
     }
     Err(SolveError::NotConverged {
         stage,
         iterations,
-        residual: penetration(&settled.floating, &settled.equilibrium.q, scene, radius),
+        residual: penetration(&settled.system, &settled.equilibrium.q, scene, radius),
         reason: StopReason::ActiveSetCycling,
     }
     .into())
 }
 
-/// A start from `previous` for `floating`'s rows: the weld's and the holds'
-/// multipliers kept, and a contact row active, with its force, where one of
-/// `pushing` pushed before ([`Pushing::matches`]). Newton then does not first
-/// let the body fall through what holds it; violated rows join one at a time.
-fn warm_iterate(floating: &FloatingBody<'_>, previous: &Equilibrium, pushing: &[Pushing]) -> Iterate {
+/// A start from `previous` for `system`'s rows: the rows before the
+/// contacts (the weld's and the holds') keep their multipliers, and a
+/// contact row is active, with its force, where one of `pushing` pushed
+/// before ([`Pushing::matches`]). Newton then does not first let the body
+/// fall through what holds it; violated rows join one at a time.
+fn warm_iterate<S: Touching>(system: &S, previous: &Equilibrium, pushing: &[Pushing]) -> Iterate {
     let mut it = Iterate::new(previous.q.clone());
-    let first = floating.contact_row();
-    let rows = floating.rows();
+    let first = system.contact_row();
+    let rows = system.rows();
     it.lambda = vec![0.0; rows];
     it.active = vec![false; rows];
     it.active[..first].fill(true);
     it.lambda[..first].copy_from_slice(&previous.multipliers[..first]);
-    for (i, row) in floating.contacts().iter().enumerate() {
-        if let Some(known) = pushing.iter().find(|p| p.matches(floating, row)) {
+    for (i, row) in system.contacts().iter().enumerate() {
+        if let Some(known) = pushing.iter().find(|p| p.matches(system, row)) {
             it.lambda[first + i] = known.force;
             it.active[first + i] = true;
         }
@@ -206,8 +237,8 @@ fn same_rows(a: &[ContactRow], b: &[ContactRow]) -> bool {
 
 impl Held {
     /// The held body with its contacts, from a settled solve.
-    pub(super) fn settled(settled: Settled<'_>) -> Held {
-        let Settled { floating, equilibrium } = settled;
-        Held::new(&floating, equilibrium)
+    pub(super) fn settled(settled: Settled<FloatingBody<'_>>) -> Held {
+        let Settled { system, equilibrium } = settled;
+        Held::new(&system, equilibrium)
     }
 }

@@ -330,4 +330,26 @@ proptest! {
         q.extend([pose[0] + 0.1, pose[1] - 0.05, pose[2] + 0.2]);
         check_system(&floating, &q, t)?;
     }
+
+    /// The single tube's contact rows: a node row and a row part-way along a
+    /// link, on the cantilever's potential.
+    #[test]
+    fn tube_contact_derivatives(
+        length in 0.03f64..0.095,
+        clamp in -3.0f64..3.0,
+        d in discretization(),
+        seed in prop::collection::vec(-4.0f64..7.0, 10),
+        t in 0.1f64..1.0,
+        fraction in 0.1f64..1.0,
+    ) {
+        use leech::stance::{ContactRow, Touching, Tube};
+        let cantilever = Cantilever::new(Chain::new(&spec(length, 0.004, clamp, d)), 9.81);
+        let contacts = vec![
+            ContactRow { chain: 0, link: 1, fraction: 1.0, normal: [0.6, 0.8], offset: 0.01 },
+            ContactRow { chain: 0, link: 2, fraction, normal: [-0.8, 0.6], offset: -0.02 },
+        ];
+        let tube = Tube::new(&cantilever).with_contacts(contacts);
+        let q: Vec<f64> = seed[..tube.dim()].to_vec();
+        check_system(&tube, &q, t)?;
+    }
 }

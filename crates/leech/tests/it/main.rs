@@ -16,6 +16,7 @@ mod scene;
 mod solver;
 mod stance;
 mod sweep;
+mod tube;
 
 use leech::prelude::*;
 

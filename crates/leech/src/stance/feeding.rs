@@ -1,0 +1,108 @@
+//! Feeding tubes among a scene's solids in adaptive steps: the path a
+//! robot's own tubes follow, shared by the two-tube body and the single
+//! clamped tube ([`Fed`]).
+
+use super::contact::{self, Touching};
+use super::scene_solve::{self, Pushing};
+use super::StanceError;
+use crate::error::InputError;
+use crate::scene::Scene;
+use crate::statics::Solver;
+
+/// Longest feeding step between contact refreshes (m): five of the
+/// built-in robot's elements, short enough for Newton to stay on the
+/// branch a continuous feed follows.
+pub const FEED_STEP_M: f64 = 0.05;
+
+/// Shortest feeding step (m): below it a step that still fails is reported.
+pub const MIN_FEED_STEP_M: f64 = 1e-4;
+
+/// Most Newton iterations a feeding step may take before it counts as too
+/// long a step (and is halved).
+const FEED_ITERATIONS: usize = 12;
+
+/// A feeding step that took at most this many Newton iterations was easy:
+/// the next may be twice as long.
+const EASY_ITERATIONS: usize = 5;
+
+/// What is fed: a family of systems along a feed, by the fraction fed.
+pub(super) trait Fed {
+    /// What the tubes are at one fed length (it owns the chains).
+    type Shape;
+    /// The system solved for a shape, borrowing it.
+    type System<'s>: Touching;
+
+    /// The largest length any tube is fed by over the whole feed (m).
+    fn span(&self) -> f64;
+    /// The shape `fraction` of the way (0: the start, 1: the end).
+    fn shape_at(&self, fraction: f64) -> Result<Self::Shape, InputError>;
+    /// The system (without contacts) of `shape`.
+    fn system<'s>(&self, shape: &'s Self::Shape) -> Self::System<'s>;
+    /// A state `q` of `shape` carried over to `next` (a warm start).
+    fn carried(&self, next: &Self::Shape, shape: &Self::Shape, q: &[f64]) -> Vec<f64>;
+}
+
+/// The tubes fed along `fed` among `scene`'s solids (tube radius `radius`,
+/// m), in steps halved when a step fails to converge, ends unstable, takes
+/// more than [`FEED_ITERATIONS`] or moves the tubes through a solid unseen
+/// ([`contact::swept_clear`]), and doubled after a success.
+pub(super) struct Feeding<'a, F> {
+    pub fed: F,
+    pub scene: &'a Scene,
+    pub radius: f64,
+    pub solver: &'a Solver,
+}
+
+impl<F: Fed> Feeding<'_, F> {
+    /// Feeds from the equilibrium `q` of `shape` (at the start); returns the
+    /// shape at the end, its equilibrium and the contacts that push.
+    pub fn run(&self, mut shape: F::Shape, mut q: Vec<f64>) -> Result<(F::Shape, Vec<f64>, Vec<Pushing>), StanceError> {
+        let span = self.fed.span();
+        let (mut done, mut step) = (0.0, FEED_STEP_M);
+        let mut pushing = Vec::new();
+        // A step that needs many iterations is too long: stop it early and
+        // halve it rather than finish it (the last chance runs to the end).
+        let mut brief = self.solver.clone();
+        brief.options.max_iterations = brief.options.max_iterations.min(FEED_ITERATIONS);
+        while done < 1.0 {
+            let next_fraction = if span <= step { 1.0 } else { (done + step / span).min(1.0) };
+            let next = self.fed.shape_at(next_fraction)?;
+            let carried = self.fed.carried(&next, &shape, &q);
+            let last_chance = step <= MIN_FEED_STEP_M;
+            // In a block of its own: the systems borrow both shapes, and a
+            // system may hold on to its borrow until it is dropped.
+            let accepted = {
+                let before = self.fed.system(&shape);
+                let solver = if last_chance { self.solver } else { &brief };
+                let outcome =
+                    scene_solve::loaded(self.fed.system(&next), carried, &pushing, self.scene, self.radius, solver);
+                match outcome {
+                    Ok(settled)
+                        if last_chance
+                            || (settled.equilibrium.stable
+                                && contact::swept_clear(
+                                    (&before, &q),
+                                    (&settled.system, &settled.equilibrium.q),
+                                    self.scene,
+                                    self.radius,
+                                )) =>
+                    {
+                        Some((settled.pushing(), settled.equilibrium.iterations, settled.equilibrium.q))
+                    }
+                    Err(e) if last_chance => return Err(e),
+                    _ => None,
+                }
+            };
+            match accepted {
+                Some((now_pushing, iterations, now_q)) => {
+                    (pushing, q, shape, done) = (now_pushing, now_q, next, next_fraction);
+                    if iterations <= EASY_ITERATIONS {
+                        step = (2.0 * step).min(FEED_STEP_M);
+                    }
+                }
+                None => step = (0.5 * step).max(MIN_FEED_STEP_M),
+            }
+        }
+        Ok((shape, q, pushing))
+    }
+}
