@@ -26,6 +26,13 @@ The model is written again here from its equations, not ported from the Rust cod
   the nodes of each chain's last link are fixed by the hold (plate pose) and the weld: their rows
   are constants of the hold's, a force there is the hold's reaction, and they are left out.
 
+* The single tube (`kind: "chain"`, leech's `stance::tube_in`): one chain of n whole elements with
+  its own k, m and a point mass P at its tip (the built-in tube's l, m, r; k and P per case), its
+  clamp p0, phi0 the rear hold (the hold's multipliers are the clamp's force and moment about p0),
+  no weld, no driving unit. Its contact rows are the body's (every node but the first joint, every
+  link against the exposed corners). It is also fed from 0.05 m to its length in 5 mm steps (the
+  `feeding_path` of the body, one chain), which must end on the same equilibrium.
+
 Equilibria are constrained minima of V: grad V - J^T lambda = 0 with lambda the multipliers in the
 sign convention in which a hold's multipliers are the force (N) and moment (N m) the surface
 exerts on the robot, and a contact's multiplier is the normal force (N, >= 0) along the surface's
@@ -107,6 +114,14 @@ def builtin_robot():
     )
 
 
+def tube_robot(robot, stiffness_factor=1.0, tip_mass=0.0):
+    """A single tube with the built-in robot's element length, mass and radius, its joint
+    stiffness k times `stiffness_factor` and a point mass `tip_mass` (kg) at its tip; the keys of
+    `builtin_robot`'s that a one-chain Body reads (no driving unit: Md = 0, b = 0)."""
+    return dict(l=robot["l"], m=robot["m"], k=stiffness_factor * robot["k"], r=robot["r"], g=robot["g"],
+                P=float(tip_mass), Md=0.0, b=0.0)
+
+
 def elements(L, l):
     n = max(1, math.ceil(L / l - 1e-9))
     last = L - (n - 1) * l
@@ -141,16 +156,20 @@ class Body:
     """Two chains on a floating driving unit; see the module doc."""
 
     def __init__(self, robot, lengths, disc="paper"):
+        """Two lengths: the body. One length: the single tube (see `tube_robot`), its clamp p0,
+        phi0 held by the rear hold; no chain B, no weld, no driving unit (Md = 0)."""
         self.R, self.disc = robot, disc
         l = robot["l"]
-        self.el = [elements(lengths[0], l), elements(lengths[1], l)]  # element lengths e_j
+        self.nc = len(lengths)
+        assert self.nc in (1, 2)
+        self.el = [elements(L, l) for L in lengths]  # element lengths e_j
         self.n = [len(x) for x in self.el]
-        self.first = [0, self.n[0]]
-        self.ip = self.n[0] + self.n[1]  # index of p0_x; p0_y = ip + 1, phi0 = ip + 2
+        self.first = [0, self.n[0]][:self.nc]
+        self.ip = sum(self.n)  # index of p0_x; p0_y = ip + 1, phi0 = ip + 2
         self.N = self.ip + 3
-        factor = [1.0, 2.0]  # chain B lumps two tubes
+        factor = [1.0, 2.0][:self.nc]  # chain B lumps two tubes
         # one joint per element, its spring from the element's own length
-        self.k = [factor[c] * robot["k"] * np.minimum(l / self.el[c], MAX_STIFFNESS_RATIO) for c in range(2)]
+        self.k = [factor[c] * robot["k"] * np.minimum(l / self.el[c], MAX_STIFFNESS_RATIO) for c in range(self.nc)]
         if disc == "paper":
             # link j is element j, its mass at its tip; the first joint at the clamp
             self.links = [x.copy() for x in self.el]
@@ -162,11 +181,11 @@ class Body:
             self.frac, self.root = 0.5, [0.5 * x[0] for x in self.el]
         else:
             raise ValueError(disc)
-        self.mass = [factor[c] * robot["m"] * self.links[c] / l for c in range(2)]
+        self.mass = [factor[c] * robot["m"] * self.links[c] / l for c in range(self.nc)]
         # the root pieces' mass rides on the driving unit, at their middles
-        self.root_mass = [factor[c] * robot["m"] * self.root[c] / l for c in range(2)]
-        self.tip_mass = [0.0, robot["ms"]]
-        self.spacing = [0.0, robot["b"]]
+        self.root_mass = [factor[c] * robot["m"] * self.root[c] / l for c in range(self.nc)]
+        self.tip_mass = [0.0, robot["ms"]] if self.nc == 2 else [robot["P"]]
+        self.spacing = [0.0, robot["b"]][:self.nc]
 
     # -- indices and points -------------------------------------------------------------------
 
@@ -222,7 +241,7 @@ class Body:
         return q[ip:ip + 2] + 0.5 * self.R["b"] * nu(q[ip + 2])
 
     def total_mass(self):
-        return sum(self.mass[c].sum() + self.root_mass[c] + self.tip_mass[c] for c in range(2)) + self.R["Md"]
+        return sum(self.mass[c].sum() + self.root_mass[c] + self.tip_mass[c] for c in range(self.nc)) + self.R["Md"]
 
     def weight(self, g=None):
         return (self.R["g"] if g is None else g) * self.total_mass()
@@ -230,7 +249,7 @@ class Body:
     def centre_of_mass(self, q):
         moment = np.zeros(2)
         ip = self.ip
-        for c in range(2):
+        for c in range(self.nc):
             pts = self.nodes(q, c)
             centres = pts[:-1] + self.frac * (pts[1:] - pts[:-1])
             moment += self.mass[c] @ centres + self.tip_mass[c] * pts[-1]
@@ -245,7 +264,7 @@ class Body:
         """V, grad V, Hess V."""
         N, ip = self.N, self.ip
         V, grad, H = 0.0, np.zeros(N), np.zeros((N, N))
-        for c in range(2):
+        for c in range(self.nc):
             idx = self.idx(c)
             D = np.zeros((self.n[c], N))  # relative angles phi_j - phi_{j-1}, phi_0 = phi0
             D[np.arange(self.n[c]), idx] = 1.0
@@ -289,8 +308,11 @@ def unit_row(body, index, value):
 
 
 def equality_rows(body, q, rear, front):
-    """The weld (3), then the rear hold (3), then the front hold (3), as present.
-    A pose is (x, y, angle_rad)."""
+    """The weld (3; not for the single tube), then the rear hold (3), then the front hold (3), as
+    present. A pose is (x, y, angle_rad)."""
+    if body.nc == 1:
+        assert front is None
+        return [unit_row(body, body.ip + k, q[body.ip + k] - rear[k]) for k in range(3)]
     rows = []
     c = body.R["c"]
     pa, Ja, Ha = body.node(q, 0, body.n[0])
@@ -404,7 +426,7 @@ class ContactSet:
             self.pairs = pairs
             return
         self.pairs = []
-        for c in range(2):
+        for c in range(body.nc):
             for i in range(1, body.n[c] + 1):
                 if (c, i) in fixed:
                     continue
@@ -502,7 +524,7 @@ class Problem:
         return self._cache[key]
 
     def n_eq(self):
-        return 3 + 3 * (self.rear is not None) + 3 * (self.front is not None)
+        return 3 * (self.body.nc == 2) + 3 * (self.rear is not None) + 3 * (self.front is not None)
 
     def lagrangian_hessian(self, q, lam_eq, mu):
         """Hess V - sum lambda_i Hess C_i - sum mu_i Hess D_i."""
@@ -579,9 +601,12 @@ class Problem:
         for mi, row in zip(mu, ineq):
             r -= mi * row.grad
         scale = np.ones(len(eq))
-        scale[[0, 1]] = R["l"]
-        if self.rear is not None:
-            scale[[3, 4]] = R["l"]
+        if self.body.nc == 1:  # the clamp's rows only
+            scale[[0, 1]] = R["l"]
+        else:
+            scale[[0, 1]] = R["l"]
+            if self.rear is not None:
+                scale[[3, 4]] = R["l"]
         if self.front is not None:
             scale[[-3, -2]] = R["l"]
         vals = np.array([row.value for row in ineq])
@@ -626,13 +651,21 @@ class Problem:
 
     def polish(self, q, lam, mu):
         """Newton on the active set guessed from (q, mu), corrected until every active force is
-        positive and every inactive row is clear."""
+        positive and every inactive row is clear. Should Newton fail from that guess, once more
+        with the rows within 100 ACTIVE_GAP in the guess: trust-constr leaves a contact that
+        carries little force a slack of about its barrier parameter over the force."""
+        try:
+            return self._polish(q, lam, mu, ACTIVE_GAP)
+        except (linalg.LinAlgError, RuntimeError):
+            return self._polish(q, lam, mu, 100 * ACTIVE_GAP)
+
+    def _polish(self, q, lam, mu, gap):
         ineq = self.ineq(q)
         vals = np.array([row.value for row in ineq])
         # A corner row whose closest point is a link's end is the same function as that node's
         # row against the corner's polygon: only the node row may enter the active set.
         own = lambda rows: [i for i, row in enumerate(rows) if not (row.info[0] == "corner" and row.info[3] in (0.0, 1.0))]
-        active = [i for i in own(ineq) if vals[i] < ACTIVE_GAP and mu[i] > 1e-6]
+        active = [i for i in own(ineq) if vals[i] < gap and mu[i] > 1e-6]
         for _ in range(20):
             qn, lamn, mun, its = self.newton(q, lam, active, mu[active] if len(mu) else np.zeros(0))
             rows = self.ineq(qn)
@@ -746,15 +779,16 @@ def target_path(body, q, stages, rear, start, front, everything, log):
 
 
 def feeding_path(robot, case, scene, short, step=0.005):
-    """A second path to a rear-held contact case, as the robot takes it: from both tubes at
-    `short` (loaded, from the unloaded shape), fed to the case's lengths in steps of at most
-    `step`, each solve warm-started from the last with a new link continuing its chain's last
-    one straight (trust-constr, polished by Newton). Returns the final body, q and a log."""
+    """A second path to a rear-held contact case, as the robot takes it: from both tubes (or the
+    single tube, held at its clamp) at `short` (loaded, from the unloaded shape), fed to the
+    case's lengths in steps of at most `step`, each solve warm-started from the last with a new
+    link continuing its chain's last one straight (trust-constr, polished by Newton). Returns the
+    final body, q and a log."""
     rear, lengths = case["rear"], case["lengths"]
     steps = int(math.ceil((max(lengths) - short) / step - 1e-9))
     log, previous = [], None
     for k in range(steps + 1):
-        fed = [short + k / steps * (lengths[c] - short) for c in range(2)]
+        fed = [short + k / steps * (lengths[c] - short) for c in range(len(lengths))]
         body = Body(robot, fed, case.get("disc", "paper"))
         everything = ContactSet(body, scene)
         if previous is None:
@@ -762,16 +796,16 @@ def feeding_path(robot, case, scene, short, step=0.005):
         else:
             before, q_before = previous
             chains = []
-            for c in range(2):
+            for c in range(body.nc):
                 old = q_before[before.idx(c)]
                 chains.append(np.r_[old, np.full(body.n[c] - len(old), old[-1])][:body.n[c]])
-            q = np.r_[chains[0], chains[1], q_before[before.ip:]]
+            q = np.concatenate(chains + [q_before[before.ip:]])
             out = stage(body, q, robot["g"], rear, None, everything, "feed", [], barrier=1e-6)
         q, lam, mu, _, prob = out
         q, lam, mu, _, active = prob.polish(q, lam, mu)
         previous = (body, q)
         touching = ", ".join(f"{'ab'[prob.ineq(q)[i].info[1]]}{prob.ineq(q)[i].info[2]} {mu[i]:.3f} N" for i in active)
-        log.append(f"{fed[0]:.3f}/{fed[1]:.3f} m: endpoint ({body.endpoint(q)[0]:.4f}, {body.endpoint(q)[1]:.4f}), "
+        log.append(f"{'/'.join(f'{x:.3f}' for x in fed)} m: endpoint ({body.endpoint(q)[0]:.4f}, {body.endpoint(q)[1]:.4f}), "
                    f"plate {q[body.last(0)]:+.4f} rad, touching: {touching or 'nothing'}")
     return body, q, log
 
@@ -827,10 +861,33 @@ normal = [-1.0, 0.0]
 """
 
 
+FLOOR_UNDER_CLAMP = """name = "floor 30 mm below the clamp"
+[[half_plane]]          # solid below y = -0.03
+point_m = [0.0, -0.03]
+normal = [0.0, 1.0]
+"""
+
+THIN_WALL_UNDER_TUBE = """name = "a thin wall under the tube"
+[[polygon]]             # 10 mm thick, top 25 mm below the clamp (no floor: all four corners exposed)
+points_m = [[0.15, -0.2], [0.16, -0.2], [0.16, -0.025], [0.15, -0.025]]
+"""
+
+CHAIN_ELEMENTS = 30
+
+
+def chain_case(name, values, disc, scene, stiffness_note, checks):
+    """A single tube of CHAIN_ELEMENTS whole elements clamped at the origin along +x (the rear
+    hold), solved directly and along its feeding path from 0.05 m."""
+    return dict(name=name, kind="chain", tube=values, lengths=[CHAIN_ELEMENTS * values["l"]], disc=disc,
+                rear=pose(0, 0, 0), scene=scene, feed_from=0.05, stiffness_note=stiffness_note, checks=checks)
+
+
 def case_list(robot):
     """Each case: name, what it checks, lengths, holds (poses x, y, angle rad), scene TOML, and
     the path the reference takes there."""
     # (c) and (d) hold the front cup where the free endpoint of (a) is: computed first.
+    soft = tube_robot(robot, stiffness_factor=0.1, tip_mass=robot["ms"])
+    soft_note = "k / 10 (a soft tube, so that several nodes rest on the floor); tip mass the payload ms"
     return [
         dict(name="a_rear_wall", lengths=[0.25, 0.22], rear=pose(0, 0, 90),
              checks="rear hold on a vertical wall: the clamped body, the rear cup carries the weight and the moment"),
@@ -871,6 +928,15 @@ def case_list(robot):
         dict(name="m_floor_midpoint", disc="midpoint", lengths=[0.30, 0.28],
              rear=pose(0, robot["b"] + robot["rear_offset"], 0), scene=FLOOR,
              checks="(f) with the midpoint discretization"),
+        # the single tube (stance::tube_in): clamped at the origin along +x, fed from 0.05 m
+        chain_case("t_chain_floor", soft, "paper", FLOOR_UNDER_CLAMP, soft_note,
+                   "one soft tube with the front cup's mass at its tip, clamped 30 mm above a floor: it sags onto "
+                   "the floor and its outer part lies on it, several nodes touching"),
+        chain_case("t_chain_floor_midpoint", soft, "midpoint", FLOOR_UNDER_CLAMP, soft_note,
+                   "(t_chain_floor) with the midpoint discretization: the rigid root piece, masses at the links' centres"),
+        chain_case("t_chain_thin_wall_corner", tube_robot(robot), "paper", THIN_WALL_UNDER_TUBE,
+                   "the built-in joint stiffness k",
+                   "the built-in tube, no tip mass, over a thin wall: a link rests on the wall's top corner"),
     ]
 
 
@@ -911,7 +977,8 @@ def branch_of(body, q, case):
 
 def solve_case(case, robot, done, rng):
     log = []
-    body = Body(robot, case["lengths"], case.get("disc", "paper"))
+    values = case.get("tube", robot)  # a single tube's values, or the built-in robot's
+    body = Body(values, case["lengths"], case.get("disc", "paper"))
     scene = Scene(case["scene"]) if case.get("scene") else None
     rear = case.get("rear")
     front = case.get("front")
@@ -964,7 +1031,7 @@ def solve_case(case, robot, done, rng):
     feeding = None
     if case.get("feed_from"):
         # the path the robot takes (and leech's solve_in): does it end on the same equilibrium?
-        _, q_fed, fed_log = feeding_path(robot, case, scene, case["feed_from"])
+        _, q_fed, fed_log = feeding_path(values, case, scene, case["feed_from"])
         feeding = dict(from_m=case["feed_from"], step_m=0.005, max_abs_diff_q=float(np.max(np.abs(q_fed - q_nw))),
                        steps=fed_log)
         log.append(f"feeding path from {case['feed_from']} m: max |q - q_fed| = {feeding['max_abs_diff_q']:.1e}")
@@ -983,7 +1050,7 @@ def penetration(body, scene, q):
     distance), every link against every exposed corner, and links crossing a polygon edge."""
     r = body.R["r"]
     worst = -math.inf
-    for c in range(2):
+    for c in range(body.nc):
         pts = body.nodes(q, c)
         for x in pts[1:]:
             worst = max(worst, r - scene.signed_distance(x))
@@ -1079,6 +1146,66 @@ def record(case, robot, body, scene, contacts, prob, sol, front, info):
     return out
 
 
+def record_chain(case, body, scene, contacts, sol, info):
+    """A single tube's case: what `stance::tube_in` is compared on. The clamp is the rear hold:
+    its multipliers are the clamp's force (N) and moment (N m, about the clamp) on the tube."""
+    q, lam, mu, active = sol
+    R, ip = body.R, body.ip
+    W = body.weight()
+    clamp = np.asarray(case["rear"][:2])
+    pts = body.nodes(q, 0)
+    # the centre line as leech lists it: the clamp, the first joint if a root piece lies between
+    points = np.vstack([clamp, pts]) if body.root[0] > 0 else pts
+    out = dict(
+        name=case["name"],
+        kind="chain",
+        checks=case["checks"],
+        tube=dict(elements=body.n[0], element_length_m=R["l"], element_mass_kg=R["m"],
+                  joint_stiffness_nm_per_rad=R["k"], tip_mass_kg=R["P"], gravity_m_per_s2=R["g"],
+                  radius_m=R["r"], stiffness_note=case["stiffness_note"]),
+        discretization=body.disc,
+        lengths_m=case["lengths"],
+        elements=body.n,
+        clamp=dict(point_m=clamp.tolist(), angle_rad=case["rear"][2], base_angle_deg=math.degrees(case["rear"][2])),
+        scene_toml=case["scene"],
+        angles_rad=q[body.idx(0)].tolist(),
+        points_m=points.tolist(),
+        tip_m=pts[-1].tolist(),
+        weight_n=W,
+        centre_of_mass_m=body.centre_of_mass(q).tolist(),
+        clamp_reaction=dict(force_n=lam[0:2].tolist(), moment_nm=float(lam[2])),
+    )
+    contacts_out = []
+    rows = contacts.rows(q, with_hessian=False)
+    for i in active:
+        kind, c, j, s, x, n = rows[i].info
+        node, frac = (j, 0.0) if kind == "node" else ((j - 1, s) if 0 < s < 1 else (j - 1 + int(s), 0.0))
+        contacts_out.append(dict(node=int(node), fraction=float(frac), point_m=x.tolist(), normal=n.tolist(),
+                                 force_n=float(mu[i])))
+    out["contacts"] = contacts_out
+    # force and moment balance (about the clamp) of the clamp's reaction and the contact forces
+    F = lam[0:2].copy()
+    M = float(lam[2])
+    for cf in contacts_out:
+        f = cf["force_n"] * np.array(cf["normal"])
+        F += f
+        M += cross(np.array(cf["point_m"]) - clamp, f)
+    xg = out["centre_of_mass_m"][0] - clamp[0]
+    length = sum(case["lengths"])
+    out["balance"] = dict(force_x_rel=float(abs(F[0]) / W), force_y_rel=float(abs(F[1] - W) / W),
+                          moment_rel=float(abs(M - xg * W) / (W * length)))
+    out["branch"] = dict(tip_m=pts[-1].tolist())
+    out["penetration_m"] = float(penetration(body, scene, q))
+    if case["name"] in KNOWN_FAILURES:
+        out["known_failure"], out["known_failure_contains"] = KNOWN_FAILURES[case["name"]]
+    out["reduced_hessian_min"] = info["reduced_hessian_min"]
+    out["stable"] = bool(info["reduced_hessian_min"] > 0)
+    for key in ("residuals", "agreement", "newton_iterations", "derivative_check", "trust_constr", "slsqp", "path",
+                "feeding_path"):
+        out[key] = info[key]
+    return out
+
+
 def main(argv):
     only = set(argv[1:])
     rng = np.random.default_rng(7)
@@ -1096,7 +1223,10 @@ def main(argv):
             continue
         t0 = time.time()
         body, scene, contacts, prob, sol, front, info = solve_case(case, robot, done, rng)
-        out = record(case, robot, body, scene, contacts, prob, sol, front, info)
+        if case.get("kind") == "chain":
+            out = record_chain(case, body, scene, contacts, sol, info)
+        else:
+            out = record(case, robot, body, scene, contacts, prob, sol, front, info)
         out["seconds"] = time.time() - t0
         r = out["residuals"]
         print(f"{case['name']:28s} {out['seconds']:6.1f} s  newton {r['newton']['stationarity']:.1e}/"
