@@ -4,16 +4,18 @@
 //! the results are committed as `tests/data/holds.json`.
 //!
 //! Every case is solved by leech the ordinary way (`stance::solve`, or `stance::solve_in` with
-//! the case's scene) and must match: angles to 1e-7 rad, positions to 1e-7 m, reactions and
-//! contact forces to 1e-6 N (N m), and balance the weight to 1e-9. A case leech does not solve
+//! the case's scene; a single tube's case, `kind: "chain"`, with `stance::tube_in`) and must
+//! match: angles to 1e-7 rad, positions to 1e-7 m, reactions and contact forces to 1e-6 N
+//! (N m), and balance the weight to 1e-9. A case leech does not solve
 //! or does not match is marked `known_failure` in the fixture: the test then checks that it still
 //! fails the same way, so that a fix shows up here (remove the mark then).
 
 use std::collections::BTreeMap;
 
+use leech::cantilever::CantileverSpec;
 use leech::prelude::*;
 use leech::scene::Scene;
-use leech::stance::{self, Held, Hold, Pose, StanceError};
+use leech::stance::{self, Held, Hold, Pose, StanceError, TubeHeld};
 use serde_json::Value;
 
 const ANGLE_TOLERANCE_RAD: f64 = 1e-7;
@@ -54,27 +56,56 @@ fn hold(case: &Value) -> Hold {
     }
 }
 
-/// The built-in robot in the case's discretization.
-fn robot(case: &Value) -> Robot {
+fn discretization(case: &Value) -> Discretization {
     match case["discretization"].as_str() {
-        Some("paper") => Robot::builtin(),
-        Some("midpoint") => Robot::builtin().with_discretization(Discretization::Midpoint),
+        Some("paper") => Discretization::Paper,
+        Some("midpoint") => Discretization::Midpoint,
         other => panic!("{}: discretization {other:?}", case["name"]),
     }
+}
+
+/// The built-in robot in the case's discretization.
+fn robot(case: &Value) -> Robot {
+    Robot::builtin().with_discretization(discretization(case))
+}
+
+fn scene(case: &Value) -> Option<Scene> {
+    let name = case["name"].as_str().unwrap();
+    case["scene_toml"].as_str().map(|text| Scene::from_toml_str(text, name).unwrap_or_else(|e| panic!("{name}: {e}")))
 }
 
 fn solve(case: &Value) -> Result<Held, StanceError> {
     let robot = robot(case);
     let lengths = pair(&case["lengths_m"]);
     let solver = Solver::default();
-    match case["scene_toml"].as_str() {
+    match scene(case) {
         None => stance::solve(&robot, lengths, hold(case), &solver),
-        Some(text) => {
-            let name = case["name"].as_str().unwrap();
-            let scene = Scene::from_toml_str(text, name).unwrap_or_else(|e| panic!("{name}: {e}"));
-            stance::solve_in(&robot, lengths, hold(case), &scene, &solver)
-        }
+        Some(scene) => stance::solve_in(&robot, lengths, hold(case), &scene, &solver),
     }
+}
+
+/// A single tube's case as `leech chain` builds it (clamped at the origin), and its radius (m).
+fn tube_spec(case: &Value) -> (CantileverSpec, f64) {
+    let t = &case["tube"];
+    let clamp = &case["clamp"];
+    assert_eq!(pair(&clamp["point_m"]), [0.0, 0.0], "{}: tube_in clamps at the origin", case["name"]);
+    let spec = CantileverSpec {
+        elements: t["elements"].as_u64().unwrap() as usize,
+        element_length_m: num(&t["element_length_m"]),
+        element_mass_kg: num(&t["element_mass_kg"]),
+        joint_stiffness_nm_per_rad: num(&t["joint_stiffness_nm_per_rad"]),
+        tip_mass_kg: num(&t["tip_mass_kg"]),
+        base_angle_deg: num(&clamp["base_angle_deg"]),
+        gravity_m_per_s2: num(&t["gravity_m_per_s2"]),
+        discretization: discretization(case),
+    };
+    (spec, num(&t["radius_m"]))
+}
+
+fn solve_tube(case: &Value) -> Result<TubeHeld, StanceError> {
+    let (spec, radius) = tube_spec(case);
+    let scene = scene(case).unwrap_or_else(|| panic!("{}: a single tube's case has a scene", case["name"]));
+    stance::tube_in(&spec, &scene, radius, &Solver::default())
 }
 
 /// The comparison of one case: what differs beyond its tolerance (one line each), and the
@@ -155,11 +186,20 @@ fn differences(case: &Value, held: &Held) -> Comparison {
             _ => out.failures.push(format!("{key}: leech {ours:?}, reference {}", case[key])),
         }
     }
-    // Contacts: the force vectors summed per touching point (chain, node, fraction), a point
-    // missing on one side counting as no force; the points where both push must coincide.
+    compare_contacts(&mut out, held.contacts.iter().filter(|c| !is_fixed(c)), case);
+    if !held.equilibrium.stable {
+        out.failures.push("leech's equilibrium is not stable".into());
+    }
+    out
+}
+
+/// Contacts: the force vectors summed per touching point (chain, node, fraction), a point
+/// missing on one side counting as no force; the points where both push must coincide. (A
+/// single tube's contacts have no chain: "" on both sides.)
+fn compare_contacts<'c>(out: &mut Comparison, ours: impl Iterator<Item = &'c stance::ContactForce>, case: &Value) {
     let key = |chain: &str, node: u64, fraction: f64| (chain.to_string(), node, (fraction * 1e6).round() as i64);
     let mut forces: BTreeMap<_, ([f64; 2], [f64; 2], Option<[f64; 2]>, Option<[f64; 2]>)> = BTreeMap::new();
-    for c in held.contacts.iter().filter(|c| !is_fixed(c)) {
+    for c in ours {
         let e = forces.entry(key(c.chain, c.node as u64, c.fraction)).or_default();
         e.0[0] += c.force_n * c.normal[0];
         e.0[1] += c.force_n * c.normal[1];
@@ -168,9 +208,8 @@ fn differences(case: &Value, held: &Held) -> Comparison {
     for c in case["contacts"].as_array().unwrap() {
         let f = num(&c["force_n"]);
         let n = pair(&c["normal"]);
-        let e = forces
-            .entry(key(c["chain"].as_str().unwrap(), c["node"].as_u64().unwrap(), num(&c["fraction"])))
-            .or_default();
+        let chain = c["chain"].as_str().unwrap_or("");
+        let e = forces.entry(key(chain, c["node"].as_u64().unwrap(), num(&c["fraction"]))).or_default();
         e.1[0] += f * n[0];
         e.1[1] += f * n[1];
         e.3 = Some(pair(&c["point_m"]));
@@ -182,10 +221,78 @@ fn differences(case: &Value, held: &Held) -> Comparison {
             out.close(&format!("contact point on {chain} node {node} (m)"), "m", a, b, POSITION_TOLERANCE_M);
         }
     }
+}
+
+/// A single tube's case: everything that differs beyond its tolerance.
+fn tube_differences(case: &Value, held: &TubeHeld) -> Comparison {
+    let mut out = Comparison::default();
+    out.close("angles (rad)", "rad", &held.equilibrium.q, &numbers(&case["angles_rad"]), ANGLE_TOLERANCE_RAD);
+    let flat = |points: &[[f64; 2]]| points.iter().flatten().copied().collect::<Vec<f64>>();
+    let theirs: Vec<[f64; 2]> = case["points_m"].as_array().unwrap().iter().map(pair).collect();
+    out.close("points (m)", "m", &flat(&held.points_m), &flat(&theirs), POSITION_TOLERANCE_M);
+    let weight = num(&case["weight_n"]);
+    out.close("weight (N)", "weight N", &[held.weight_n], &[weight], 1e-12 * weight);
+    let clamp = &case["clamp_reaction"];
+    let theirs = [numbers(&clamp["force_n"]), vec![num(&clamp["moment_nm"])]].concat();
+    let ours = [held.clamp.force_n[0], held.clamp.force_n[1], held.clamp.moment_nm];
+    out.close("clamp reaction (N, N, N m)", "N", &ours, &theirs, FORCE_TOLERANCE_N);
+    compare_contacts(&mut out, held.contacts.iter(), case);
     if !held.equilibrium.stable {
         out.failures.push("leech's equilibrium is not stable".into());
     }
+    if held.penetration_m > 1e-9 {
+        out.failures.push(format!("leech's tube penetrates the scene by {:e} m", held.penetration_m));
+    }
     out
+}
+
+/// Force balance of leech's clamp reaction and contact forces against the tube's weight, and
+/// its moment balance about the clamp (`TubeHeld::moment_about_clamp`, over weight x length).
+fn tube_balance(held: &TubeHeld) -> Result<(), String> {
+    let w = held.weight_n;
+    let mut force = held.clamp.force_n;
+    for c in &held.contacts {
+        force[0] += c.force_n * c.normal[0];
+        force[1] += c.force_n * c.normal[1];
+    }
+    let moment = held.moment_about_clamp();
+    let length = held.tube.chain().tube_length();
+    if force[0].abs() <= BALANCE_TOLERANCE * w
+        && (force[1] - w).abs() <= BALANCE_TOLERANCE * w
+        && moment.abs() <= BALANCE_TOLERANCE * w * length
+    {
+        Ok(())
+    } else {
+        Err(format!("force {force:?} vs weight {w}, moment about the clamp {moment}"))
+    }
+}
+
+/// Solves one case with leech and compares: what differs (joined), or an error.
+fn outcome(case: &Value) -> Result<(), String> {
+    let name = case["name"].as_str().unwrap();
+    let mut comparison = if case["kind"].as_str() == Some("chain") {
+        let held = solve_tube(case).map_err(|e| format!("error: {e}"))?;
+        let mut comparison = tube_differences(case, &held);
+        if let Err(e) = tube_balance(&held) {
+            comparison.failures.push(format!("balance: {e}"));
+        }
+        comparison
+    } else {
+        let held = solve(case).map_err(|e| format!("error: {e}"))?;
+        let mut comparison = differences(case, &held);
+        if let Err(e) = balance(&held) {
+            comparison.failures.push(format!("balance: {e}"));
+        }
+        comparison
+    };
+    // Shown with --nocapture: how close each case is.
+    let largest: Vec<String> = comparison.largest.iter().map(|(k, v)| format!("{k} {v:.1e}")).collect();
+    println!("{name}: largest differences {}", largest.join(", "));
+    if comparison.failures.is_empty() {
+        Ok(())
+    } else {
+        Err(std::mem::take(&mut comparison.failures).join("; "))
+    }
 }
 
 /// Force and moment balance of leech's reactions and contact forces against the weight.
@@ -253,29 +360,12 @@ fn holds_and_contacts_match_the_scipy_references() {
     let cases = doc["cases"].as_array().unwrap();
     assert!(cases.len() >= 8, "at least eight cases");
     assert!(cases.iter().filter(|c| !c["scene_toml"].is_null()).count() >= 4, "contact cases");
+    assert!(cases.iter().filter(|c| c["kind"].as_str() == Some("chain")).count() >= 2, "single-tube cases");
     let mut report = Vec::new();
     for case in cases {
         let name = case["name"].as_str().unwrap();
         check_reference(case);
-        let result = solve(case);
-        let outcome = match &result {
-            Err(e) => Err(format!("error: {e}")),
-            Ok(held) => {
-                let mut comparison = differences(case, held);
-                if let Err(e) = balance(held) {
-                    comparison.failures.push(format!("balance: {e}"));
-                }
-                // Shown with --nocapture: how close each case is.
-                let largest: Vec<String> = comparison.largest.iter().map(|(k, v)| format!("{k} {v:.1e}")).collect();
-                println!("{name}: largest differences {}", largest.join(", "));
-                if comparison.failures.is_empty() {
-                    Ok(())
-                } else {
-                    Err(comparison.failures.join("; "))
-                }
-            }
-        };
-        match (case["known_failure"].as_str(), outcome) {
+        match (case["known_failure"].as_str(), outcome(case)) {
             (None, Ok(())) => {}
             (None, Err(e)) => report.push(format!("{name}: {e}")),
             (Some(known), Ok(())) => report.push(format!(
