@@ -56,8 +56,9 @@
 //!   plus diagonal), factored once per step (simplified Newton). The
 //!   iterations stop when the error left, estimated from the observed
 //!   contraction `theta` of the corrections as `theta / (1 - theta)` times
-//!   the last one, is below `1e-10 (1 + max |v1|)` (Hairer and Wanner);
-//!   a contraction `theta >= 1` or 40 iterations fail the step. Stable at
+//!   the last one, is below `1e-10 (1 + max |v1|)` (Hairer and Wanner;
+//!   the estimate counts while `theta < 1`, and a correction below that
+//!   bound converges by itself); 40 iterations fail the step. Stable at
 //!   steps far beyond the explicit limit; it damps the fast modes (first
 //!   order).
 //! * [`Integrator::Midpoint`]: the implicit midpoint rule, solved by

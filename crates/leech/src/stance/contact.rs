@@ -32,6 +32,28 @@
 //! front cup holding, neither are the last links, which the plate's pose
 //! fixes ([`Touching::held_by_front`]).
 //!
+//! # Swept motion
+//!
+//! Rows are refreshed only at solved shapes, so a stage may move the tubes
+//! only as far as they cannot pass through a solid unseen. Between two
+//! solved shapes every point is taken to move on a straight line (a node to
+//! its new place, a link's points with its ends). The motion is clear when,
+//! for every polygon, every moving point's path `d` satisfies
+//!
+//! ```text
+//! |d| <= g_before + g_after,     g = distance from the centre line to the polygon   (m)
+//! ```
+//!
+//! (distance is 1-Lipschitz: were the point inside somewhere along the path,
+//! it would be farther than `g_before` from where it started or than
+//! `g_after` from where it ends), and likewise for every link against every
+//! convex corner, each of its points moving at most as far as its farther
+//! end. The centre line's distance, not the clearance's: a tube resting on a
+//! face (`g = r` at both ends) may slide `2 r` in a step, and to pass through
+//! a solid unseen it would have to cross the solid's thickness. Half-planes
+//! need no test: both shapes are on their free side and so is everything
+//! between (it is convex).
+//!
 //! # Systems
 //!
 //! Everything here works on any [`Touching`] system: the two-tube body
@@ -213,51 +235,70 @@ pub fn penetration<S: Touching>(body: &S, q: &[f64], scene: &Scene, radius: f64)
     deepest
 }
 
-/// Whether the body could have moved from `before` to `after` (each a
-/// system and its `q`; the systems may differ in links, matched from
-/// the tip) without any point coming within `radius` of a polygon or a
-/// link of a convex corner (see the module's "Swept motion").
-pub fn swept_clear<A: Touching, B: Touching>(
-    before: (&A, &[f64]),
-    after: (&B, &[f64]),
-    scene: &Scene,
-    radius: f64,
-) -> bool {
+/// The length of a polyline (m).
+fn polyline_length(points: &[Vec2]) -> f64 {
+    points.windows(2).map(|w| norm(sub(w[1], w[0]))).sum()
+}
+
+/// The point at arc length `s` (m) along a polyline from its first point
+/// (the first point for `s <= 0`, the last beyond its end).
+fn point_along(points: &[Vec2], s: f64) -> Vec2 {
+    let mut left = s;
+    for w in points.windows(2) {
+        let l = norm(sub(w[1], w[0]));
+        if left <= l {
+            let t = if l > 0.0 { left.max(0.0) / l } else { 0.0 };
+            return [w[0][0] + t * (w[1][0] - w[0][0]), w[0][1] + t * (w[1][1] - w[0][1])];
+        }
+        left -= l;
+    }
+    points[points.len() - 1]
+}
+
+/// Whether the tubes could have moved from `before` to `after` (each a
+/// system and its `q`; the systems may differ in links: points are matched
+/// by their arc length from the tip) on straight paths without their centre lines entering a polygon
+/// or crossing a convex corner (see the module's "Swept motion").
+pub fn swept_clear<A: Touching, B: Touching>(before: (&A, &[f64]), after: (&B, &[f64]), scene: &Scene) -> bool {
     let polygons: Vec<usize> =
         (0..scene.solids.len()).filter(|i| matches!(scene.solids[*i], Solid::Polygon { .. })).collect();
     if polygons.is_empty() {
         return true;
     }
     let corners: Vec<_> = scene.convex_corners().collect();
-    let gap = |p: Vec2, solid: usize| scene.solid_distance(solid, p) - radius;
+    let gap = |p: Vec2, solid: usize| scene.solid_distance(solid, p);
     (0..after.0.chain_count()).all(|chain| {
         let old = before.0.chain_points(before.1, chain);
         let new = after.0.chain_points(after.1, chain);
         let (old_tips, new_tips) = (before.0.chain_len(chain), after.0.chain_len(chain));
         let (old_first, new_first) = (old.len() - old_tips, new.len() - new_tips);
         // Node `i` of the new shape (from its first tip) and where it was:
-        // the same material counted from the tip, or the clamp for material
-        // fed out since.
-        let was = |i: usize| {
-            let from_tip = new_tips - 1 - i;
-            if from_tip < old_tips {
-                old[old_first + old_tips - 1 - from_tip]
-            } else {
-                old[old_first - 1]
-            }
-        };
+        // the material the same arc length from the tip (feeding adds tube at
+        // the clamp; the links are a mesh over it, remeshed as it grows), or
+        // the clamp for tube fed out since.
+        let old_line = &old[old_first - 1..];
+        let new_line = &new[new_first - 1..];
+        let (old_length, new_length) = (polyline_length(old_line), polyline_length(new_line));
+        let mut along = 0.0;
+        let new_arc: Vec<f64> = std::iter::once(0.0)
+            .chain(new_line.windows(2).map(|w| {
+                along += norm(sub(w[1], w[0]));
+                along
+            }))
+            .collect();
+        let was = |i: usize| point_along(old_line, old_length - (new_length - new_arc[i + 1]));
         let nodes_clear = (0..new_tips).all(|i| {
             let (a, b) = (was(i), new[new_first + i]);
             let moved = norm(sub(b, a));
             polygons.iter().all(|s| moved <= gap(a, *s) + gap(b, *s))
         });
         let links_clear = (0..new_tips).all(|i| {
-            let (a0, b0) = (if i == 0 { old[old_first - 1] } else { was(i - 1) }, was(i));
+            let (a0, b0) = (if i == 0 { old_line[0] } else { was(i - 1) }, was(i));
             let (a1, b1) = (new[new_first + i - 1], new[new_first + i]);
             let moved = norm(sub(a1, a0)).max(norm(sub(b1, b0)));
             corners.iter().all(|c| {
-                let before = Scene::segment_corner_distance(a0, b0, c).0 - radius;
-                let after = Scene::segment_corner_distance(a1, b1, c).0 - radius;
+                let before = Scene::segment_corner_distance(a0, b0, c).0;
+                let after = Scene::segment_corner_distance(a1, b1, c).0;
                 moved <= before + after
             })
         });

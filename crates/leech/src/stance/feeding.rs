@@ -7,7 +7,7 @@ use super::scene_solve::{self, Pushing};
 use super::StanceError;
 use crate::error::InputError;
 use crate::scene::Scene;
-use crate::statics::Solver;
+use crate::statics::{SolveError, Solver, StopReason};
 
 /// Longest feeding step between contact refreshes (m): five of the
 /// built-in robot's elements, short enough for Newton to stay on the
@@ -45,7 +45,9 @@ pub(super) trait Fed {
 /// The tubes fed along `fed` among `scene`'s solids (tube radius `radius`,
 /// m), in steps halved when a step fails to converge, ends unstable, takes
 /// more than [`FEED_ITERATIONS`] or moves the tubes through a solid unseen
-/// ([`contact::swept_clear`]), and doubled after a success.
+/// ([`contact::swept_clear`]), and doubled after a success. A step of
+/// [`MIN_FEED_STEP_M`] is the last chance: it runs to convergence and may end
+/// unstable (a snap), but not pass through a solid.
 pub(super) struct Feeding<'a, F> {
     pub fed: F,
     pub scene: &'a Scene,
@@ -77,20 +79,28 @@ impl<F: Fed> Feeding<'_, F> {
                 let outcome =
                     scene_solve::loaded(self.fed.system(&next), carried, &pushing, self.scene, self.radius, solver);
                 match outcome {
-                    Ok(settled)
-                        if last_chance
-                            || (settled.equilibrium.stable
-                                && contact::swept_clear(
-                                    (&before, &q),
-                                    (&settled.system, &settled.equilibrium.q),
-                                    self.scene,
-                                    self.radius,
-                                )) =>
-                    {
-                        Some((settled.pushing(), settled.equilibrium.iterations, settled.equilibrium.q))
+                    Ok(settled) => {
+                        let end = (&settled.system, &settled.equilibrium.q[..]);
+                        let clear = contact::swept_clear((&before, &q), end, self.scene);
+                        let eq = &settled.equilibrium;
+                        if clear && (last_chance || eq.stable) {
+                            Some((settled.pushing(), eq.iterations, settled.equilibrium.q))
+                        } else if last_chance {
+                            // Even the shortest step passes through a solid:
+                            // a jump no feeding step can resolve.
+                            return Err(SolveError::NotConverged {
+                                stage: settled.system.stage(),
+                                iterations: eq.iterations,
+                                residual: eq.residual,
+                                reason: StopReason::SweptThroughSolid,
+                            }
+                            .into());
+                        } else {
+                            None
+                        }
                     }
                     Err(e) if last_chance => return Err(e),
-                    _ => None,
+                    Err(_) => None,
                 }
             };
             match accepted {

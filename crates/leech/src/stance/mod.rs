@@ -275,7 +275,7 @@ pub fn solve_in(
     let start = solve(robot, [short; 2], first, solver)?;
     let fed = BodyFeed { robot, hold: first, from: [short; 2], to: lengths };
     let (body, q, pushing) = Feeding { fed, scene, radius, solver }.run(start.body, start.equilibrium.q)?;
-    // Once more at the final lengths (no step when they are the start's):
+    // Once more at the final lengths (feeding ends with a step to them):
     // the contacts as they stand, with their forces.
     let floating = FloatingBody::new(&body, b, unit_mass, first, Approach::Load);
     let settled = scene_solve::loaded(floating, q, &pushing, scene, radius, solver)?;

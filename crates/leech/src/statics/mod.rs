@@ -146,7 +146,10 @@ impl Solver {
             Some(v) if v.t == 1.0 && v.fingerprint == it.fingerprint() => v,
             _ => {
                 sys.evaluate(&it.q, 1.0, &mut ws.current);
-                let stable = self.factor(sys.moment_scale(), &it, ws).0 == scratch::Inertia::Minimum;
+                // More active rows than the factorization holds: no verdict
+                // can be had, so the point is not reported stable.
+                let fits = it.active.iter().filter(|a| **a).count() <= ws.kkt.active_capacity();
+                let stable = fits && self.factor(sys.moment_scale(), &it, ws).0 == scratch::Inertia::Minimum;
                 iterate::Verdict { fingerprint: 0, t: 1.0, stable, energy: ws.current.energy }
             }
         };

@@ -124,6 +124,9 @@ pub enum StopReason {
     StepLimit,
     /// Inequality rows kept switching between active and inactive.
     ActiveSetCycling,
+    /// A stage would move the tubes through a solid between two solved
+    /// shapes, however short (the swept-motion test of [`crate::stance`]).
+    SweptThroughSolid,
     /// More rows would act at once than the factorization holds
     /// ([`crate::linalg::MAX_BORDER`] less the free coordinates).
     TooManyActiveRows,
@@ -143,6 +146,7 @@ impl StopReason {
             StopReason::UnstableRefused => "unstable equilibrium (the branch rule refuses to leave it)",
             StopReason::StepLimit => "continuation step limit reached",
             StopReason::ActiveSetCycling => "contacts kept switching on and off",
+            StopReason::SweptThroughSolid => "the tubes would pass through a solid between two shapes",
             StopReason::TooManyActiveRows => {
                 "more constraint rows act at once than the solver holds (64 less the free coordinates)"
             }

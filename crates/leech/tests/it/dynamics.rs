@@ -367,3 +367,21 @@ fn steps_do_not_allocate() {
     });
     assert_eq!(count, 0);
 }
+
+/// Backward Euler at long steps: near rest the corrections reach the
+/// rounding floor, where their ratio is noise and may exceed one; a
+/// correction below the tolerance has converged whatever that ratio.
+#[test]
+fn backward_euler_takes_long_steps_to_rest() {
+    let robot = Robot::builtin();
+    let unloaded = robot.with_gravity(0.0).unwrap().body(0.25, 0.20).unwrap();
+    let q = unloaded.solve(&Solver::default()).unwrap().q;
+    let body = robot.body(0.25, 0.20).unwrap();
+    let mut sim = Simulator::new(&body);
+    let mut state = Motion { v: vec![0.0; q.len()], q };
+    for dt in [0.3, 0.1, 0.03] {
+        for step in 0..50 {
+            sim.step(&mut state, dt, Integrator::Implicit).unwrap_or_else(|e| panic!("dt {dt} step {step}: {e}"));
+        }
+    }
+}

@@ -152,6 +152,38 @@ fn a_body_moved_through_a_thin_wall_is_not_swept_clear() {
     for q in [&before, &through, &short] {
         assert!(leech::stance::penetration(&floating, q, &wall, radius) <= 0.0);
     }
-    assert!(!swept_clear((&floating, &before), (&floating, &through), &wall, radius));
-    assert!(swept_clear((&floating, &before), (&floating, &short), &wall, radius));
+    assert!(!swept_clear((&floating, &before), (&floating, &through), &wall));
+    assert!(swept_clear((&floating, &before), (&floating, &short), &wall));
+    // Resting on a block's top at the clearance and sliding along it is clear.
+    let block = leech::scene::Scene::from_toml_str(
+        "name = \"block\"\n[[polygon]]\npoints_m = [[-1.0, -1.0], [1.0, -1.0], [1.0, 0.0], [-1.0, 0.0]]\n",
+        "block",
+    )
+    .unwrap();
+    // Chain B lies on the right of chain A: b + r above the top puts B on it.
+    let height = robot.body.base_spacing_m + radius;
+    let (resting, slid) = (straight_at(&body, 0.0, height), straight_at(&body, 0.001, height));
+    assert!(leech::stance::penetration(&floating, &resting, &block, radius) < 1e-12);
+    assert!(swept_clear((&floating, &resting), (&floating, &slid), &block));
+}
+
+/// More rows active than the factorization holds: no stability verdict, no panic.
+#[test]
+fn too_many_active_rows_are_not_stable_and_do_not_panic() {
+    use leech::stance::{Approach, ContactRow, FloatingBody};
+    use leech::statics::{Iterate, Scratch};
+    let robot = Robot::builtin();
+    let body = robot.body(0.25, 0.20).unwrap();
+    let rows: Vec<ContactRow> = (0..100)
+        .map(|i| ContactRow { chain: i % 2, link: i % 20, fraction: 1.0, normal: [0.0, 1.0], offset: -10.0 })
+        .collect();
+    let hold = Hold::Rear(Pose::from_deg([0.0, 0.0], 90.0));
+    let floating = FloatingBody::new(&body, robot.body.base_spacing_m, 0.0, hold, Approach::Load).with_contacts(rows);
+    let eq = stance::solve(&robot, [0.25, 0.20], hold, &Solver::default()).unwrap();
+    let mut it = Iterate::new(eq.equilibrium.q.clone());
+    it.active = vec![true; leech::statics::Constraints::rows(&floating)];
+    it.lambda = vec![0.0; it.active.len()];
+    let mut ws = Scratch::for_system(&floating);
+    let out = Solver::default().finish(&floating, it, 0.0, &mut ws);
+    assert!(!out.stable);
 }
