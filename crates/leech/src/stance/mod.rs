@@ -340,10 +340,11 @@ fn unloaded(robot: &Robot, lengths: [f64; 2], solver: &Solver) -> Result<Vec<f64
 
 /// Follows `floating`'s approach from `q` (an equilibrium at `t = 0`) to `t = 1`.
 fn continued(floating: &FloatingBody<'_>, q: Vec<f64>, solver: &Solver) -> Result<Held, StanceError> {
-    let mut ws = Scratch::for_system(floating);
-    let mut it = Iterate::new(q);
-    let residual = solver.continuation(floating, &mut it, 0.0, Stage::Load, &mut ws)?;
-    Ok(Held::new(floating, solver.finish(floating, it, residual, &mut ws)))
+    Scratch::with_spare(floating, |ws| {
+        let mut it = Iterate::new(q);
+        let residual = solver.continuation(floating, &mut it, 0.0, Stage::Load, ws)?;
+        Ok(Held::new(floating, solver.finish(floating, it, residual, ws)))
+    })
 }
 
 /// The chains' angles with the driving unit's pose appended.
