@@ -1136,6 +1136,11 @@ def record(case, robot, body, scene, contacts, prob, sol, front, info):
                           moment_rel=float(abs(M - xg * W) / (W * 0.3)))
     out["branch"] = branch_of(body, q, case)
     out["penetration_m"] = float(penetration(body, scene, q)) if scene else None
+    return with_checks(out, case, info)
+
+
+def with_checks(out, case, info):
+    """`out` with the case's known-failure mark, its stability and the solver's checks appended."""
     if case["name"] in KNOWN_FAILURES:
         out["known_failure"], out["known_failure_contains"] = KNOWN_FAILURES[case["name"]]
     out["reduced_hessian_min"] = info["reduced_hessian_min"]
@@ -1196,14 +1201,7 @@ def record_chain(case, body, scene, contacts, sol, info):
                           moment_rel=float(abs(M - xg * W) / (W * length)))
     out["branch"] = dict(tip_m=pts[-1].tolist())
     out["penetration_m"] = float(penetration(body, scene, q))
-    if case["name"] in KNOWN_FAILURES:
-        out["known_failure"], out["known_failure_contains"] = KNOWN_FAILURES[case["name"]]
-    out["reduced_hessian_min"] = info["reduced_hessian_min"]
-    out["stable"] = bool(info["reduced_hessian_min"] > 0)
-    for key in ("residuals", "agreement", "newton_iterations", "derivative_check", "trust_constr", "slsqp", "path",
-                "feeding_path"):
-        out[key] = info[key]
-    return out
+    return with_checks(out, case, info)
 
 
 def main(argv):
