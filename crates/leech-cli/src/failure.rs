@@ -12,8 +12,9 @@ use leech_plot::PlotError;
 pub enum Failure {
     /// Bad input (exit 2): one line naming the field, the value and what is allowed.
     Input(String),
-    /// A solve that did not converge (exit 3; its status is printed with --json).
-    Solve(SolveError),
+    /// A solve that did not converge (exit 3; its status is printed with
+    /// --json), and what to say of it.
+    Solve(SolveError, String),
     /// Another computation that did not converge (exit 3): a fit, a simulation step.
     Unsolved(String),
     /// Anything else (exit 1).
@@ -28,7 +29,8 @@ impl From<InputError> for Failure {
 
 impl From<SolveError> for Failure {
     fn from(e: SolveError) -> Self {
-        Failure::Solve(e)
+        let message = format!("solve failed: {e}");
+        Failure::Solve(e, message)
     }
 }
 
@@ -37,6 +39,7 @@ impl From<StanceError> for Failure {
         match e {
             StanceError::Input(e) => e.into(),
             StanceError::Solve(e) => e.into(),
+            StanceError::OutOfReach { ref source, .. } => Failure::Solve(source.clone(), e.to_string()),
         }
     }
 }

@@ -50,11 +50,11 @@ fn exit_code(failure: Failure, json: bool) -> ExitCode {
             eprintln!("leech: {message}");
             ExitCode::from(2)
         }
-        Failure::Solve(e) => {
+        Failure::Solve(e, message) => {
             if json {
                 render::emit(&render::solve_failure(&e));
             }
-            eprintln!("leech: solve failed: {e}");
+            eprintln!("leech: {message}");
             ExitCode::from(3)
         }
         Failure::Unsolved(message) => {

@@ -175,7 +175,8 @@ fn a_front_hold_out_of_reach_exits_3_with_the_residual() {
     let v: Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["status"], "not_converged");
     assert!(v["residual"].as_f64().unwrap() > 0.0);
-    assert!(String::from_utf8(out.stderr).unwrap().contains("residual"));
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(err.contains("residual") && err.contains("out of reach"), "{err}");
 }
 
 #[test]
@@ -194,4 +195,13 @@ fn a_picture_with_a_scene_draws_its_solids() {
         assert!(text.contains(label), "missing {label}");
     }
     std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_front_hold_out_of_reach_on_a_floor_says_so() {
+    let args = ["shape", "--lengths", "0.3,0.28", "--scene", "floor", "--hold", "both", "--front", "0.6,0.032,0"];
+    let out = leech().args(args).output().unwrap();
+    assert_eq!(out.status.code(), Some(3));
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(err.contains("out of reach") && err.contains("residual"), "{err}");
 }

@@ -138,9 +138,20 @@ pub enum StanceError {
     /// Bad input.
     #[error(transparent)]
     Input(#[from] InputError),
-    /// A solve that did not converge (for a front hold out of reach too).
+    /// A solve that did not converge.
     #[error(transparent)]
     Solve(#[from] SolveError),
+    /// Both holds, the front one farther from the driving unit than chain A
+    /// reaches: the solve failed, as it must (no stretched body).
+    #[error("front hold out of reach: {distance_m:.4} m from the driving unit, chain A reaches at most {reach_m:.4} m ({source})")]
+    OutOfReach {
+        /// Distance from chain A's clamp to the front hold's point (m).
+        distance_m: f64,
+        /// Chain A's tube length (m).
+        reach_m: f64,
+        /// How the solve failed.
+        source: SolveError,
+    },
 }
 
 /// Solves the body of `robot` at tube lengths `[LA, LB]` (m) held by `hold`.
@@ -205,7 +216,18 @@ pub fn attach_front(robot: &Robot, held: &Held, front: Pose, solver: &Solver) ->
     let from = Pose { point_m: held.endpoint_m, angle_rad: held.plate_angle() };
     let hold = Hold::Both { rear, front };
     let floating = FloatingBody::new(&held.body, b, unit_mass, hold, Approach::Front(from));
-    continued(&floating, held.equilibrium.q.clone(), solver)
+    continued(&floating, held.equilibrium.q.clone(), solver).map_err(|e| beyond_reach(e, &held.body, rear, front))
+}
+
+/// `e`, a failed solve with both holds, as [`StanceError::OutOfReach`] when
+/// the front hold lies farther from the driving unit than chain A reaches.
+fn beyond_reach(e: StanceError, body: &Body, rear: Pose, front: Pose) -> StanceError {
+    let distance_m = crate::geom::norm(sub(front.point_m, rear.point_m));
+    let reach_m = body.chain_a().tube_length();
+    match e {
+        StanceError::Solve(source) if distance_m > reach_m => StanceError::OutOfReach { distance_m, reach_m, source },
+        other => other,
+    }
 }
 
 /// The clamped `body`'s equilibrium `eq` (its clamp at the origin, at the
@@ -279,13 +301,16 @@ pub fn solve_in(
     // the contacts as they stand, with their forces.
     let floating = FloatingBody::new(&body, b, unit_mass, first, Approach::Load);
     let settled = scene_solve::loaded(floating, q, &pushing, scene, radius, solver)?;
-    let Hold::Both { .. } = hold else { return Ok(Held::settled(settled)) };
+    let Hold::Both { rear, front } = hold else { return Ok(Held::settled(settled)) };
     let from = Pose {
         point_m: settled.system.endpoint(&settled.equilibrium.q),
         angle_rad: body.endpoint_angle(&settled.equilibrium.q),
     };
     let both = FloatingBody::new(&body, b, unit_mass, hold, Approach::Front(from));
-    Ok(Held::settled(scene_solve::approached(both, settled.equilibrium.q, scene, radius, solver)?))
+    match scene_solve::approached(both, settled.equilibrium.q, scene, radius, solver) {
+        Ok(approached) => Ok(Held::settled(approached)),
+        Err(e) => Err(beyond_reach(e, &body, rear, front)),
+    }
 }
 
 /// The body's tubes fed from `from` to `to` (m), held by `hold`.
