@@ -197,18 +197,28 @@ impl Solver {
     /// violated rows of neighbouring points can be nearly parallel, and
     /// activating both at once makes the step ill-posed (large opposite forces).
     fn update_active_set(&self, it: &mut Iterate, ws: &Scratch, tolerance: f64) -> bool {
-        let inequality = |r: &usize| ws.rows[*r].kind == RowKind::Inequality;
-        let rows = 0..ws.rows.len();
-        let pulling = rows.clone().filter(inequality).filter(|r| it.active[*r] && it.lambda[*r] < 0.0);
-        if let Some(r) = pulling.min_by(|a, b| it.lambda[*a].total_cmp(&it.lambda[*b])) {
-            it.active[r] = false;
-            it.lambda[r] = 0.0;
+        if self.release_pulling(it, ws) {
             return true;
         }
+        let inequality = |r: &usize| ws.rows[*r].kind == RowKind::Inequality;
+        let rows = 0..ws.rows.len();
         let violation = |r: &usize| ws.current.constraints[*r] / ws.rows[*r].scale;
         let violated = rows.filter(inequality).filter(|r| !it.active[*r] && violation(r) < -tolerance);
         if let Some(r) = violated.min_by(|a, b| violation(a).total_cmp(&violation(b))) {
             it.active[r] = true;
+            return true;
+        }
+        false
+    }
+
+    /// Releases the active inequality row that pulls hardest (`lambda_r < 0`);
+    /// returns whether there was one.
+    fn release_pulling(&self, it: &mut Iterate, ws: &Scratch) -> bool {
+        let inequality = |r: &usize| ws.rows[*r].kind == RowKind::Inequality;
+        let pulling = (0..ws.rows.len()).filter(inequality).filter(|r| it.active[*r] && it.lambda[*r] < 0.0);
+        if let Some(r) = pulling.min_by(|a, b| it.lambda[*a].total_cmp(&it.lambda[*b])) {
+            it.active[r] = false;
+            it.lambda[r] = 0.0;
             return true;
         }
         false
@@ -324,6 +334,9 @@ impl Solver {
             match self.trial(sys, it, t, ws, state, min_shift) {
                 Trial::Accepted => {
                     state.damping = if shift > min_shift { tuning.damping_memory * shift } else { 0.0 };
+                    if shift > 0.0 {
+                        self.unshifted_multipliers(it, ws, k, shift);
+                    }
                     return Some(shift);
                 }
                 Trial::TooLong if state.restoring.is_nan() => {
@@ -335,6 +348,28 @@ impl Solver {
             shift = (tuning.damping_growth * shift).max(tuning.min_damping * k);
         }
         None
+    }
+
+    /// Takes the fictitious force `shift dq` of an accepted shifted step out
+    /// of its multipliers. The shifted KKT system balances
+    /// `g + (H + shift) dq = J_A^T lambda`, the model `g + H dq = J_A^T lambda`:
+    /// so `lambda -= (J_A J_A^T)^-1 J_A shift dq` (the KKT solve with a shift
+    /// of `1e6 k`, at the new point). Where the step restores a violated row
+    /// that force grows with the shift: left in, it gave multipliers of 1e9 N
+    /// and a Lagrangian Hessian so indefinite that no shift corrected it
+    /// (reported as a singular Jacobian). Updates `ws.residual`.
+    fn unshifted_multipliers(&self, it: &mut Iterate, ws: &mut Scratch, k: f64, shift: f64) {
+        ws.factor_kkt(1e6 * k, &it.active, self.options.tuning.tiny_pivot * k);
+        // The old point's residual is spent: it holds the fictitious force.
+        for (f, d) in ws.residual_trial.iter_mut().zip(&ws.step) {
+            *f = shift * d;
+        }
+        ws.rhs.fill(0.0);
+        ws.kkt.solve(&ws.residual_trial, &ws.rhs, &mut ws.q_trial, &mut ws.dual_step);
+        for (l, y) in it.lambda.iter_mut().zip(&ws.dual_step) {
+            *l -= y;
+        }
+        transposed_product(&ws.current.gradient, &ws.current.jacobian, &it.lambda, &mut ws.residual);
     }
 
     /// The length (rad, sup norm) of the least-change step that restores the
