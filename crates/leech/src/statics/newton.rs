@@ -178,6 +178,17 @@ impl Solver {
                 return Newton::failed(f64::INFINITY, StopReason::TooManyActiveRows);
             }
             let out = self.newton_on_working_set(sys, it, t, budget, ws);
+            // A working set on which no step descends may hold a row that
+            // pulls: released, the rest may descend (the active-set rule,
+            // without waiting for a convergence that cannot come).
+            let stuck = out.result == Err(StopReason::NoDescent) && inequalities > 0;
+            if stuck && self.release_pulling(it, ws) {
+                changes += 1;
+                if changes > self.options.tuning.active_set_changes_per_row * inequalities {
+                    return Newton::failed(out.residual, StopReason::ActiveSetCycling);
+                }
+                continue;
+            }
             if out.result.is_err() || inequalities == 0 || !self.update_active_set(it, ws, budget.tolerance) {
                 if let Ok(stable) = out.result {
                     it.verdict = Some(Verdict { fingerprint: it.fingerprint(), t, stable, energy: ws.current.energy });
