@@ -831,23 +831,20 @@ point_m = [0.0, 0.0]
 normal = [0.0, 1.0]
 """
 
-FLOOR_AND_WALL_028 = """name = "floor and a wall at x = 0.28"
+def floor_and_wall(x):
+    """A floor (solid below y = 0) and a wall (solid at x >= `x`) meeting in an inside corner."""
+    return f'''name = "floor and a wall at x = {x:g}"
 [[half_plane]]          # the floor
 point_m = [0.0, 0.0]
 normal = [0.0, 1.0]
-[[half_plane]]          # solid at x >= 0.28
-point_m = [0.28, 0.0]
+[[half_plane]]          # solid at x >= {x:g}
+point_m = [{x!r}, 0.0]
 normal = [-1.0, 0.0]
-"""
+'''
 
-FLOOR_AND_WALL_020 = """name = "floor and a wall at x = 0.2"
-[[half_plane]]          # the floor
-point_m = [0.0, 0.0]
-normal = [0.0, 1.0]
-[[half_plane]]          # solid at x >= 0.2
-point_m = [0.2, 0.0]
-normal = [-1.0, 0.0]
-"""
+
+FLOOR_AND_WALL_028 = floor_and_wall(0.28)
+FLOOR_AND_WALL_020 = floor_and_wall(0.2)
 
 THIN_WALL = """name = "a thin wall under the body"
 [[polygon]]             # 20 mm thick, top at y = 0.02 (no floor: all four corners exposed)

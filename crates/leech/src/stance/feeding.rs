@@ -2,12 +2,12 @@
 //! robot's own tubes follow, shared by the two-tube body and the single
 //! clamped tube ([`Fed`]).
 
-use super::contact::{self, Touching};
-use super::scene_solve::{self, Pushing};
+use super::contact::{self, ContactRow, Touching};
+use super::scene_solve;
 use super::StanceError;
 use crate::error::InputError;
 use crate::scene::Scene;
-use crate::statics::{SolveError, Solver, StopReason};
+use crate::statics::{Equilibrium, SolveError, Solver, StopReason};
 
 /// Longest feeding step between contact refreshes (m): five of the
 /// built-in robot's elements, short enough for Newton to stay on the
@@ -55,10 +55,18 @@ pub(super) struct Feeding<'a, F> {
     pub solver: &'a Solver,
 }
 
+/// Where a feed ends: the shape at the end, its settled equilibrium and the
+/// contact rows it settled with (the system's last rows).
+pub(super) struct FedEnd<S> {
+    pub shape: S,
+    pub equilibrium: Equilibrium,
+    pub contacts: Vec<ContactRow>,
+}
+
 impl<F: Fed> Feeding<'_, F> {
-    /// Feeds from the equilibrium `q` of `shape` (at the start); returns the
-    /// shape at the end, its equilibrium and the contacts that push.
-    pub fn run(&self, mut shape: F::Shape, mut q: Vec<f64>) -> Result<(F::Shape, Vec<f64>, Vec<Pushing>), StanceError> {
+    /// Feeds from the equilibrium `q` of `shape` (at the start) to the end;
+    /// the last step settles the contacts there, so the end needs no other solve.
+    pub fn run(&self, mut shape: F::Shape, mut q: Vec<f64>) -> Result<FedEnd<F::Shape>, StanceError> {
         let span = self.fed.span();
         let (mut done, mut step) = (0.0, FEED_STEP_M);
         let mut pushing = Vec::new();
@@ -66,7 +74,7 @@ impl<F: Fed> Feeding<'_, F> {
         // halve it rather than finish it (the last chance runs to the end).
         let mut brief = self.solver.clone();
         brief.options.max_iterations = brief.options.max_iterations.min(FEED_ITERATIONS);
-        while done < 1.0 {
+        loop {
             let next_fraction = if span <= step { 1.0 } else { (done + step / span).min(1.0) };
             let next = self.fed.shape_at(next_fraction)?;
             let carried = self.fed.carried(&next, &shape, &q);
@@ -84,7 +92,7 @@ impl<F: Fed> Feeding<'_, F> {
                         let clear = contact::swept_clear((&before, &q), end, self.scene);
                         let eq = &settled.equilibrium;
                         if clear && (last_chance || eq.stable) {
-                            Some((settled.pushing(), eq.iterations, settled.equilibrium.q))
+                            Some((settled.pushing(), settled.system.contacts().to_vec(), settled.equilibrium))
                         } else if last_chance {
                             // Even the shortest step passes through a solid:
                             // a jump no feeding step can resolve.
@@ -104,15 +112,17 @@ impl<F: Fed> Feeding<'_, F> {
                 }
             };
             match accepted {
-                Some((now_pushing, iterations, now_q)) => {
-                    (pushing, q, shape, done) = (now_pushing, now_q, next, next_fraction);
-                    if iterations <= EASY_ITERATIONS {
+                Some((now_pushing, contacts, equilibrium)) => {
+                    if next_fraction >= 1.0 {
+                        return Ok(FedEnd { shape: next, equilibrium, contacts });
+                    }
+                    if equilibrium.iterations <= EASY_ITERATIONS {
                         step = (2.0 * step).min(FEED_STEP_M);
                     }
+                    (pushing, q, shape, done) = (now_pushing, equilibrium.q, next, next_fraction);
                 }
                 None => step = (0.5 * step).max(MIN_FEED_STEP_M),
             }
         }
-        Ok((shape, q, pushing))
     }
 }

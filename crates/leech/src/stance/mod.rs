@@ -296,11 +296,10 @@ pub fn solve_in(
     let short = robot.limits.tube_length_min_m.min(lengths[0]).min(lengths[1]);
     let start = solve(robot, [short; 2], first, solver)?;
     let fed = BodyFeed { robot, hold: first, from: [short; 2], to: lengths };
-    let (body, q, pushing) = Feeding { fed, scene, radius, solver }.run(start.body, start.equilibrium.q)?;
-    // Once more at the final lengths (feeding ends with a step to them):
-    // the contacts as they stand, with their forces.
-    let floating = FloatingBody::new(&body, b, unit_mass, first, Approach::Load);
-    let settled = scene_solve::loaded(floating, q, &pushing, scene, radius, solver)?;
+    let end = Feeding { fed, scene, radius, solver }.run(start.body, start.equilibrium.q)?;
+    let body = end.shape;
+    let floating = FloatingBody::new(&body, b, unit_mass, first, Approach::Load).with_contacts(end.contacts);
+    let settled = scene_solve::Settled { system: floating, equilibrium: end.equilibrium };
     let Hold::Both { rear, front } = hold else { return Ok(Held::settled(settled)) };
     let from = Pose {
         point_m: settled.system.endpoint(&settled.equilibrium.q),

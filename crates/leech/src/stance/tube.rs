@@ -213,10 +213,9 @@ pub fn tube_in(spec: &CantileverSpec, scene: &Scene, radius: f64, solver: &Solve
     let start = spec.fed_to(short)?;
     let q = start.solve(solver)?.q;
     let fed = TubeFeed { spec, from: short, to: full };
-    let (tube, q, pushing) = Feeding { fed, scene, radius, solver }.run(start, q)?;
-    // Once more at the full length: the contacts as they stand, with their forces.
-    let settled = scene_solve::loaded(Tube::new(&tube), q, &pushing, scene, radius, solver)?;
-    Ok(TubeHeld::new(&settled.system, settled.equilibrium, scene, radius))
+    let end = Feeding { fed, scene, radius, solver }.run(start, q)?;
+    let system = Tube::new(&end.shape).with_contacts(end.contacts);
+    Ok(TubeHeld::new(&system, end.equilibrium, scene, radius))
 }
 
 /// The tube of `spec` fed from `from` to `to` (m).
