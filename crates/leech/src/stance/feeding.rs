@@ -75,7 +75,9 @@ impl<F: Fed> Feeding<'_, F> {
         let mut brief = self.solver.clone();
         brief.options.max_iterations = brief.options.max_iterations.min(FEED_ITERATIONS);
         loop {
-            let next_fraction = if span <= step { 1.0 } else { (done + step / span).min(1.0) };
+            // A remainder of rounding is no step of its own.
+            let next_fraction = if span <= step { 1.0 } else { done + step / span };
+            let next_fraction = if next_fraction > 1.0 - 1e-9 { 1.0 } else { next_fraction };
             let next = self.fed.shape_at(next_fraction)?;
             let carried = self.fed.carried(&next, &shape, &q);
             let last_chance = step <= MIN_FEED_STEP_M;

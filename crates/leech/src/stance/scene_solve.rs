@@ -5,7 +5,7 @@
 use super::contact::{detect, penetration, ContactOptions, ContactRow, Touching};
 use super::floating::FloatingBody;
 use super::{ContactForce, Held, StanceError};
-use crate::geom::{dot, Vec2};
+use crate::geom::dot;
 use crate::scene::Scene;
 use crate::statics::{Equilibrium, Iterate, Scratch, SolveError, Solver, StopReason};
 
@@ -18,29 +18,32 @@ pub(super) struct Settled<S> {
     pub equilibrium: Equilibrium,
 }
 
-/// A contact that pushed in a solve: the material point (chain, link
-/// counted from the tip, node or corner), the surface's normal and the
-/// force (N). Carried from one stage or feeding step to the next, so that
-/// the next solve starts with the body resting on what held it (a contact
-/// dropped would let Newton first drop the body through the surface, then
-/// climb back out). Links are counted from the tip because feeding adds
-/// links at the clamp: the material near the tip keeps its place.
+/// A contact that pushed in a solve: its row, with the link counted from
+/// the chain's tip, and the force (N). Carried from one stage or feeding step
+/// to the next, so that the next solve starts with the body resting on what
+/// held it (a contact dropped would let Newton first drop the body through
+/// the surface, then climb back out). Links are counted from the tip because
+/// feeding adds links at the clamp: the material near the tip keeps its place.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Pushing {
-    chain: usize,
+    row: ContactRow,
     from_tip: usize,
-    at_node: bool,
-    normal: Vec2,
     force: f64,
 }
 
 impl Pushing {
     /// Whether `row` of `system` touches the same material point on the same surface.
     fn matches<S: Touching>(&self, system: &S, row: &ContactRow) -> bool {
-        row.chain == self.chain
+        row.chain == self.row.chain
             && system.chain_len(row.chain) == row.link + 1 + self.from_tip
-            && (row.fraction >= 1.0) == self.at_node
-            && dot(row.normal, self.normal) > SAME_NORMAL
+            && (row.fraction >= 1.0) == (self.row.fraction >= 1.0)
+            && dot(row.normal, self.row.normal) > SAME_NORMAL
+    }
+
+    /// Its row in `system`, where the chain still reaches that far.
+    fn row_in<S: Touching>(&self, system: &S) -> Option<ContactRow> {
+        let link = system.chain_len(self.row.chain).checked_sub(self.from_tip + 1)?;
+        Some(ContactRow { link, ..self.row })
     }
 }
 
@@ -52,13 +55,7 @@ impl<S: Touching> Settled<S> {
     /// The contacts that push at the settled equilibrium.
     pub fn pushing(&self) -> Vec<Pushing> {
         pushing_rows(&self.system, &self.equilibrium)
-            .map(|(row, force)| Pushing {
-                chain: row.chain,
-                from_tip: self.system.chain_len(row.chain) - 1 - row.link,
-                at_node: row.fraction >= 1.0,
-                normal: row.normal,
-                force,
-            })
+            .map(|(row, force)| Pushing { row: *row, from_tip: self.system.chain_len(row.chain) - 1 - row.link, force })
             .collect()
     }
 }
@@ -171,6 +168,15 @@ fn settle<S: Touching>(
     let mut pushing = pushing.to_vec();
     for _ in 0..options.max_rounds {
         detect(&settled.system, &settled.equilibrium.q, scene, radius, options, &mut rows);
+        if !solved {
+            // A feeding step moves the material near the tip by the length
+            // fed: a contact that pushed may be out of the detection's reach
+            // at the start. Its row (frozen where it touched) keeps it.
+            let system = &settled.system;
+            let missing = pushing.iter().filter(|p| !rows.iter().any(|r| p.matches(system, r)));
+            let carried: Vec<_> = missing.filter_map(|p| p.row_in(system)).collect();
+            rows.extend(carried);
+        }
         let deep = penetration(&settled.system, &settled.equilibrium.q, scene, radius);
         if solved && same_rows(settled.system.contacts(), &rows) && deep <= options.penetration_tolerance {
             settled.equilibrium.iterations = iterations;
@@ -183,9 +189,10 @@ fn settle<S: Touching>(
         let system = settled.system.with_contacts(rows.clone());
         let mut ws = Scratch::for_system(&system);
         let mut it = warm_iterate(&system, &settled.equilibrium, &pushing);
-        let residual = solver.minimize(&system, &mut it, t, stage, &mut ws)?;
+        let residual = solver.minimize(&system, &mut it, t, stage, &mut ws);
+        let residual = residual?;
         let equilibrium = solver.finish(&system, it, residual, &mut ws);
-        iterations += equilibrium.iterations.max(1);
+        iterations += equilibrium.iterations;
         events.extend(equilibrium.events.iter().cloned());
         settled = Settled { system, equilibrium };
         settled.equilibrium.iterations = iterations;

@@ -342,7 +342,7 @@ impl Solver {
             if attempt > 0 || shift != min_shift {
                 ws.factor_kkt(shift, &it.active, tuning.tiny_pivot * k);
             }
-            match self.trial(sys, it, t, ws, state, min_shift) {
+            match self.trial(sys, it, t, ws, state, min_shift, shift) {
                 Trial::Accepted => {
                     state.damping = if shift > min_shift { tuning.damping_memory * shift } else { 0.0 };
                     if shift > 0.0 {
@@ -397,7 +397,9 @@ impl Solver {
         sup_norm(&ws.step)
     }
 
-    /// One trial step with the current factors: solve, evaluate, accept or not.
+    /// One trial step with the current factors (of shift `shift`): solve,
+    /// evaluate, accept or not.
+    #[allow(clippy::too_many_arguments)]
     fn trial<S: StaticSystem + ?Sized>(
         &self,
         sys: &S,
@@ -406,6 +408,7 @@ impl Solver {
         ws: &mut Scratch,
         state: &mut Damping,
         min_shift: f64,
+        shift: f64,
     ) -> Trial {
         let tuning = &self.options.tuning;
         let k = sys.moment_scale();
@@ -428,8 +431,17 @@ impl Solver {
         // steps are kept within the trust radius too.
         let guarded = min_shift > 0.0 || ws.rows.iter().any(|r| r.kind == RowKind::Inequality);
         let limit = if state.restoring.is_nan() { 0.0 } else { 2.0 * state.restoring };
-        if guarded && longest > self.options.trust_radius.max(limit) {
-            return Trial::TooLong;
+        let radius = self.options.trust_radius.max(limit);
+        if guarded && longest > radius {
+            if min_shift > 0.0 || shift > 0.0 {
+                return Trial::TooLong;
+            }
+            // Where the curvature is right (only working-set changes are
+            // guarded), the plain Newton direction descends: cut it to the
+            // radius instead of damping it, which needs no new factors.
+            let cut = radius / longest;
+            ws.step.iter_mut().for_each(|d| *d *= cut);
+            ws.dual_step.iter_mut().for_each(|y| *y *= cut);
         }
         for row in 0..m {
             ws.lambda_trial[row] = if it.active[row] { it.lambda[row] - ws.dual_step[row] } else { 0.0 };
