@@ -178,7 +178,7 @@ fn settle<S: Touching>(
             rows.extend(carried);
         }
         let deep = penetration(&settled.system, &settled.equilibrium.q, scene, radius);
-        if solved && same_rows(settled.system.contacts(), &rows) && deep <= options.penetration_tolerance {
+        if solved && deep <= options.penetration_tolerance && still_settled(&settled, &rows, options) {
             settled.equilibrium.iterations = iterations;
             settled.equilibrium.events = events;
             return Ok(settled);
@@ -229,17 +229,25 @@ fn warm_iterate<S: Touching>(system: &S, previous: &Equilibrium, pushing: &[Push
     it
 }
 
-/// Whether two sets of rows are the same contacts (normals and offsets to rounding).
-fn same_rows(a: &[ContactRow], b: &[ContactRow]) -> bool {
-    a.len() == b.len()
-        && a.iter().zip(b).all(|(x, y)| {
-            x.chain == y.chain
-                && x.link == y.link
-                && (x.fraction - y.fraction).abs() < 1e-12
-                && (x.normal[0] - y.normal[0]).abs() < 1e-12
-                && (x.normal[1] - y.normal[1]).abs() < 1e-12
-                && (x.offset - y.offset).abs() < 1e-12
-        })
+/// Whether the settled equilibrium is one for the freshly detected `rows`
+/// too, so that no further solve is needed: every row that pushes is among
+/// them unchanged, and none of them is violated. The rows of the settle that
+/// do not push carry no force, and the new ones hold with none.
+fn still_settled<S: Touching>(settled: &Settled<S>, rows: &[ContactRow], options: &ContactOptions) -> bool {
+    let (system, q) = (&settled.system, &settled.equilibrium.q);
+    let clear = |r: &ContactRow| dot(r.normal, system.contact_point(q, r)) - r.offset >= -options.penetration_tolerance;
+    pushing_rows(system, &settled.equilibrium).all(|(p, _)| rows.iter().any(|r| same_row(p, r)))
+        && rows.iter().all(clear)
+}
+
+/// Whether two rows are the same contact (normals and offsets to rounding).
+fn same_row(x: &ContactRow, y: &ContactRow) -> bool {
+    x.chain == y.chain
+        && x.link == y.link
+        && (x.fraction - y.fraction).abs() < 1e-12
+        && (x.normal[0] - y.normal[0]).abs() < 1e-12
+        && (x.normal[1] - y.normal[1]).abs() < 1e-12
+        && (x.offset - y.offset).abs() < 1e-12
 }
 
 impl Held {
