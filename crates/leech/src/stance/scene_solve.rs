@@ -187,11 +187,11 @@ fn settle<S: Touching>(
             pushing = settled.pushing();
         }
         let system = settled.system.with_contacts(rows.clone());
-        let mut ws = Scratch::for_system(&system);
         let mut it = warm_iterate(&system, &settled.equilibrium, &pushing);
-        let residual = solver.minimize(&system, &mut it, t, stage, &mut ws);
-        let residual = residual?;
-        let equilibrium = solver.finish(&system, it, residual, &mut ws);
+        let equilibrium = Scratch::with_spare(&system, |ws| {
+            let residual = solver.minimize(&system, &mut it, t, stage, ws)?;
+            Ok::<_, SolveError>(solver.finish(&system, it, residual, ws))
+        })?;
         iterations += equilibrium.iterations;
         events.extend(equilibrium.events.iter().cloned());
         settled = Settled { system, equilibrium };

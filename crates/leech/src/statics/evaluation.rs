@@ -45,20 +45,25 @@ impl Evaluation {
     /// Zeroed storage for `n` coordinates of which the last `free` are free
     /// (dense) ones, and `m` constraint rows.
     pub fn with_free(n: usize, free: usize, m: usize) -> Evaluation {
+        let mut ev = Evaluation::default();
+        ev.resize(n, free, m);
+        ev
+    }
+
+    /// Resizes to `n` coordinates of which `free` are free, and `m` rows
+    /// (the values left are stale: an evaluation clears what it accumulates).
+    pub fn resize(&mut self, n: usize, free: usize, m: usize) {
         let chains = n - free;
-        Evaluation {
-            energy: 0.0,
-            gradient: vec![0.0; n],
-            hessian_diag: vec![0.0; chains],
-            hessian_off: vec![0.0; chains.saturating_sub(1)],
-            hessian_border: vec![0.0; chains * free],
-            hessian_corner: vec![0.0; free * free],
-            constraints: vec![0.0; m],
-            jacobian: vec![0.0; n * m],
-            curvature: vec![0.0; n * m],
-            cos: vec![0.0; n],
-            sin: vec![0.0; n],
-        }
+        self.gradient.resize(n, 0.0);
+        self.hessian_diag.resize(chains, 0.0);
+        self.hessian_off.resize(chains.saturating_sub(1), 0.0);
+        self.hessian_border.resize(chains * free, 0.0);
+        self.hessian_corner.resize(free * free, 0.0);
+        self.constraints.resize(m, 0.0);
+        self.jacobian.resize(n * m, 0.0);
+        self.curvature.resize(n * m, 0.0);
+        self.cos.resize(n, 0.0);
+        self.sin.resize(n, 0.0);
     }
 
     /// Number of free coordinates `f`.
@@ -104,7 +109,16 @@ pub struct PathTerms {
 impl PathTerms {
     /// Zeroed storage for `n` coordinates and `m` constraint rows.
     pub fn new(n: usize, m: usize) -> PathTerms {
-        PathTerms { gradient: vec![0.0; n], jacobian: vec![0.0; n * m], constraints: vec![0.0; m] }
+        let mut path = PathTerms::default();
+        path.resize(n, m);
+        path
+    }
+
+    /// Resizes to `n` coordinates and `m` rows (values left stale).
+    pub fn resize(&mut self, n: usize, m: usize) {
+        self.gradient.resize(n, 0.0);
+        self.jacobian.resize(n * m, 0.0);
+        self.constraints.resize(m, 0.0);
     }
 
     /// Sets everything to zero.

@@ -61,6 +61,17 @@ impl KktSolver {
         }
     }
 
+    /// Whether the border's buffers hold `m` rows (with the free coordinates).
+    fn holds_rows(&self, m: usize) -> bool {
+        (self.free + m).min(MAX_BORDER) <= self.capacity
+    }
+
+    /// Takes `m` constraint rows from now on ([`KktSolver::holds_rows`]).
+    fn set_rows(&mut self, m: usize) {
+        self.m = m;
+        self.slots.clear();
+    }
+
     /// How many rows may be active at once.
     pub fn active_capacity(&self) -> usize {
         self.capacity - self.free
@@ -189,41 +200,101 @@ impl Scratch {
     pub fn for_system<S: StaticSystem + ?Sized>(system: &S) -> Scratch {
         let (n, m, free) = (system.dim(), system.rows(), system.free());
         let chains = system.blocks();
-        let zeros = |len: usize| vec![0.0; len];
-        Scratch {
+        let mut ws = Scratch {
             n,
-            rows: (0..m).map(|r| system.row(r)).collect(),
-            current: Evaluation::with_free(n, free, m),
-            trial: Evaluation::with_free(n, free, m),
-            path: PathTerms::new(n, m),
+            rows: Vec::new(),
+            current: Evaluation::default(),
+            trial: Evaluation::default(),
+            path: PathTerms::default(),
             kkt: KktSolver::new(n, free, m, &chains),
             chains,
-            residual: zeros(n),
-            residual_trial: zeros(n),
-            lagrangian_diag: zeros(n - free),
-            lagrangian_corner: zeros(free * free),
-            step: zeros(n),
-            q_trial: zeros(n),
-            tangent: zeros(n),
-            q_saved: zeros(n),
-            q_predicted: zeros(n),
-            direction: zeros(n),
-            dual_step: zeros(m),
-            lambda_tangent: zeros(m),
-            lambda_saved: zeros(m),
-            lambda_trial: zeros(m),
-            rhs: zeros(m),
+            residual: Vec::new(),
+            residual_trial: Vec::new(),
+            lagrangian_diag: Vec::new(),
+            lagrangian_corner: Vec::new(),
+            step: Vec::new(),
+            q_trial: Vec::new(),
+            tangent: Vec::new(),
+            q_saved: Vec::new(),
+            q_predicted: Vec::new(),
+            direction: Vec::new(),
+            dual_step: Vec::new(),
+            lambda_tangent: Vec::new(),
+            lambda_saved: Vec::new(),
+            lambda_trial: Vec::new(),
+            rhs: Vec::new(),
+        };
+        ws.size_buffers(system);
+        ws
+    }
+
+    /// Sizes this scratch for `system`, keeping its allocations where they
+    /// suffice: a solve whose rows change between calls (contacts refreshed)
+    /// or whose chains grow a little (tubes fed) then allocates rarely. The
+    /// factorization's buffers are kept while only the number of rows changes
+    /// and the border still holds them.
+    pub fn refit<S: StaticSystem + ?Sized>(&mut self, system: &S) {
+        if self.fits(system) {
+            return;
+        }
+        let (n, m, free) = (system.dim(), system.rows(), system.free());
+        let chains = system.blocks();
+        if self.n != n || self.kkt.free != free || self.chains != chains || !self.kkt.holds_rows(m) {
+            self.kkt = KktSolver::new(n, free, m, &chains);
+        } else {
+            self.kkt.set_rows(m);
+        }
+        (self.n, self.chains) = (n, chains);
+        self.size_buffers(system);
+    }
+
+    /// Sizes every buffer but the factorization's for `system`.
+    fn size_buffers<S: StaticSystem + ?Sized>(&mut self, system: &S) {
+        let (n, m, free) = (system.dim(), system.rows(), system.free());
+        self.rows.clear();
+        self.rows.extend((0..m).map(|r| system.row(r)));
+        self.current.resize(n, free, m);
+        self.trial.resize(n, free, m);
+        self.path.resize(n, m);
+        for v in [
+            &mut self.residual,
+            &mut self.residual_trial,
+            &mut self.step,
+            &mut self.q_trial,
+            &mut self.tangent,
+            &mut self.q_saved,
+            &mut self.q_predicted,
+            &mut self.direction,
+        ] {
+            v.resize(n, 0.0);
+        }
+        self.lagrangian_diag.resize(n - free, 0.0);
+        self.lagrangian_corner.resize(free * free, 0.0);
+        for v in [
+            &mut self.dual_step,
+            &mut self.lambda_tangent,
+            &mut self.lambda_saved,
+            &mut self.lambda_trial,
+            &mut self.rhs,
+        ] {
+            v.resize(m, 0.0);
         }
     }
 
     /// Runs `solve` with scratch sized for `system`: the one the previous
-    /// call on this thread kept, if it fits, else a new one; kept in turn
-    /// for the next call (one per thread, of the last size used). Solves
-    /// that take no scratch use it: at thousands of links, allocating and
-    /// first touching fresh scratch (page faults) cost a tenth of a solve.
+    /// call on this thread kept, refitted ([`Scratch::refit`]), else a new
+    /// one; kept in turn for the next call (one per thread). Solves that take
+    /// no scratch use it: at thousands of links, allocating and first
+    /// touching fresh scratch (page faults) cost a tenth of a solve.
     pub fn with_spare<S: StaticSystem + ?Sized, R>(system: &S, solve: impl FnOnce(&mut Scratch) -> R) -> R {
         let spare = SPARE.with(|spare| spare.borrow_mut().take());
-        let mut ws = spare.filter(|ws| ws.fits(system)).unwrap_or_else(|| Scratch::for_system(system));
+        let mut ws = match spare {
+            Some(mut ws) => {
+                ws.refit(system);
+                ws
+            }
+            None => Scratch::for_system(system),
+        };
         let out = solve(&mut ws);
         SPARE.with(|spare| *spare.borrow_mut() = Some(ws));
         out

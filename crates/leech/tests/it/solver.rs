@@ -45,6 +45,24 @@ fn warm_start_from_the_solution_stays_there() {
     }
 }
 
+/// Scratch used for a longer body, then refitted (kept allocations, stale
+/// values), solves exactly as fresh scratch does.
+#[test]
+fn refitted_scratch_solves_as_fresh_scratch() {
+    let solver = Solver::default();
+    let (long, short) = (Robot::builtin().body(0.30, 0.28).unwrap(), Robot::builtin().body(0.21, 0.17).unwrap());
+    let fresh = short.solve_in(&solver, &mut Scratch::for_system(&short)).unwrap();
+    let mut ws = Scratch::for_system(&long);
+    long.solve_in(&solver, &mut ws).unwrap();
+    assert!(!ws.fits(&short));
+    ws.refit(&short);
+    assert!(ws.fits(&short));
+    let refitted = short.solve_in(&solver, &mut ws).unwrap();
+    assert_eq!(fresh.q, refitted.q);
+    assert_eq!(fresh.multipliers, refitted.multipliers);
+    assert_eq!(fresh.iterations, refitted.iterations);
+}
+
 #[test]
 fn bad_warm_start_is_rejected() {
     let body = Robot::builtin().body(0.1, 0.1).unwrap();
