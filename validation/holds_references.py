@@ -939,17 +939,7 @@ def case_list(robot):
 
 # What leech did on these cases when the fixture was made: the Rust test checks that it still
 # fails so (it reports when a case starts to match, and the mark is then to be removed).
-KNOWN_FAILURES = {
-    "g_floor_wall_020": (
-        "stance::solve_in returns an error: 'load: not converged after 5 iterations (residual 4.178e-1): "
-        "no descent step found', the same for every length from 0.20/0.20 m up (0.19/0.19 m solves, "
-        "the tip 6 mm short of the wall's clearance). The reference's feeding path (feeding_path, 1 mm "
-        "steps in a check run) has the tip touch the wall at 0.196 m and snap up it at 0.197 m (the "
-        "head-on push buckles the body), slide up to 0.230 m, snap down into the floor-wall corner at "
-        "0.231 m and end on the stored equilibrium (stable, the same to 1e-15 as the direct solve)",
-        ["error: load: not converged", "no descent step found"],
-    ),
-}
+KNOWN_FAILURES = {}
 
 
 def fixed_nodes(body, front):

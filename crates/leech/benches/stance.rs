@@ -26,6 +26,18 @@ fn floor_cold_30_28(bencher: divan::Bencher) {
     bencher.bench_local(|| stance::solve_in(&robot, [0.30, 0.28], hold, &floor, &solver).unwrap());
 }
 
+/// A softer body (shape parameter 100 instead of about 5100) lying on the
+/// floor on 24 contacts, solved cold: the many-contact case.
+#[divan::bench]
+fn floor_lying_cold_30_28(bencher: divan::Bencher) {
+    let robot = Robot::builtin().with_shape_parameter(100.0).unwrap();
+    let floor = Scene::builtin("floor").unwrap();
+    let (hold, solver) = (on_floor(&robot), Solver::default());
+    let held = stance::solve_in(&robot, [0.30, 0.28], hold, &floor, &solver).unwrap();
+    assert!(held.contacts.len() >= 20, "{} contacts", held.contacts.len());
+    bencher.bench_local(|| stance::solve_in(&robot, [0.30, 0.28], hold, &floor, &solver).unwrap());
+}
+
 /// The same on a floor with tubes cut into `links` elements each (0.30 m).
 #[divan::bench(args = [30, 100, 300], sample_count = 20)]
 fn floor_cold_links(bencher: divan::Bencher, links: usize) {

@@ -17,8 +17,12 @@ pub const FEED_STEP_M: f64 = 0.05;
 /// Shortest feeding step (m): below it a step that still fails is reported.
 pub const MIN_FEED_STEP_M: f64 = 1e-4;
 
-/// Most Newton iterations a feeding step may take before it counts as too
-/// long a step (and is halved).
+/// Most Newton iterations a feeding step may take on one working set, and a
+/// quarter of those it may take in all (contacts joining and leaving), before
+/// it counts as too long a step (and is halved). Counting the active-set
+/// changes against the single budget halved steps on which contacts only
+/// rippled along a tube, down to the shortest, where bodies pushed head-on
+/// into a wall then jammed.
 const FEED_ITERATIONS: usize = 12;
 
 /// A feeding step that took at most this many Newton iterations was easy:
@@ -73,7 +77,8 @@ impl<F: Fed> Feeding<'_, F> {
         // A step that needs many iterations is too long: stop it early and
         // halve it rather than finish it (the last chance runs to the end).
         let mut brief = self.solver.clone();
-        brief.options.max_iterations = brief.options.max_iterations.min(FEED_ITERATIONS);
+        brief.options.max_minimization_iterations = brief.options.max_minimization_iterations.min(FEED_ITERATIONS);
+        brief.options.max_iterations = brief.options.max_iterations.min(4 * FEED_ITERATIONS);
         loop {
             // A remainder of rounding is no step of its own.
             let next_fraction = if span <= step { 1.0 } else { done + step / span };
