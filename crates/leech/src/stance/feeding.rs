@@ -17,8 +17,8 @@ pub const FEED_STEP_M: f64 = 0.05;
 /// Shortest feeding step (m): below it a step that still fails is reported.
 pub const MIN_FEED_STEP_M: f64 = 1e-4;
 
-/// Most Newton iterations a feeding step may take on one working set, and a
-/// quarter of those it may take in all (contacts joining and leaving), before
+/// Most Newton iterations a feeding step may take on one working set (and
+/// four times as many in all, contacts joining and leaving), before
 /// it counts as too long a step (and is halved). Counting the active-set
 /// changes against the single budget halved steps on which contacts only
 /// rippled along a tube, down to the shortest, where bodies pushed head-on
