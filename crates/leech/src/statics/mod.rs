@@ -29,7 +29,9 @@
 //! points towards a *stable* equilibrium. A rejected step raises a
 //! Levenberg shift (shorter steps turning towards steepest descent) instead of
 //! backtracking; where the curvature was corrected steps are also kept within
-//! a trust radius. A step is accepted when it decreases the exact-penalty
+//! a trust radius, and so are all steps of a system with inequality rows: there,
+//! where the curvature is right, the Newton step is cut to the radius along its
+//! direction (no new factorization). A step is accepted when it decreases the exact-penalty
 //! merit `V/k + rho |C_A|_1` measurably (Armijo, above rounding) or, where the
 //! curvature needed no correction, the norm of the scaled residual.
 //!
