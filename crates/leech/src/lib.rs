@@ -84,6 +84,7 @@ pub mod robot;
 pub mod scene;
 pub mod stance;
 pub mod statics;
+pub mod stride;
 pub mod sweep;
 
 /// The types most programs need.

@@ -15,6 +15,7 @@ mod robot_file;
 mod scene;
 mod solver;
 mod stance;
+mod stride;
 mod sweep;
 mod tube;
 
