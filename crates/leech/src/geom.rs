@@ -66,6 +66,13 @@ pub fn rotate(v: Vec2, angle: f64) -> Vec2 {
     [c * v[0] - s * v[1], s * v[0] + c * v[1]]
 }
 
+/// `a - b` wrapped to [-pi, pi) (rad).
+#[inline]
+pub fn angle_difference(a: f64, b: f64) -> f64 {
+    use std::f64::consts::PI;
+    (a - b + PI).rem_euclid(2.0 * PI) - PI
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

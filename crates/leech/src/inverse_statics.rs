@@ -26,6 +26,7 @@
 
 use crate::body::Body;
 use crate::error::InputError;
+use crate::geom::angle_difference;
 use crate::least_squares::{central_differences, levenberg_marquardt, LeastSquares, Options, Scaling};
 use crate::robot::Robot;
 use crate::statics::{Scratch, Solver};
@@ -372,17 +373,6 @@ impl Reacher {
             angle_error_rad,
             solves,
         }
-    }
-}
-
-/// `a - b` wrapped to `(-pi, pi]`: plate angles are compared as directions.
-fn angle_difference(a: f64, b: f64) -> f64 {
-    let tau = 2.0 * std::f64::consts::PI;
-    let d = (a - b).rem_euclid(tau);
-    if d > std::f64::consts::PI {
-        d - tau
-    } else {
-        d
     }
 }
 

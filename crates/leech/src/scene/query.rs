@@ -7,7 +7,7 @@
 use std::f64::consts::PI;
 
 use super::{Feature, Scene, Solid, ON_SURFACE_M};
-use crate::geom::{add_scaled, cross, dot, norm, sub, unit, Vec2};
+use crate::geom::{add_scaled, angle_difference, cross, dot, norm, sub, unit, Vec2};
 
 /// A surface feature near a point, as [`Scene::features_near`] reports it.
 ///
@@ -92,12 +92,6 @@ fn tangent_angle(normal: Vec2) -> f64 {
     // `0.0 - x` rather than `-x`: a normal with x = 0 must give +0, not -0,
     // which atan2 would turn into -pi on a ceiling.
     (0.0 - normal[0]).atan2(normal[1])
-}
-
-/// `a - b` wrapped to [-pi, pi).
-#[inline]
-fn angle_difference(a: f64, b: f64) -> f64 {
-    (a - b + PI).rem_euclid(2.0 * PI) - PI
 }
 
 /// Parameter in [0, 1] of the point of segment `a-b` closest to `p` (0 for a

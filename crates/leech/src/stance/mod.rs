@@ -263,6 +263,14 @@ pub fn rear_pose_for_cup(robot: &Robot, cup: Vec2, direction: f64) -> Pose {
     Pose { point_m: crate::geom::add_scaled(cup, -d, crate::geom::right_normal(direction)), angle_rad: direction }
 }
 
+/// The endpoint pose (chain A's tip and the plate's angle) that puts the
+/// front cup's face centre at `cup` (m) with the plate along `direction`
+/// (rad): the inverse of [`front_cup_centre`].
+pub fn front_pose_for_cup(robot: &Robot, cup: Vec2, direction: f64) -> Pose {
+    let d = robot.body.tip_spacing_m + robot.cup.front_offset_m;
+    Pose { point_m: crate::geom::add_scaled(cup, -d, crate::geom::right_normal(direction)), angle_rad: direction }
+}
+
 /// The centre of the front cup's face for the endpoint and plate at
 /// `endpoint`: `c + front_offset` from the endpoint along `nu` of the plate
 /// (`front_offset` from chain B's tip).

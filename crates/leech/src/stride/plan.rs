@@ -1,0 +1,679 @@
+//! The climb planner: strides chosen with inverse statics, each replayed
+//! through the holds-and-contacts statics behind the stride's interlock.
+//!
+//! A *foothold* is a cup's face flush on a surface: its centre on the
+//! surface line and the face along the surface's direction (the
+//! [`Scene::surface_frame`] convention: free space on the left, the cups on
+//! chain B's side, to the right). One stride from a rear foothold:
+//!
+//! 1. **Touchdown of the front cup** (inverse statics with the rear held, no
+//!    contacts): seeds on a grid of tube lengths (`[limits]` range, `grid`
+//!    points a side); from every seed whose front cup is within
+//!    [`SEED_DISTANCE_M`] of a surface and [`SEED_ANGLE_DEG`] of flush,
+//!    Newton on the two lengths puts the cup's centre on the closest surface
+//!    point (two equations, forward differences); the foothold counts if the
+//!    face then lies flush within the robot file's tolerances
+//!    ([`Scene::flat_on_one_edge`]).
+//! 2. **push**: the rear-held body among the scene's solids at those lengths
+//!    ([`stance::solve_in`]); its front cup must still be flush there and the
+//!    rear cup keep its safety factor.
+//! 3. **attach_front**: both holds, the front one exactly flush (the small
+//!    difference is the preload); the interlock's attach rule.
+//! 4. **release_rear**: the front hold alone; the interlock's release rule on
+//!    the front cup's safety factor.
+//! 5. **pull**: the touchdown of the rear cup with the front held (as in 1,
+//!    the driving unit's cup moving), then the front-held body at those
+//!    lengths among the solids.
+//! 6. **attach_rear**, **release_front**: as 3 and 4 with the cups swapped.
+//!
+//! A stride is rejected when a solve fails or snaps (`snap`), the tubes
+//! penetrate a solid (`collision`), no touchdown exists (`reach`) or a cup
+//! would hold below its minimum safety factor (`cup force`).
+//!
+//! The search is by strides (breadth first, a beam of [`PlanOptions::beam`]
+//! stances kept per stride, ranked by the rear cup's distance to the goal,
+//! then by the smallest safety factor so far, larger first): the first
+//! stance whose rear cup lands within the goal's tolerance ends it, so a plan
+//! has the fewest strides the beam finds. A stride must bring the rear cup at
+//! least [`MIN_PROGRESS_M`] closer to the goal.
+
+use std::time::{Duration, Instant};
+
+use serde::Serialize;
+
+use super::machine::{Command, Cup, Phase, StrideMachine};
+use crate::error::InputError;
+use crate::geom::{angle_difference, norm, sub, Vec2};
+use crate::robot::Robot;
+use crate::scene::Scene;
+use crate::stance::{self, Held, Hold, Pose, StanceError};
+use crate::statics::{Event, Solver};
+
+/// A seed's cup must be this close to a surface (m) to start a touchdown search.
+pub const SEED_DISTANCE_M: f64 = 0.03;
+
+/// ... and this close to flush (deg).
+pub const SEED_ANGLE_DEG: f64 = 25.0;
+
+/// A stride must bring the rear cup this much closer to the goal (m).
+pub const MIN_PROGRESS_M: f64 = 0.005;
+
+/// The motors' speed the paper drove the tubes at (m/s), for the plan's duration.
+pub const TUBE_SPEED_M_PER_S: f64 = 0.02;
+
+/// Step of the forward differences in the touchdown Newton (m).
+const DIFFERENCE_M: f64 = 1e-5;
+
+/// A touchdown has converged when the cup's centre is this close to its target (m).
+const TOUCHDOWN_TOLERANCE_M: f64 = 1e-7;
+
+/// Newton iterations a touchdown may take.
+const TOUCHDOWN_ITERATIONS: usize = 20;
+
+/// Two touchdowns closer than this in both lengths (m) are the same.
+const SAME_TOUCHDOWN_M: f64 = 1e-3;
+
+/// A cup's face flush on a surface: its centre (m) and the surface's
+/// direction there (rad, free space on the left).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Foothold {
+    /// Centre of the cup's face (m).
+    pub centre_m: Vec2,
+    /// The surface's direction (rad).
+    pub direction_rad: f64,
+}
+
+/// Where a climb should end: the rear cup's face centre within `tolerance_m` of `point_m`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Goal {
+    /// The goal (m).
+    pub point_m: Vec2,
+    /// How close the rear cup must land (m).
+    pub tolerance_m: f64,
+}
+
+/// Tuning knobs of the planner.
+#[derive(Clone, Debug)]
+pub struct PlanOptions {
+    /// Most strides a plan may have.
+    pub max_strides: usize,
+    /// Stances kept per stride in the search.
+    pub beam: usize,
+    /// Touchdowns tried per stance, nearest the goal first.
+    pub candidates: usize,
+    /// Seeds per side of the tube-length grid of a touchdown search.
+    pub grid: usize,
+    /// Wall-clock limit of the whole search.
+    pub time_limit: Option<Duration>,
+    /// The statics solver.
+    pub solver: Solver,
+}
+
+impl Default for PlanOptions {
+    fn default() -> Self {
+        PlanOptions { max_strides: 30, beam: 2, candidates: 3, grid: 11, time_limit: None, solver: Solver::default() }
+    }
+}
+
+/// Which constraint blocked a stride.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Blocking {
+    /// No cup touchdown within the tube length range.
+    Reach,
+    /// A cup would hold below its minimum safety factor.
+    CupForce,
+    /// The tubes would penetrate a solid (or pass through one).
+    Collision,
+    /// A solve failed to converge or the body snapped.
+    Snap,
+}
+
+impl Blocking {
+    /// Its name, as the JSON writes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Blocking::Reach => "reach",
+            Blocking::CupForce => "cup_force",
+            Blocking::Collision => "collision",
+            Blocking::Snap => "snap",
+        }
+    }
+}
+
+/// Why a stride was rejected: what blocked it and the numbers.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Rejection {
+    /// The constraint.
+    pub blocking: Blocking,
+    /// The phase it happened in.
+    pub phase: Phase,
+    /// What happened, with the numbers.
+    pub detail: String,
+}
+
+/// One phase's end in a plan: the equilibrium reached and everything needed
+/// to reproduce it with `leech shape`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Step {
+    /// The phase that ended here.
+    pub phase: Phase,
+    /// The stride it belongs to (0 for the start).
+    pub stride: usize,
+    /// Tube lengths (LA, LB) (m).
+    pub lengths_m: [f64; 2],
+    /// The scene solve's result (hold, reactions, contacts).
+    pub held: Held,
+    /// The rear cup's safety factor when it holds.
+    pub rear_safety_factor: Option<f64>,
+    /// The front cup's safety factor when it holds.
+    pub front_safety_factor: Option<f64>,
+}
+
+impl Step {
+    /// Whether the solve of this step met a fold and snapped.
+    pub fn snapped(&self) -> bool {
+        self.held.equilibrium.events.iter().any(|e| matches!(e, Event::Snap { .. }))
+    }
+
+    /// The smallest safety factor of the cups that hold.
+    pub fn safety_factor(&self) -> f64 {
+        self.rear_safety_factor.unwrap_or(f64::INFINITY).min(self.front_safety_factor.unwrap_or(f64::INFINITY))
+    }
+}
+
+/// Whether a climb was planned.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    /// The rear cup lands within the goal's tolerance.
+    Reached,
+    /// No sequence of strides the search tried gets there.
+    Impossible,
+}
+
+/// A planned climb, or the reason there is none.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Plan {
+    /// Reached or impossible.
+    pub status: Status,
+    /// For an impossible climb: what blocked the strides from the farthest stance.
+    pub reason: Option<Rejection>,
+    /// Strides in the plan (for an impossible climb: to the farthest stance reached).
+    pub strides: usize,
+    /// Every phase's end, from the start (for an impossible climb: to the farthest stance).
+    pub steps: Vec<Step>,
+    /// Statics solves the search made (touchdown searches and scene solves).
+    pub solves: usize,
+}
+
+impl Plan {
+    /// Total tube travel, both tubes (m): `sum |dLA| + |dLB|` over the phases.
+    pub fn tube_travel_m(&self) -> f64 {
+        self.steps.windows(2).map(|w| (0..2).map(|i| (w[1].lengths_m[i] - w[0].lengths_m[i]).abs()).sum::<f64>()).sum()
+    }
+
+    /// Time the motors run at [`TUBE_SPEED_M_PER_S`], both tubes at once (s).
+    pub fn duration_s(&self) -> f64 {
+        let longer = |w: &[Step]| (0..2).map(|i| (w[1].lengths_m[i] - w[0].lengths_m[i]).abs()).fold(0.0, f64::max);
+        self.steps.windows(2).map(longer).sum::<f64>() / TUBE_SPEED_M_PER_S
+    }
+
+    /// The smallest safety factor of any holding cup over the plan.
+    pub fn min_safety_factor(&self) -> f64 {
+        self.steps.iter().map(Step::safety_factor).fold(f64::INFINITY, f64::min)
+    }
+}
+
+/// What a planner needs of the world.
+struct Planner<'a> {
+    robot: &'a Robot,
+    scene: &'a Scene,
+    goal: Goal,
+    options: &'a PlanOptions,
+    started: Instant,
+    solves: usize,
+}
+
+/// A stance the search reached: the rear cup's foothold after a stride, the
+/// lengths there, and the steps so far.
+#[derive(Clone)]
+struct Stance {
+    /// The rear cup's foothold (its face centre on the surface).
+    rear: Foothold,
+    /// The driving unit's pose the rear hold keeps.
+    unit: Pose,
+    lengths: [f64; 2],
+    steps: Vec<Step>,
+    strides: usize,
+}
+
+impl Stance {
+    fn distance(&self, goal: &Goal) -> f64 {
+        norm(sub(self.rear.centre_m, goal.point_m))
+    }
+
+    fn min_safety_factor(&self) -> f64 {
+        self.steps.iter().map(Step::safety_factor).fold(f64::INFINITY, f64::min)
+    }
+}
+
+/// Plans a climb of `robot` in `scene` from the rear cup's foothold `start`
+/// (the tubes at their shortest) to `goal`.
+pub fn plan(
+    robot: &Robot,
+    scene: &Scene,
+    start: Foothold,
+    goal: Goal,
+    options: &PlanOptions,
+) -> Result<Plan, InputError> {
+    let mut planner = Planner { robot, scene, goal, options, started: Instant::now(), solves: 0 };
+    planner.search(start)
+}
+
+impl Planner<'_> {
+    fn out_of_time(&self) -> bool {
+        self.options.time_limit.is_some_and(|limit| self.started.elapsed() > limit)
+    }
+
+    fn search(&mut self, start: Foothold) -> Result<Plan, InputError> {
+        let short = self.robot.limits.tube_length_min_m;
+        let unit = rear_pose(self.robot, start);
+        let first = match self.step(Phase::Start, 0, [short; 2], Hold::Rear(unit)) {
+            Ok(step) => step,
+            Err(reason) => return Ok(self.impossible(reason, Vec::new(), 0)),
+        };
+        let mut beam = vec![Stance { rear: start, unit, lengths: [short; 2], steps: vec![first], strides: 0 }];
+        let mut farthest = beam[0].clone();
+        let mut last_reason = None;
+        for _ in 0..self.options.max_strides {
+            if let Some(done) = beam.iter().find(|s| s.distance(&self.goal) <= self.goal.tolerance_m) {
+                return Ok(Plan {
+                    status: Status::Reached,
+                    reason: None,
+                    strides: done.strides,
+                    steps: done.steps.clone(),
+                    solves: self.solves,
+                });
+            }
+            let mut next = Vec::new();
+            for stance in &beam {
+                for child in self.strides_from(stance, &mut last_reason)? {
+                    next.push(child);
+                }
+                if self.out_of_time() {
+                    break;
+                }
+            }
+            if next.is_empty() || self.out_of_time() {
+                break;
+            }
+            next.sort_by(|a, b| {
+                let key = |s: &Stance| (s.distance(&self.goal), -s.min_safety_factor());
+                key(a).partial_cmp(&key(b)).unwrap_or(std::cmp::Ordering::Equal)
+            });
+            next.truncate(self.options.beam);
+            if next[0].distance(&self.goal) < farthest.distance(&self.goal) {
+                farthest = next[0].clone();
+            }
+            beam = next;
+        }
+        if let Some(done) = beam.iter().find(|s| s.distance(&self.goal) <= self.goal.tolerance_m) {
+            return Ok(Plan {
+                status: Status::Reached,
+                reason: None,
+                strides: done.strides,
+                steps: done.steps.clone(),
+                solves: self.solves,
+            });
+        }
+        let reason = if self.out_of_time() {
+            Rejection {
+                blocking: Blocking::Snap,
+                phase: Phase::Push,
+                detail: "the search ran out of its time limit".into(),
+            }
+        } else {
+            last_reason.unwrap_or(Rejection {
+                blocking: Blocking::Reach,
+                phase: Phase::Push,
+                detail: format!("no stride brings the rear cup {MIN_PROGRESS_M} m closer to the goal"),
+            })
+        };
+        Ok(self.impossible(reason, farthest.steps, farthest.strides))
+    }
+
+    fn impossible(&self, reason: Rejection, steps: Vec<Step>, strides: usize) -> Plan {
+        Plan { status: Status::Impossible, reason: Some(reason), strides, steps, solves: self.solves }
+    }
+
+    /// The stances one stride from `stance` reaches, trying its front
+    /// touchdowns nearest the goal first; the last rejection in `reason`.
+    fn strides_from(&mut self, stance: &Stance, reason: &mut Option<Rejection>) -> Result<Vec<Stance>, InputError> {
+        let holding = Hold::Rear(stance.unit);
+        let mut touchdowns = self.touchdowns(holding, Cup::Front)?;
+        if touchdowns.is_empty() {
+            *reason = Some(Rejection {
+                blocking: Blocking::Reach,
+                phase: Phase::Push,
+                detail: format!(
+                    "no front touchdown within the tube lengths {}..{} m from the rear cup at ({:.3}, {:.3}) m",
+                    self.robot.limits.tube_length_min_m,
+                    self.robot.limits.tube_length_max_m,
+                    stance.rear.centre_m[0],
+                    stance.rear.centre_m[1]
+                ),
+            });
+        }
+        let goal = self.goal.point_m;
+        touchdowns.sort_by(|a, b| norm(sub(a.1.centre_m, goal)).total_cmp(&norm(sub(b.1.centre_m, goal))));
+        let mut out = Vec::new();
+        for (lengths, front) in touchdowns.into_iter().take(self.options.candidates) {
+            match self.stride(stance, lengths, front)? {
+                Ok(child) if child.distance(&self.goal) < stance.distance(&self.goal) - MIN_PROGRESS_M => {
+                    out.push(child)
+                }
+                Ok(_) => {
+                    *reason = Some(Rejection {
+                        blocking: Blocking::Reach,
+                        phase: Phase::AttachRear,
+                        detail: "the stride does not bring the rear cup closer to the goal".into(),
+                    })
+                }
+                Err(r) => *reason = Some(r),
+            }
+        }
+        Ok(out)
+    }
+
+    /// One stride from `stance` with the front cup landing on `front` at `lengths`.
+    fn stride(
+        &mut self,
+        stance: &Stance,
+        lengths: [f64; 2],
+        front: Foothold,
+    ) -> Result<Result<Stance, Rejection>, InputError> {
+        let robot = self.robot;
+        let stride = stance.strides + 1;
+        let mut machine = StrideMachine::new(robot.cup.min_safety_factor)?;
+        let rear = stance.unit;
+        let mut steps = Vec::new();
+        let result = (|| {
+            let push = self.step(Phase::Push, stride, lengths, Hold::Rear(rear))?;
+            self.flush_after(&push, Cup::Front)?;
+            // The cup seals where the face came to rest (its lip takes up what
+            // is left of the tolerances), pressed on by the preload.
+            let front_pose =
+                pressed(robot, Pose { point_m: push.held.endpoint_m, angle_rad: push.held.plate_angle() }, front);
+            steps.push(push);
+            self.guard(&mut machine, Phase::AttachFront, Command::Attach { cup: Cup::Front, flush: true })?;
+            steps.push(self.step(Phase::AttachFront, stride, lengths, Hold::Both { rear, front: front_pose })?);
+            let released = self.step(Phase::ReleaseRear, stride, lengths, Hold::Front(front_pose))?;
+            let factor = released.front_safety_factor.unwrap_or(f64::NAN);
+            self.guard(
+                &mut machine,
+                Phase::ReleaseRear,
+                Command::Release { cup: Cup::Rear, partner_safety_factor: factor },
+            )?;
+            steps.push(released);
+            let mut pulls = self.touchdowns(Hold::Front(front_pose), Cup::Rear).map_err(input_rejection)?;
+            let goal = self.goal.point_m;
+            pulls.sort_by(|a, b| norm(sub(a.1.centre_m, goal)).total_cmp(&norm(sub(b.1.centre_m, goal))));
+            let mut last = Rejection {
+                blocking: Blocking::Reach,
+                phase: Phase::Pull,
+                detail: "no rear touchdown within the tube length range with the front cup holding".into(),
+            };
+            for (pulled, new_rear) in pulls.into_iter().take(self.options.candidates) {
+                let attempt = (|| {
+                    let pull = self.step(Phase::Pull, stride, pulled, Hold::Front(front_pose))?;
+                    self.holding_safe(&pull, Phase::Pull)?;
+                    self.flush_after(&pull, Cup::Rear)?;
+                    let unit = pressed(robot, pull.held.unit, new_rear);
+                    let mut m = machine;
+                    self.guard(&mut m, Phase::AttachRear, Command::Attach { cup: Cup::Rear, flush: true })?;
+                    let attach =
+                        self.step(Phase::AttachRear, stride, pulled, Hold::Both { rear: unit, front: front_pose })?;
+                    let settled = self.step(Phase::ReleaseFront, stride, pulled, Hold::Rear(unit))?;
+                    let factor = settled.rear_safety_factor.unwrap_or(f64::NAN);
+                    self.guard(
+                        &mut m,
+                        Phase::ReleaseFront,
+                        Command::Release { cup: Cup::Front, partner_safety_factor: factor },
+                    )?;
+                    Ok((unit, [pull, attach, settled]))
+                })();
+                match attempt {
+                    Ok((unit, three)) => {
+                        steps.extend(three);
+                        return Ok((new_rear, unit));
+                    }
+                    Err(r) => last = r,
+                }
+            }
+            Err(last)
+        })();
+        Ok(result.map(|(new_rear, unit)| {
+            let mut all = stance.steps.clone();
+            all.extend(steps);
+            let lengths = all.last().map_or(stance.lengths, |s| s.lengths_m);
+            Stance { rear: new_rear, unit, lengths, steps: all, strides: stride }
+        }))
+    }
+
+    /// Applies `command` to the interlock, a refusal as a rejection.
+    fn guard(&self, machine: &mut StrideMachine, phase: Phase, command: Command) -> Result<(), Rejection> {
+        machine.apply(command).map(|_| ()).map_err(|e| Rejection {
+            blocking: match e {
+                super::StrideError::NotFlush { .. } => Blocking::Reach,
+                _ => Blocking::CupForce,
+            },
+            phase,
+            detail: e.to_string(),
+        })
+    }
+
+    /// The phase's end among the scene's solids, with the holding cups'
+    /// safety factors; a failure, a snap or a penetration as a rejection.
+    fn step(&mut self, phase: Phase, stride: usize, lengths: [f64; 2], hold: Hold) -> Result<Step, Rejection> {
+        self.solves += 1;
+        let held = stance::solve_in(self.robot, lengths, hold, self.scene, &self.options.solver).map_err(|e| {
+            let blocking = match &e {
+                StanceError::Solve(s) if s.to_string().contains("through a solid") => Blocking::Collision,
+                StanceError::Input(_) => Blocking::Collision,
+                _ => Blocking::Snap,
+            };
+            Rejection {
+                blocking,
+                phase,
+                detail: format!("{} at lengths {:.4}/{:.4} m: {e}", hold.name(), lengths[0], lengths[1]),
+            }
+        })?;
+        let (rear, front) = held.cups(self.robot).map_err(|e| Rejection {
+            blocking: Blocking::CupForce,
+            phase,
+            detail: e.to_string(),
+        })?;
+        let step = Step {
+            phase,
+            stride,
+            lengths_m: lengths,
+            rear_safety_factor: rear.map(|c| c.verdict.safety_factor),
+            front_safety_factor: front.map(|c| c.verdict.safety_factor),
+            held,
+        };
+        if step.snapped() {
+            return Err(Rejection {
+                blocking: Blocking::Snap,
+                phase,
+                detail: "the body snapped through a fold".into(),
+            });
+        }
+        let deep = step.held.penetration_m(self.robot, self.scene);
+        if deep > 1e-9 {
+            return Err(Rejection {
+                blocking: Blocking::Collision,
+                phase,
+                detail: format!("the tubes penetrate a solid by {deep:.2e} m"),
+            });
+        }
+        if phase != Phase::ReleaseRear && phase != Phase::ReleaseFront {
+            self.holding_safe(&step, phase)?;
+        }
+        Ok(step)
+    }
+
+    /// Every holding cup of `step` at least at its minimum safety factor.
+    fn holding_safe(&self, step: &Step, phase: Phase) -> Result<(), Rejection> {
+        let minimum = self.robot.cup.min_safety_factor;
+        for (cup, factor) in [(Cup::Rear, step.rear_safety_factor), (Cup::Front, step.front_safety_factor)] {
+            if let Some(f) = factor.filter(|f| !(*f >= minimum)) {
+                return Err(Rejection {
+                    blocking: Blocking::CupForce,
+                    phase,
+                    detail: format!("the {cup} cup holds with safety factor {f:.3}, below the minimum {minimum}"),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The moving `cup` of `step` lies flush on a surface (its touchdown
+    /// survived the scene's contacts).
+    fn flush_after(&self, step: &Step, cup: Cup) -> Result<(), Rejection> {
+        let (centre, angle) = cup_face(self.robot, &step.held, cup);
+        if self.flush(centre, angle) {
+            Ok(())
+        } else {
+            Err(Rejection {
+                blocking: Blocking::Collision,
+                phase: step.phase,
+                detail: format!(
+                    "among the solids the {cup} cup no longer lies flush at ({:.3}, {:.3}) m",
+                    centre[0], centre[1]
+                ),
+            })
+        }
+    }
+
+    fn flush(&self, centre: Vec2, angle: f64) -> bool {
+        let cup = &self.robot.cup;
+        self.scene.flat_on_one_edge(
+            centre,
+            angle,
+            0.5 * cup.diameter_m,
+            cup.attach_distance_tolerance_m,
+            cup.attach_angle_tolerance_deg.to_radians(),
+        )
+    }
+
+    /// The touchdowns of `moving` with the other cup held by `holding`: tube
+    /// lengths and footholds (module doc, step 1).
+    fn touchdowns(&mut self, holding: Hold, moving: Cup) -> Result<Vec<([f64; 2], Foothold)>, InputError> {
+        let limits = &self.robot.limits;
+        let (lo, hi) = (limits.tube_length_min_m, limits.tube_length_max_m);
+        let n = self.options.grid.max(2);
+        let mut found: Vec<([f64; 2], Foothold)> = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                let seed = [lo + (hi - lo) * i as f64 / (n - 1) as f64, lo + (hi - lo) * j as f64 / (n - 1) as f64];
+                let Some((centre, angle)) = self.face(holding, moving, seed) else { continue };
+                let Some((target, direction)) = self.scene.surface_frame(centre) else { continue };
+                let (distance, ..) = self.scene.signed_distance(centre);
+                let off = angle_difference(angle, direction).abs();
+                if distance.abs() > SEED_DISTANCE_M || off > SEED_ANGLE_DEG.to_radians() {
+                    continue;
+                }
+                let Some(lengths) = self.place(holding, moving, seed, target) else { continue };
+                if found.iter().any(|(l, _)| {
+                    (l[0] - lengths[0]).abs() < SAME_TOUCHDOWN_M && (l[1] - lengths[1]).abs() < SAME_TOUCHDOWN_M
+                }) {
+                    continue;
+                }
+                let Some((centre, angle)) = self.face(holding, moving, lengths) else { continue };
+                if !self.flush(centre, angle) {
+                    continue;
+                }
+                if let Some((on, direction)) = self.scene.surface_frame(centre) {
+                    found.push((lengths, Foothold { centre_m: on, direction_rad: direction }));
+                }
+            }
+            if self.out_of_time() {
+                break;
+            }
+        }
+        Ok(found)
+    }
+
+    /// The moving cup's face (centre, angle) at `lengths` in free space.
+    fn face(&mut self, holding: Hold, moving: Cup, lengths: [f64; 2]) -> Option<(Vec2, f64)> {
+        self.solves += 1;
+        let held = stance::solve(self.robot, lengths, holding, &self.options.solver).ok()?;
+        Some(cup_face(self.robot, &held, moving))
+    }
+
+    /// Newton on the two lengths from `seed` putting the moving cup's centre
+    /// at `target`; the lengths kept within the range.
+    fn place(&mut self, holding: Hold, moving: Cup, seed: [f64; 2], target: Vec2) -> Option<[f64; 2]> {
+        let limits = &self.robot.limits;
+        let (lo, hi) = (limits.tube_length_min_m, limits.tube_length_max_m);
+        let mut l = seed;
+        for _ in 0..TOUCHDOWN_ITERATIONS {
+            let (c, _) = self.face(holding, moving, l)?;
+            let r = sub(c, target);
+            if norm(r) < TOUCHDOWN_TOLERANCE_M {
+                return Some(l);
+            }
+            // Forward differences, stepping inwards at the range's ends.
+            let mut jac = [[0.0; 2]; 2];
+            for k in 0..2 {
+                let h = if l[k] + DIFFERENCE_M > hi { -DIFFERENCE_M } else { DIFFERENCE_M };
+                let mut lk = l;
+                lk[k] += h;
+                let (ck, _) = self.face(holding, moving, lk)?;
+                jac[0][k] = (ck[0] - c[0]) / h;
+                jac[1][k] = (ck[1] - c[1]) / h;
+            }
+            let det = jac[0][0] * jac[1][1] - jac[0][1] * jac[1][0];
+            if !(det.abs() > 1e-12) {
+                return None;
+            }
+            let d = [(-r[0] * jac[1][1] + r[1] * jac[0][1]) / det, (r[0] * jac[1][0] - r[1] * jac[0][0]) / det];
+            // At most 20 mm per iteration: the map is far from linear.
+            let scale = (0.02 / d[0].abs().max(d[1].abs())).min(1.0);
+            let next = [(l[0] + scale * d[0]).clamp(lo, hi), (l[1] + scale * d[1]).clamp(lo, hi)];
+            if next == l {
+                return None;
+            }
+            l = next;
+        }
+        None
+    }
+}
+
+/// A rejection for bad input met inside a stride (a robot the touchdown
+/// search cannot build).
+fn input_rejection(e: InputError) -> Rejection {
+    Rejection { blocking: Blocking::Reach, phase: Phase::Pull, detail: e.to_string() }
+}
+
+/// A hold's pose where a cup came to rest on `foothold`, pressed into the
+/// surface by the robot file's preload.
+fn pressed(robot: &Robot, pose: Pose, foothold: Foothold) -> Pose {
+    let into = crate::geom::right_normal(foothold.direction_rad);
+    Pose { point_m: crate::geom::add_scaled(pose.point_m, robot.cup.preload_m, into), angle_rad: pose.angle_rad }
+}
+
+/// The driving unit's pose that puts the rear cup on `foothold`.
+pub fn rear_pose(robot: &Robot, foothold: Foothold) -> Pose {
+    stance::rear_pose_for_cup(robot, foothold.centre_m, foothold.direction_rad)
+}
+
+/// The face (centre, angle) of `cup` in `held`: the rear cup's along the
+/// driving unit, the front cup's along the plate.
+pub fn cup_face(robot: &Robot, held: &Held, cup: Cup) -> (Vec2, f64) {
+    match cup {
+        Cup::Rear => (held.rear_cup_m(robot), held.unit.angle_rad),
+        Cup::Front => (held.front_cup_m(robot), held.plate_angle()),
+    }
+}
