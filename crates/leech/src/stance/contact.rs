@@ -64,6 +64,19 @@ use crate::geom::{dot, norm, sub, Vec2};
 use crate::scene::{Scene, Solid};
 use crate::statics::{Evaluation, Stage, StaticSystem};
 
+/// The pseudo-chain of contact rows on the rear cup's face (its `link` is
+/// the rim: 0 behind, 1 ahead). A cup that does not hold rests on what its
+/// face meets, with no clearance: its face is what touches.
+pub const REAR_CUP: usize = 2;
+
+/// The pseudo-chain of contact rows on the front cup's face.
+pub const FRONT_CUP: usize = 3;
+
+/// Whether a contact row's `chain` is a cup's face rather than a tube.
+pub fn on_cup(chain: usize) -> bool {
+    chain >= REAR_CUP
+}
+
 /// A static system whose chains may touch a scene's solids: what contact
 /// detection and the staged solves among solids need of it. Its contact
 /// rows are its last rows.
@@ -91,6 +104,12 @@ pub trait Touching: StaticSystem + Sized {
         false
     }
 
+    /// The rims of the faces of the cups that do not hold, each with its
+    /// pseudo-chain ([`REAR_CUP`], [`FRONT_CUP`]) (m). None by default.
+    fn free_cup_rims(&self, _q: &[f64]) -> Vec<(usize, [Vec2; 2])> {
+        Vec::new()
+    }
+
     /// The first contact row's index.
     fn contact_row(&self) -> usize {
         self.rows() - self.contacts().len()
@@ -98,6 +117,11 @@ pub trait Touching: StaticSystem + Sized {
 
     /// Where contact row `contact` touches (m).
     fn contact_point(&self, q: &[f64], contact: &ContactRow) -> Vec2 {
+        if on_cup(contact.chain) {
+            let rims = self.free_cup_rims(q);
+            let (_, rims) = rims.iter().find(|(c, _)| *c == contact.chain).expect("a row on a free cup's rim");
+            return rims[contact.link];
+        }
         let points = self.chain_points(q, contact.chain);
         // The link's start is the point before its tip.
         let tip = points.len() - self.chain_len(contact.chain) + contact.link;
@@ -109,9 +133,9 @@ pub trait Touching: StaticSystem + Sized {
 /// One contact row: a point of a chain held off a surface.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct ContactRow {
-    /// The chain: 0 for A, 1 for B.
+    /// The chain: 0 for A, 1 for B; [`REAR_CUP`] or [`FRONT_CUP`] for a cup's face.
     pub chain: usize,
-    /// The link (0-based) the point is on.
+    /// The link (0-based) the point is on (a cup's rim: 0 behind, 1 ahead).
     pub link: usize,
     /// How far along the link (1 at its tip: node `link + 1`).
     pub fraction: f64,
@@ -206,6 +230,17 @@ pub fn detect<S: Touching>(
             }
         }
     }
+    // A free cup's face may start inside a solid (a released unit that hung
+    // through a floor in free space): its rims take the closest surface at
+    // any depth.
+    for (cup, rims) in body.free_cup_rims(q) {
+        for (rim, p) in rims.iter().enumerate() {
+            let (distance, _, n, closest) = scene.signed_distance(*p);
+            if distance <= options.margin {
+                out.push(ContactRow { chain: cup, link: rim, fraction: 1.0, normal: n, offset: dot(n, closest) });
+            }
+        }
+    }
 }
 
 /// The deepest penetration (m, positive inside the clearance) of any node
@@ -230,6 +265,11 @@ pub fn penetration<S: Touching>(body: &S, q: &[f64], scene: &Scene, radius: f64)
                     deepest = deepest.max(radius - distance);
                 }
             }
+        }
+    }
+    for (_, rims) in body.free_cup_rims(q) {
+        for p in rims {
+            deepest = deepest.max(-scene.signed_distance(p).0);
         }
     }
     deepest

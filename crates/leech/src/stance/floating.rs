@@ -1,7 +1,7 @@
 //! The body with a floating driving unit: the chains' angles plus the
 //! unit's pose `(p0, phi0)`, under the weld and the holds.
 
-use super::contact::{chain_terms, ContactRow, Touching};
+use super::contact::{chain_terms, ContactRow, Touching, FRONT_CUP, REAR_CUP};
 use super::hold::{Hold, Pose};
 use crate::body::{Body, WELD_ROWS};
 use crate::chain::Chain;
@@ -32,6 +32,36 @@ pub struct FloatingBody<'a> {
     hold: Hold,
     approach: Approach,
     contacts: Vec<ContactRow>,
+    faces: Option<CupFaces>,
+}
+
+/// Where the cups' faces sit, for a body whose free cups rest on surfaces:
+/// the rear face's centre `rear_m` from `p0` along `nu(phi0)`, the front
+/// face's `front_m` from the endpoint along `nu` of the plate, each face
+/// `half_width_m` each way along its direction (its rims).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CupFaces {
+    /// The rear face's centre from `p0` along `nu(phi0)` (m): `b + rear_offset`.
+    pub rear_m: f64,
+    /// The front face's centre from the endpoint along `nu` of the plate (m): `c + front_offset`.
+    pub front_m: f64,
+    /// Half the cup's diameter (m).
+    pub half_width_m: f64,
+}
+
+impl CupFaces {
+    /// A rim `x = o + d nu(a) + s w e(a)` of a face along `a` (rad) at `d`
+    /// from the frame's origin `o` (`s = -1` behind, `+1` ahead), with its
+    /// first two derivatives in `a`.
+    fn rim(origin: Vec2, d: f64, w: f64, a: f64) -> [Vec2; 3] {
+        let [c, s] = unit(a);
+        // nu = (s, -c), e = (c, s); nu' = e, e' = (-s, c), nu'' = e', e'' = -e.
+        [
+            [origin[0] + d * s + w * c, origin[1] - d * c + w * s],
+            [d * c - w * s, d * s + w * c],
+            [-d * s - w * c, d * c - w * s],
+        ]
+    }
 }
 
 /// One chain's attachment to the driving unit.
@@ -63,7 +93,28 @@ impl<'a> FloatingBody<'a> {
     /// pose: A's clamp point and direction), with base spacing `b` (m), the
     /// driving unit's mass (kg) at the midpoint of the clamps, and `hold`.
     pub fn new(body: &'a Body, base_spacing: f64, unit_mass: f64, hold: Hold, approach: Approach) -> FloatingBody<'a> {
-        FloatingBody { body, base_spacing, unit_mass, hold, approach, contacts: Vec::new() }
+        FloatingBody { body, base_spacing, unit_mass, hold, approach, contacts: Vec::new(), faces: None }
+    }
+
+    /// The same body with the cups' faces in the world: a cup that does not
+    /// hold rests on what its face meets (its rims get contact rows).
+    pub fn with_cup_faces(mut self, faces: CupFaces) -> Self {
+        self.faces = Some(faces);
+        self
+    }
+
+    /// The rims of the face of the free `cup` ([`REAR_CUP`] or
+    /// [`FRONT_CUP`]), behind then ahead, each with its derivatives in its
+    /// frame's angle (`phi0`, or chain A's last angle).
+    fn rims(&self, q: &[f64], cup: usize) -> [[Vec2; 3]; 2] {
+        let faces = self.faces.expect("cup faces");
+        let n = self.chains();
+        let (origin, d, a) = if cup == REAR_CUP {
+            ([q[n], q[n + 1]], faces.rear_m, q[n + 2])
+        } else {
+            (self.endpoint(q), faces.front_m, q[self.body.chain_a().len() - 1])
+        };
+        [-1.0, 1.0].map(|side| CupFaces::rim(origin, d, side * faces.half_width_m, a))
     }
 
     /// The same body with these contact rows (after the holds' rows).
@@ -336,7 +387,11 @@ impl Constraints for FloatingBody<'_> {
         }
         let first = self.contact_row();
         for (i, contact) in self.contacts.iter().enumerate() {
-            self.contact_terms(q, first + i, contact, ev);
+            match contact.chain {
+                REAR_CUP => self.rear_rim_terms(q, first + i, contact, ev),
+                FRONT_CUP => self.front_rim_terms(q, first + i, contact, ev),
+                _ => self.contact_terms(q, first + i, contact, ev),
+            }
         }
     }
 }
@@ -387,6 +442,30 @@ impl FloatingBody<'_> {
         ev.curvature[(n + 2) * m + row] = dot(normal, d2);
     }
 
+    /// A row on the free rear cup's rim: `x = p0 + d nu(phi0) + s w e(phi0)`.
+    fn rear_rim_terms(&self, q: &[f64], row: usize, contact: &ContactRow, ev: &mut Evaluation) {
+        let (n, m, normal) = (self.chains(), ev.rows(), contact.normal);
+        let [x, dx, ddx] = self.rims(q, REAR_CUP)[contact.link];
+        ev.constraints[row] = dot(normal, x) - contact.offset;
+        ev.jacobian[n * m + row] = normal[0];
+        ev.jacobian[(n + 1) * m + row] = normal[1];
+        ev.jacobian[(n + 2) * m + row] = dot(normal, dx);
+        ev.curvature[(n + 2) * m + row] = dot(normal, ddx);
+    }
+
+    /// A row on the free front cup's rim: chain A's tip (as a contact there)
+    /// plus `d nu(theta) + s w e(theta)`, `theta` chain A's last angle.
+    fn front_rim_terms(&self, q: &[f64], row: usize, contact: &ContactRow, ev: &mut Evaluation) {
+        let m = ev.rows();
+        let last = self.body.chain_a().len() - 1;
+        let tip = ContactRow { chain: 0, link: last, fraction: 1.0, ..*contact };
+        self.contact_terms(q, row, &tip, ev);
+        let [x, dx, ddx] = self.rims(q, FRONT_CUP)[contact.link];
+        ev.constraints[row] = dot(contact.normal, x) - contact.offset;
+        ev.jacobian[last * m + row] += dot(contact.normal, dx);
+        ev.curvature[last * m + row] += dot(contact.normal, ddx);
+    }
+
     /// Where contact row `contact` touches (m).
     pub fn contact_point(&self, q: &[f64], contact: &ContactRow) -> Vec2 {
         Touching::contact_point(self, q, contact)
@@ -419,6 +498,13 @@ impl Touching for FloatingBody<'_> {
     /// link, chain A's by the hold and chain B's by the weld: a contact row
     /// there would be a combination of their rows (a singular Jacobian), and
     /// a surface's push there is part of the front reaction.
+    /// The free cups' rims, when the faces are known.
+    fn free_cup_rims(&self, q: &[f64]) -> Vec<(usize, [Vec2; 2])> {
+        let Some(_) = self.faces else { return Vec::new() };
+        let free = [(REAR_CUP, self.hold.rear().is_none()), (FRONT_CUP, self.hold.front().is_none())];
+        free.iter().filter(|(_, free)| *free).map(|&(cup, _)| (cup, self.rims(q, cup).map(|r| r[0]))).collect()
+    }
+
     fn held_by_front(&self, c: usize, link: usize, fraction: f64) -> bool {
         let n = self.chain_len(c);
         self.hold.front().is_some() && (link + 1 == n || (link + 2 == n && fraction >= 1.0))

@@ -63,9 +63,9 @@ mod points;
 mod scene_solve;
 pub mod tube;
 
-pub use contact::{detect, penetration, swept_clear, ContactOptions, ContactRow, Touching};
+pub use contact::{detect, penetration, swept_clear, ContactOptions, ContactRow, Touching, FRONT_CUP, REAR_CUP};
 pub use feeding::{FEED_STEP_M, MIN_FEED_STEP_M};
-pub use floating::{Approach, FloatingBody, FREE, HOLD_ROWS};
+pub use floating::{Approach, CupFaces, FloatingBody, FREE, HOLD_ROWS};
 pub use hold::{Hold, Pose};
 pub use tube::{tube_in, Tube, TubeHeld, TUBE_FEED_START_M};
 
@@ -112,15 +112,17 @@ pub struct Held {
     pub contacts: Vec<ContactForce>,
 }
 
-/// A surface pushing on a tube.
+/// A surface pushing on a tube, or on the face of a cup that does not hold.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct ContactForce {
-    /// `"a"` (centre tube) or `"b"` (side pair); empty for the single tube
-    /// ([`Tube`]), which has one chain (and then left out of JSON).
+    /// `"a"` (centre tube) or `"b"` (side pair), `"rear_cup"` or
+    /// `"front_cup"` (a face's rim); empty for the single tube ([`Tube`]),
+    /// which has one chain (and then left out of JSON).
     #[serde(skip_serializing_if = "str::is_empty")]
     pub chain: &'static str,
     /// The node (0 is the clamp; node `i` the tip of link `i`); for a corner
-    /// touching a link between nodes, the link's start node.
+    /// touching a link between nodes, the link's start node; on a cup's
+    /// face, the rim (0 behind, 1 ahead).
     pub node: usize,
     /// How far along the link from that node the point is (0 at a node).
     pub fraction: f64,
@@ -279,6 +281,28 @@ pub fn front_cup_centre(robot: &Robot, endpoint: Pose) -> Vec2 {
     crate::geom::add_scaled(endpoint.point_m, d, crate::geom::right_normal(endpoint.angle_rad))
 }
 
+/// What besides the tubes touches a scene's solids.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FreeCups {
+    /// Only the tubes (the validated model of the holds-and-contacts references).
+    #[default]
+    PassThrough,
+    /// The face of a cup that does not hold rests on what it meets too (its
+    /// two rims get contact rows, no clearance): a released cup lying on a
+    /// floor or pressed on a wall, as the climb planner needs.
+    Rest,
+}
+
+impl FreeCups {
+    /// `floating` with `robot`'s cup faces when they rest on the solids.
+    fn on<'a>(self, robot: &Robot, floating: FloatingBody<'a>) -> FloatingBody<'a> {
+        match self {
+            FreeCups::Rest => floating.with_cup_faces(cup_faces(robot)),
+            FreeCups::PassThrough => floating,
+        }
+    }
+}
+
 /// [`solve`] among the solids of `scene`: the tubes keep their radius of
 /// clearance and rest on what they touch (see [`detect`]).
 ///
@@ -295,6 +319,18 @@ pub fn solve_in(
     scene: &Scene,
     solver: &Solver,
 ) -> Result<Held, StanceError> {
+    solve_among(robot, lengths, hold, scene, solver, FreeCups::PassThrough)
+}
+
+/// [`solve_in`], with the free cups' faces touching the solids as `cups` says.
+pub fn solve_among(
+    robot: &Robot,
+    lengths: [f64; 2],
+    hold: Hold,
+    scene: &Scene,
+    solver: &Solver,
+    cups: FreeCups,
+) -> Result<Held, StanceError> {
     let (b, unit_mass) = (robot.body.base_spacing_m, robot.driving_unit.mass_kg);
     let radius = 0.5 * robot.tube.outer_diameter_m;
     let first = match hold {
@@ -303,20 +339,30 @@ pub fn solve_in(
     };
     let short = robot.limits.tube_length_min_m.min(lengths[0]).min(lengths[1]);
     let start = solve(robot, [short; 2], first, solver)?;
-    let fed = BodyFeed { robot, hold: first, from: [short; 2], to: lengths };
+    let fed = BodyFeed { robot, hold: first, from: [short; 2], to: lengths, cups };
     let end = Feeding { fed, scene, radius, solver }.run(start.body, start.equilibrium.q)?;
     let body = end.shape;
-    let floating = FloatingBody::new(&body, b, unit_mass, first, Approach::Load).with_contacts(end.contacts);
+    let floating =
+        cups.on(robot, FloatingBody::new(&body, b, unit_mass, first, Approach::Load)).with_contacts(end.contacts);
     let settled = scene_solve::Settled { system: floating, equilibrium: end.equilibrium };
     let Hold::Both { rear, front } = hold else { return Ok(Held::settled(settled)) };
     let from = Pose {
         point_m: settled.system.endpoint(&settled.equilibrium.q),
         angle_rad: body.endpoint_angle(&settled.equilibrium.q),
     };
-    let both = FloatingBody::new(&body, b, unit_mass, hold, Approach::Front(from));
+    let both = cups.on(robot, FloatingBody::new(&body, b, unit_mass, hold, Approach::Front(from)));
     match scene_solve::approached(both, settled.equilibrium.q, scene, radius, solver) {
         Ok(approached) => Ok(Held::settled(approached)),
         Err(e) => Err(beyond_reach(e, &body, rear, front)),
+    }
+}
+
+/// Where `robot`'s cup faces sit on the driving unit and the plate.
+pub fn cup_faces(robot: &Robot) -> CupFaces {
+    CupFaces {
+        rear_m: robot.body.base_spacing_m + robot.cup.rear_offset_m,
+        front_m: robot.body.tip_spacing_m + robot.cup.front_offset_m,
+        half_width_m: 0.5 * robot.cup.diameter_m,
     }
 }
 
@@ -326,6 +372,7 @@ struct BodyFeed<'a> {
     hold: Hold,
     from: [f64; 2],
     to: [f64; 2],
+    cups: FreeCups,
 }
 
 impl Fed for BodyFeed<'_> {
@@ -347,7 +394,7 @@ impl Fed for BodyFeed<'_> {
 
     fn system<'s>(&self, body: &'s Body) -> FloatingBody<'s> {
         let (b, unit_mass) = (self.robot.body.base_spacing_m, self.robot.driving_unit.mass_kg);
-        FloatingBody::new(body, b, unit_mass, self.hold, Approach::Load)
+        self.cups.on(self.robot, FloatingBody::new(body, b, unit_mass, self.hold, Approach::Load))
     }
 
     /// The chains' angles carried over, the driving unit's pose kept.
@@ -407,7 +454,12 @@ impl Held {
         let rear = hold.rear().map(|_| reaction(WELD_ROWS));
         let front_row = WELD_ROWS + if rear.is_some() { HOLD_ROWS } else { 0 };
         let front = hold.front().map(|_| reaction(front_row));
-        let contacts = scene_solve::contact_forces(floating, &equilibrium, |c| if c == 0 { "a" } else { "b" });
+        let contacts = scene_solve::contact_forces(floating, &equilibrium, |c| match c {
+            0 => "a",
+            1 => "b",
+            contact::REAR_CUP => "rear_cup",
+            _ => "front_cup",
+        });
         Held {
             contacts,
             hold,

@@ -2,7 +2,7 @@
 //! scene's solids: the load (or the front hold's approach) applied in
 //! stages, the contact rows refreshed at each until they settle.
 
-use super::contact::{detect, penetration, ContactOptions, ContactRow, Touching};
+use super::contact::{detect, on_cup, penetration, ContactOptions, ContactRow, Touching};
 use super::floating::FloatingBody;
 use super::{ContactForce, Held, StanceError};
 use crate::geom::dot;
@@ -32,18 +32,32 @@ pub(super) struct Pushing {
 }
 
 impl Pushing {
+    /// A contact that pushed on `row` of `system` with `force` (N).
+    fn new<S: Touching>(system: &S, row: &ContactRow, force: f64) -> Pushing {
+        // A cup's rim is counted as it is: no links grow in front of it.
+        let from_tip = if on_cup(row.chain) { row.link } else { system.chain_len(row.chain) - 1 - row.link };
+        Pushing { row: *row, from_tip, force }
+    }
+
+    /// Its link in `system` (a cup's rim as it is), where the chain still reaches that far.
+    fn link_in<S: Touching>(&self, system: &S) -> Option<usize> {
+        if on_cup(self.row.chain) {
+            return Some(self.from_tip);
+        }
+        system.chain_len(self.row.chain).checked_sub(self.from_tip + 1)
+    }
+
     /// Whether `row` of `system` touches the same material point on the same surface.
     fn matches<S: Touching>(&self, system: &S, row: &ContactRow) -> bool {
         row.chain == self.row.chain
-            && system.chain_len(row.chain) == row.link + 1 + self.from_tip
+            && self.link_in(system) == Some(row.link)
             && (row.fraction >= 1.0) == (self.row.fraction >= 1.0)
             && dot(row.normal, self.row.normal) > SAME_NORMAL
     }
 
     /// Its row in `system`, where the chain still reaches that far.
     fn row_in<S: Touching>(&self, system: &S) -> Option<ContactRow> {
-        let link = system.chain_len(self.row.chain).checked_sub(self.from_tip + 1)?;
-        Some(ContactRow { link, ..self.row })
+        Some(ContactRow { link: self.link_in(system)?, ..self.row })
     }
 }
 
@@ -55,7 +69,7 @@ impl<S: Touching> Settled<S> {
     /// The contacts that push at the settled equilibrium.
     pub fn pushing(&self) -> Vec<Pushing> {
         pushing_rows(&self.system, &self.equilibrium)
-            .map(|(row, force)| Pushing { row: *row, from_tip: self.system.chain_len(row.chain) - 1 - row.link, force })
+            .map(|(row, force)| Pushing::new(&self.system, row, force))
             .collect()
     }
 }
@@ -84,12 +98,12 @@ pub(super) fn contact_forces<S: Touching>(
 ) -> Vec<ContactForce> {
     pushing_rows(system, equilibrium)
         .map(|(c, force)| {
-            // A row at a link's tip is the next node's.
-            let at_node = c.fraction >= 1.0;
+            // A row at a link's tip is the next node's; a cup's row is its rim.
+            let at_node = c.fraction >= 1.0 && !on_cup(c.chain);
             ContactForce {
                 chain: chain(c.chain),
                 node: if at_node { c.link + 1 } else { c.link },
-                fraction: if at_node { 0.0 } else { c.fraction },
+                fraction: if at_node || on_cup(c.chain) { 0.0 } else { c.fraction },
                 point_m: system.contact_point(&equilibrium.q, c),
                 normal: c.normal,
                 force_n: force,

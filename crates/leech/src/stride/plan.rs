@@ -46,7 +46,7 @@ use crate::error::InputError;
 use crate::geom::{angle_difference, norm, sub, Vec2};
 use crate::robot::Robot;
 use crate::scene::Scene;
-use crate::stance::{self, Held, Hold, Pose, StanceError};
+use crate::stance::{self, FreeCups, Held, Hold, Pose, StanceError};
 use crate::statics::{Event, Solver};
 
 /// A seed's cup must be this close to a surface (m) to start a touchdown search.
@@ -61,10 +61,16 @@ pub const MIN_PROGRESS_M: f64 = 0.005;
 /// The motors' speed the paper drove the tubes at (m/s), for the plan's duration.
 pub const TUBE_SPEED_M_PER_S: f64 = 0.02;
 
+/// The face's tilts off flush a touchdown is laid at (deg): flush, and a
+/// little either way within the usual 5 deg tolerance, for strides of a few
+/// lengths.
+const TILTS_DEG: [f64; 3] = [0.0, -2.5, 2.5];
+
 /// Step of the forward differences in the touchdown Newton (m).
 const DIFFERENCE_M: f64 = 1e-5;
 
-/// A touchdown has converged when the cup's centre is this close to its target (m).
+/// A touchdown has converged when the face's centre is this close to its
+/// line (m) and its angle to its tilt (rad).
 const TOUCHDOWN_TOLERANCE_M: f64 = 1e-7;
 
 /// Newton iterations a touchdown may take.
@@ -477,18 +483,19 @@ impl Planner<'_> {
     /// safety factors; a failure, a snap or a penetration as a rejection.
     fn step(&mut self, phase: Phase, stride: usize, lengths: [f64; 2], hold: Hold) -> Result<Step, Rejection> {
         self.solves += 1;
-        let held = stance::solve_in(self.robot, lengths, hold, self.scene, &self.options.solver).map_err(|e| {
-            let blocking = match &e {
-                StanceError::Solve(s) if s.to_string().contains("through a solid") => Blocking::Collision,
-                StanceError::Input(_) => Blocking::Collision,
-                _ => Blocking::Snap,
-            };
-            Rejection {
-                blocking,
-                phase,
-                detail: format!("{} at lengths {:.4}/{:.4} m: {e}", hold.name(), lengths[0], lengths[1]),
-            }
-        })?;
+        let held = stance::solve_among(self.robot, lengths, hold, self.scene, &self.options.solver, FreeCups::Rest)
+            .map_err(|e| {
+                let blocking = match &e {
+                    StanceError::Solve(s) if s.to_string().contains("through a solid") => Blocking::Collision,
+                    StanceError::Input(_) => Blocking::Collision,
+                    _ => Blocking::Snap,
+                };
+                Rejection {
+                    blocking,
+                    phase,
+                    detail: format!("{} at lengths {:.4}/{:.4} m: {e}", hold.name(), lengths[0], lengths[1]),
+                }
+            })?;
         let (rear, front) = held.cups(self.robot).map_err(|e| Rejection {
             blocking: Blocking::CupForce,
             phase,
@@ -549,8 +556,10 @@ impl Planner<'_> {
                 blocking: Blocking::Collision,
                 phase: step.phase,
                 detail: format!(
-                    "among the solids the {cup} cup no longer lies flush at ({:.3}, {:.3}) m",
-                    centre[0], centre[1]
+                    "among the solids the {cup} cup no longer lies flush at ({:.4}, {:.4}) m, its face at {:.2} deg",
+                    centre[0],
+                    centre[1],
+                    angle.to_degrees()
                 ),
             })
         }
@@ -584,18 +593,21 @@ impl Planner<'_> {
                 if distance.abs() > SEED_DISTANCE_M || off > SEED_ANGLE_DEG.to_radians() {
                     continue;
                 }
-                let Some(lengths) = self.place(holding, moving, seed, target) else { continue };
-                if found.iter().any(|(l, _)| {
-                    (l[0] - lengths[0]).abs() < SAME_TOUCHDOWN_M && (l[1] - lengths[1]).abs() < SAME_TOUCHDOWN_M
-                }) {
-                    continue;
-                }
-                let Some((centre, angle)) = self.face(holding, moving, lengths) else { continue };
-                if !self.flush(centre, angle) {
-                    continue;
-                }
-                if let Some((on, direction)) = self.scene.surface_frame(centre) {
-                    found.push((lengths, Foothold { centre_m: on, direction_rad: direction }));
+                for tilt in TILTS_DEG {
+                    let Some(lengths) = self.lay(holding, moving, seed, target, direction, tilt.to_radians()) else {
+                        continue;
+                    };
+                    let same = |l: &[f64; 2]| (0..2).all(|k| (l[k] - lengths[k]).abs() < SAME_TOUCHDOWN_M);
+                    if found.iter().any(|(l, _)| same(l)) {
+                        continue;
+                    }
+                    let Some((centre, angle)) = self.face(holding, moving, lengths) else { continue };
+                    if !self.flush(centre, angle) {
+                        continue;
+                    }
+                    if let Some((on, direction)) = self.scene.surface_frame(centre) {
+                        found.push((lengths, Foothold { centre_m: on, direction_rad: direction }));
+                    }
                 }
             }
             if self.out_of_time() {
@@ -612,16 +624,31 @@ impl Planner<'_> {
         Some(cup_face(self.robot, &held, moving))
     }
 
-    /// Newton on the two lengths from `seed` putting the moving cup's centre
-    /// at `target`; the lengths kept within the range.
-    fn place(&mut self, holding: Hold, moving: Cup, seed: [f64; 2], target: Vec2) -> Option<[f64; 2]> {
+    /// Newton on the two lengths from `seed` laying the moving cup's face on
+    /// the line through `on` along `direction` (rad): its centre on the line
+    /// and its angle `tilt` (rad) off the line's; the lengths kept within the
+    /// range.
+    fn lay(
+        &mut self,
+        holding: Hold,
+        moving: Cup,
+        seed: [f64; 2],
+        on: Vec2,
+        direction: f64,
+        tilt: f64,
+    ) -> Option<[f64; 2]> {
         let limits = &self.robot.limits;
         let (lo, hi) = (limits.tube_length_min_m, limits.tube_length_max_m);
+        let normal = crate::geom::right_normal(direction);
+        let residual = |planner: &mut Self, l: [f64; 2]| -> Option<[f64; 2]> {
+            let (c, angle) = planner.face(holding, moving, l)?;
+            // The centre's height above the line (m), and the tilt error (rad).
+            Some([-crate::geom::dot(normal, sub(c, on)), angle_difference(angle, direction) - tilt])
+        };
         let mut l = seed;
         for _ in 0..TOUCHDOWN_ITERATIONS {
-            let (c, _) = self.face(holding, moving, l)?;
-            let r = sub(c, target);
-            if norm(r) < TOUCHDOWN_TOLERANCE_M {
+            let r = residual(self, l)?;
+            if r[0].abs() < TOUCHDOWN_TOLERANCE_M && r[1].abs() < TOUCHDOWN_TOLERANCE_M {
                 return Some(l);
             }
             // Forward differences, stepping inwards at the range's ends.
@@ -630,12 +657,12 @@ impl Planner<'_> {
                 let h = if l[k] + DIFFERENCE_M > hi { -DIFFERENCE_M } else { DIFFERENCE_M };
                 let mut lk = l;
                 lk[k] += h;
-                let (ck, _) = self.face(holding, moving, lk)?;
-                jac[0][k] = (ck[0] - c[0]) / h;
-                jac[1][k] = (ck[1] - c[1]) / h;
+                let rk = residual(self, lk)?;
+                jac[0][k] = (rk[0] - r[0]) / h;
+                jac[1][k] = (rk[1] - r[1]) / h;
             }
             let det = jac[0][0] * jac[1][1] - jac[0][1] * jac[1][0];
-            if !(det.abs() > 1e-12) {
+            if !(det.abs() > 1e-14) {
                 return None;
             }
             let d = [(-r[0] * jac[1][1] + r[1] * jac[0][1]) / det, (r[0] * jac[1][0] - r[1] * jac[0][0]) / det];

@@ -331,6 +331,37 @@ proptest! {
         check_system(&floating, &q, t)?;
     }
 
+    /// The rows on the rims of the free cups' faces (the rear cup's with the
+    /// rear released, the front cup's with the front released), both rims.
+    #[test]
+    fn cup_rim_derivatives(
+        la in 0.03f64..0.075,
+        lb in 0.03f64..0.075,
+        clamp_deg in -180.0f64..180.0,
+        d in discretization(),
+        seed in prop::collection::vec(-4.0f64..7.0, 20),
+        pose in prop::collection::vec(-1.0f64..1.0, 3),
+        front_free in any::<bool>(),
+        t in 0.1f64..1.0,
+    ) {
+        use leech::stance::{cup_faces, Approach, ContactRow, FloatingBody, Hold, Pose, FRONT_CUP, REAR_CUP};
+        let robot = Robot::builtin().with_base_angle(clamp_deg).unwrap().with_discretization(d);
+        let body = robot.body(la, lb).unwrap();
+        let held = Pose { point_m: [pose[0], pose[1]], angle_rad: pose[2] };
+        let (hold, cup) = if front_free { (Hold::Rear(held), FRONT_CUP) } else { (Hold::Front(held), REAR_CUP) };
+        let contacts = vec![
+            ContactRow { chain: cup, link: 0, fraction: 1.0, normal: [0.6, 0.8], offset: 0.01 },
+            ContactRow { chain: cup, link: 1, fraction: 1.0, normal: [-0.8, 0.6], offset: -0.02 },
+        ];
+        let floating = FloatingBody::new(&body, robot.body.base_spacing_m, 0.25, hold, Approach::Load)
+            .with_cup_faces(cup_faces(&robot))
+            .with_contacts(contacts);
+        let n = body.dim();
+        let mut q: Vec<f64> = seed[..n].to_vec();
+        q.extend([pose[0] + 0.1, pose[1] - 0.05, pose[2] + 0.2]);
+        check_system(&floating, &q, t)?;
+    }
+
     /// The single tube's contact rows: a node row and a row part-way along a
     /// link, on the cantilever's potential.
     #[test]

@@ -187,3 +187,33 @@ fn too_many_active_rows_are_not_stable_and_do_not_panic() {
     let out = Solver::default().finish(&floating, it, 0.0, &mut ws);
     assert!(!out.stable);
 }
+
+/// The front cup holds on a floor and the rear cup is released: without
+/// its face as a contact body the driving unit hangs through the floor; with
+/// it (`FreeCups::Rest`) the rear cup's face rests on the floor, nothing
+/// penetrates, and holds and contacts carry the weight.
+#[test]
+fn a_released_rear_cup_rests_on_the_floor() {
+    use leech::scene::Scene;
+    use leech::stance::{cup_faces, FreeCups};
+    let robot = Robot::builtin();
+    let floor = Scene::builtin("floor").unwrap();
+    let front = stance::front_pose_for_cup(&robot, [0.15, 0.0], 0.0);
+    let solver = Solver::default();
+    let through = stance::solve_in(&robot, [0.05, 0.05], Hold::Front(front), &floor, &solver).unwrap();
+    assert!(through.rear_cup_m(&robot)[1] < -0.005, "the unit hangs through: {:?}", through.rear_cup_m(&robot));
+    let held = stance::solve_among(&robot, [0.05, 0.05], Hold::Front(front), &floor, &solver, FreeCups::Rest).unwrap();
+    let rims: Vec<_> = held.contacts.iter().filter(|c| c.chain == "rear_cup").collect();
+    assert!(!rims.is_empty(), "{:?}", held.contacts);
+    let faces = cup_faces(&robot);
+    for side in [-1.0, 1.0] {
+        let u = leech::geom::unit(held.unit.angle_rad);
+        let nu = leech::geom::right_normal(held.unit.angle_rad);
+        let rim = [0, 1].map(|i| held.unit.point_m[i] + faces.rear_m * nu[i] + side * faces.half_width_m * u[i]);
+        assert!(rim[1] > -1e-9, "rim {rim:?} in the floor");
+    }
+    for c in &rims {
+        assert!(c.force_n > 0.0 && c.point_m[1].abs() < 1e-9, "{c:?}");
+    }
+    check_balance(&held);
+}
