@@ -66,6 +66,19 @@ pub const TUBE_SPEED_M_PER_S: f64 = 0.02;
 /// lengths.
 const TILTS_DEG: [f64; 3] = [0.0, -2.5, 2.5];
 
+/// A touchdown lays the face's lower rim this far above its surface (m): close enough
+/// to seal (within the distance tolerance), clear enough that the face meets
+/// the surface flat, not on one rim first.
+pub const HOVER_M: f64 = 0.0005;
+
+/// Lengths beyond the shortest (m), both tubes, from which a resting rear
+/// face is laid flat, the largest difference between the tubes tried (m),
+/// the tries, and the tilt (deg) that counts as flat.
+const RESTING_BASES_M: [f64; 6] = [0.0, 0.02, 0.04, 0.06, 0.08, 0.1];
+const RESTING_DIFFERENCE_M: f64 = 0.015;
+const RESTING_TRIES: usize = 8;
+const RESTING_TILT_DEG: f64 = 1.0;
+
 /// Step of the forward differences in the touchdown Newton (m).
 const DIFFERENCE_M: f64 = 1e-5;
 
@@ -405,8 +418,7 @@ impl Planner<'_> {
         let rear = stance.unit;
         let mut steps = Vec::new();
         let result = (|| {
-            let push = self.step(Phase::Push, stride, lengths, Hold::Rear(rear))?;
-            self.flush_after(&push, Cup::Front)?;
+            let push = self.touch_down(Phase::Push, stride, lengths, Hold::Rear(rear), Cup::Front)?;
             // The cup seals where the face came to rest (its lip takes up what
             // is left of the tolerances), pressed on by the preload.
             let front_pose =
@@ -425,16 +437,19 @@ impl Planner<'_> {
             let mut pulls = self.touchdowns(Hold::Front(front_pose), Cup::Rear).map_err(input_rejection)?;
             let goal = self.goal.point_m;
             pulls.sort_by(|a, b| norm(sub(a.1.centre_m, goal)).total_cmp(&norm(sub(b.1.centre_m, goal))));
+            // Where the released unit rests on a surface (a floor), no free
+            // touchdown exists: the face lies down among the solids.
+            if pulls.is_empty() {
+                pulls = self.resting_touchdowns(Hold::Front(front_pose));
+            }
             let mut last = Rejection {
                 blocking: Blocking::Reach,
                 phase: Phase::Pull,
                 detail: "no rear touchdown within the tube length range with the front cup holding".into(),
             };
-            for (pulled, new_rear) in pulls.into_iter().take(self.options.candidates) {
+            for (pulled, new_rear) in pulls {
                 let attempt = (|| {
-                    let pull = self.step(Phase::Pull, stride, pulled, Hold::Front(front_pose))?;
-                    self.holding_safe(&pull, Phase::Pull)?;
-                    self.flush_after(&pull, Cup::Rear)?;
+                    let pull = self.touch_down(Phase::Pull, stride, pulled, Hold::Front(front_pose), Cup::Rear)?;
                     let unit = pressed(robot, pull.held.unit, new_rear);
                     let mut m = machine;
                     self.guard(&mut m, Phase::AttachRear, Command::Attach { cup: Cup::Rear, flush: true })?;
@@ -465,6 +480,21 @@ impl Planner<'_> {
             let lengths = all.last().map_or(stance.lengths, |s| s.lengths_m);
             Stance { rear: new_rear, unit, lengths, steps: all, strides: stride }
         }))
+    }
+
+    /// The phase that brings `moving` down at `to` (lengths, m) among the
+    /// solids: its face must lie flush there too.
+    fn touch_down(
+        &mut self,
+        phase: Phase,
+        stride: usize,
+        to: [f64; 2],
+        hold: Hold,
+        moving: Cup,
+    ) -> Result<Step, Rejection> {
+        let step = self.step(phase, stride, to, hold)?;
+        self.flush_after(&step, moving)?;
+        Ok(step)
     }
 
     /// Applies `command` to the interlock, a refusal as a rejection.
@@ -617,6 +647,59 @@ impl Planner<'_> {
         Ok(found)
     }
 
+    /// The rear cup's touchdowns among the solids with the front held by
+    /// `holding`, where the released unit rests on a surface: for tube
+    /// lengths near the shortest ([`RESTING_BASES_M`] above it), the
+    /// difference between the tubes that lays the resting face flat
+    /// (regula falsi on its tilt, within [`RESTING_DIFFERENCE_M`]).
+    fn resting_touchdowns(&mut self, holding: Hold) -> Vec<([f64; 2], Foothold)> {
+        let lo = self.robot.limits.tube_length_min_m;
+        let mut found = Vec::new();
+        for base in RESTING_BASES_M {
+            let at = |x: f64| [lo + base + x.max(0.0), lo + base + (-x).max(0.0)];
+            let tilt = |planner: &mut Self, x: f64| -> Option<(f64, Vec2)> {
+                planner.solves += 1;
+                let held = stance::solve_among(
+                    planner.robot,
+                    at(x),
+                    holding,
+                    planner.scene,
+                    &planner.options.solver,
+                    FreeCups::Rest,
+                )
+                .ok()?;
+                let (centre, angle) = cup_face(planner.robot, &held, Cup::Rear);
+                let (_, direction) = planner.scene.surface_frame(centre)?;
+                Some((angle_difference(angle, direction), centre))
+            };
+            let Some(mid) = tilt(self, 0.0) else { continue };
+            // The side whose tilt has the other sign brackets a flat face.
+            let side = if mid.0 > 0.0 { -RESTING_DIFFERENCE_M } else { RESTING_DIFFERENCE_M };
+            let Some(end) = tilt(self, side) else { continue };
+            if end.0.signum() == mid.0.signum() {
+                continue;
+            }
+            let (mut a, mut b) = ((0.0, mid), (side, end));
+            for _ in 0..RESTING_TRIES {
+                let x = a.0 - a.1 .0 * (b.0 - a.0) / (b.1 .0 - a.1 .0);
+                let Some(now) = tilt(self, x) else { break };
+                let (centre, angle) = (now.1, now.0);
+                if angle.abs() < RESTING_TILT_DEG.to_radians() {
+                    if let Some((on, direction)) = self.scene.surface_frame(centre) {
+                        found.push((at(x), Foothold { centre_m: on, direction_rad: direction }));
+                    }
+                    break;
+                }
+                if now.0.signum() == a.1 .0.signum() {
+                    a = (x, now);
+                } else {
+                    b = (x, now);
+                }
+            }
+        }
+        found
+    }
+
     /// The moving cup's face (centre, angle) at `lengths` in free space.
     fn face(&mut self, holding: Hold, moving: Cup, lengths: [f64; 2]) -> Option<(Vec2, f64)> {
         self.solves += 1;
@@ -625,9 +708,9 @@ impl Planner<'_> {
     }
 
     /// Newton on the two lengths from `seed` laying the moving cup's face on
-    /// the line through `on` along `direction` (rad): its centre on the line
-    /// and its angle `tilt` (rad) off the line's; the lengths kept within the
-    /// range.
+    /// the line through `on` along `direction` (rad): its lower rim [`HOVER_M`]
+    /// above the line and its angle `tilt` (rad) off the line's; the lengths
+    /// kept within the range.
     fn lay(
         &mut self,
         holding: Hold,
@@ -640,10 +723,12 @@ impl Planner<'_> {
         let limits = &self.robot.limits;
         let (lo, hi) = (limits.tube_length_min_m, limits.tube_length_max_m);
         let normal = crate::geom::right_normal(direction);
+        // The lower rim HOVER_M above the line.
+        let height = HOVER_M + 0.5 * self.robot.cup.diameter_m * tilt.sin().abs();
         let residual = |planner: &mut Self, l: [f64; 2]| -> Option<[f64; 2]> {
             let (c, angle) = planner.face(holding, moving, l)?;
             // The centre's height above the line (m), and the tilt error (rad).
-            Some([-crate::geom::dot(normal, sub(c, on)), angle_difference(angle, direction) - tilt])
+            Some([-crate::geom::dot(normal, sub(c, on)) - height, angle_difference(angle, direction) - tilt])
         };
         let mut l = seed;
         for _ in 0..TOUCHDOWN_ITERATIONS {
