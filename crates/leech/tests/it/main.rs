@@ -1,6 +1,7 @@
 //! Integration tests of the `leech` library: one binary, one module per topic.
 
 mod calibration;
+mod climb;
 mod constant_curvature;
 mod continuum;
 mod cup;
