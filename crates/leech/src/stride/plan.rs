@@ -72,12 +72,15 @@ const TILTS_DEG: [f64; 3] = [0.0, -2.5, 2.5];
 pub const HOVER_M: f64 = 0.0005;
 
 /// Lengths beyond the shortest (m), both tubes, from which a resting rear
-/// face is laid flat, the largest difference between the tubes tried (m),
-/// the tries, and the tilt (deg) that counts as flat.
-const RESTING_BASES_M: [f64; 6] = [0.0, 0.02, 0.04, 0.06, 0.08, 0.1];
-const RESTING_DIFFERENCE_M: f64 = 0.015;
-const RESTING_TRIES: usize = 8;
-const RESTING_TILT_DEG: f64 = 1.0;
+/// face is laid flat; the step and the largest difference between the tubes
+/// tried (m).
+const RESTING_BASES_M: [f64; 11] = [0.0, 0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.09, 0.1];
+const RESTING_STEP_M: f64 = 0.002;
+const RESTING_DIFFERENCE_M: f64 = 0.016;
+
+/// Lengths (m, both tubes) from which a front face resting on a surface is
+/// laid flat when no free touchdown exists.
+const FRONT_BASES_M: [f64; 5] = [0.1, 0.15, 0.2, 0.25, 0.3];
 
 /// Step of the forward differences in the touchdown Newton (m).
 const DIFFERENCE_M: f64 = 1e-5;
@@ -371,6 +374,11 @@ impl Planner<'_> {
     fn strides_from(&mut self, stance: &Stance, reason: &mut Option<Rejection>) -> Result<Vec<Stance>, InputError> {
         let holding = Hold::Rear(stance.unit);
         let mut touchdowns = self.touchdowns(holding, Cup::Front)?;
+        // A face that cannot land flush in free space may be pressed flat
+        // onto a surface it rests on.
+        if touchdowns.is_empty() {
+            touchdowns = self.resting_touchdowns(holding, Cup::Front, &FRONT_BASES_M);
+        }
         if touchdowns.is_empty() {
             *reason = Some(Rejection {
                 blocking: Blocking::Reach,
@@ -440,7 +448,9 @@ impl Planner<'_> {
             // Where the released unit rests on a surface (a floor), no free
             // touchdown exists: the face lies down among the solids.
             if pulls.is_empty() {
-                pulls = self.resting_touchdowns(Hold::Front(front_pose));
+                let lo = robot.limits.tube_length_min_m;
+                pulls = self.resting_touchdowns(Hold::Front(front_pose), Cup::Rear, &RESTING_BASES_M.map(|b| lo + b));
+                pulls.sort_by(|a, b| norm(sub(a.1.centre_m, goal)).total_cmp(&norm(sub(b.1.centre_m, goal))));
             }
             let mut last = Rejection {
                 blocking: Blocking::Reach,
@@ -647,54 +657,66 @@ impl Planner<'_> {
         Ok(found)
     }
 
-    /// The rear cup's touchdowns among the solids with the front held by
-    /// `holding`, where the released unit rests on a surface: for tube
-    /// lengths near the shortest ([`RESTING_BASES_M`] above it), the
-    /// difference between the tubes that lays the resting face flat
-    /// (regula falsi on its tilt, within [`RESTING_DIFFERENCE_M`]).
-    fn resting_touchdowns(&mut self, holding: Hold) -> Vec<([f64; 2], Foothold)> {
-        let lo = self.robot.limits.tube_length_min_m;
+    /// Touchdowns of `moving` among the solids with the other cup held by
+    /// `holding`, where its face comes to rest on a surface (a released unit
+    /// on a floor, a front cup pressed on a wall): from each of `bases` (both
+    /// tubes, m), differences between the tubes from 0 outwards, either way,
+    /// in steps of [`RESTING_STEP_M`] up to [`RESTING_DIFFERENCE_M`], until
+    /// the resting face lies flush; then one secant step on the face's tilt
+    /// from the try before, kept if it lies flatter.
+    fn resting_touchdowns(&mut self, holding: Hold, moving: Cup, bases: &[f64]) -> Vec<([f64; 2], Foothold)> {
+        let limits = &self.robot.limits;
+        let (lo, hi) = (limits.tube_length_min_m, limits.tube_length_max_m);
+        let steps = (RESTING_DIFFERENCE_M / RESTING_STEP_M).round() as usize;
         let mut found = Vec::new();
-        for base in RESTING_BASES_M {
-            let at = |x: f64| [lo + base + x.max(0.0), lo + base + (-x).max(0.0)];
-            let tilt = |planner: &mut Self, x: f64| -> Option<(f64, Vec2)> {
+        for &base in bases {
+            let at = |x: f64| [(base + x.max(0.0)).clamp(lo, hi), (base + (-x).max(0.0)).clamp(lo, hi)];
+            // The resting face's tilt off its surface (rad), whether it lies flush, and the foothold.
+            let rest = |planner: &mut Self, x: f64| -> Option<(f64, bool, Foothold)> {
                 planner.solves += 1;
-                let held = stance::solve_among(
+                let solved = stance::solve_among(
                     planner.robot,
                     at(x),
                     holding,
                     planner.scene,
                     &planner.options.solver,
                     FreeCups::Rest,
-                )
-                .ok()?;
-                let (centre, angle) = cup_face(planner.robot, &held, Cup::Rear);
-                let (_, direction) = planner.scene.surface_frame(centre)?;
-                Some((angle_difference(angle, direction), centre))
+                );
+                let held = solved.ok()?;
+                let (centre, angle) = cup_face(planner.robot, &held, moving);
+                let (on, direction) = planner.scene.surface_frame(centre)?;
+                let foothold = Foothold { centre_m: on, direction_rad: direction };
+                Some((angle_difference(angle, direction), planner.flush(centre, angle), foothold))
             };
-            let Some(mid) = tilt(self, 0.0) else { continue };
-            // The side whose tilt has the other sign brackets a flat face.
-            let side = if mid.0 > 0.0 { -RESTING_DIFFERENCE_M } else { RESTING_DIFFERENCE_M };
-            let Some(end) = tilt(self, side) else { continue };
-            if end.0.signum() == mid.0.signum() {
-                continue;
-            }
-            let (mut a, mut b) = ((0.0, mid), (side, end));
-            for _ in 0..RESTING_TRIES {
-                let x = a.0 - a.1 .0 * (b.0 - a.0) / (b.1 .0 - a.1 .0);
-                let Some(now) = tilt(self, x) else { break };
-                let (centre, angle) = (now.1, now.0);
-                if angle.abs() < RESTING_TILT_DEG.to_radians() {
-                    if let Some((on, direction)) = self.scene.surface_frame(centre) {
-                        found.push((at(x), Foothold { centre_m: on, direction_rad: direction }));
+            let mut before: [Option<(f64, f64)>; 2] = [None, None];
+            'scan: for k in 0..=steps {
+                for (side, sign) in [1.0, -1.0].into_iter().enumerate() {
+                    if k == 0 && side == 1 {
+                        continue;
                     }
-                    break;
+                    let x = sign * k as f64 * RESTING_STEP_M;
+                    let Some((tilt, flush, foothold)) = rest(self, x) else { continue };
+                    if flush {
+                        let mut best = (x, tilt, foothold);
+                        if let Some((x0, t0)) = before[side] {
+                            let secant = x - tilt * (x - x0) / (tilt - t0);
+                            if let Some((t, true, f)) = (secant.is_finite()).then(|| rest(self, secant)).flatten() {
+                                if t.abs() < tilt.abs() {
+                                    best = (secant, t, f);
+                                }
+                            }
+                        }
+                        found.push((at(best.0), best.2));
+                        break 'scan;
+                    }
+                    before[side] = Some((x, tilt));
+                    if k == 0 {
+                        before[1] = Some((x, tilt));
+                    }
                 }
-                if now.0.signum() == a.1 .0.signum() {
-                    a = (x, now);
-                } else {
-                    b = (x, now);
-                }
+            }
+            if self.out_of_time() {
+                break;
             }
         }
         found
