@@ -55,6 +55,9 @@ pub const SEED_DISTANCE_M: f64 = 0.03;
 /// ... and this close to flush (deg).
 pub const SEED_ANGLE_DEG: f64 = 25.0;
 
+/// Seeds a touchdown search starts Newton from, the nearest first.
+pub const SEEDS_TRIED: usize = 4;
+
 /// A stride must bring the rear cup this much closer to the goal (m).
 pub const MIN_PROGRESS_M: f64 = 0.005;
 
@@ -77,6 +80,7 @@ pub const HOVER_M: f64 = 0.0005;
 const RESTING_BASES_M: [f64; 11] = [0.0, 0.01, 0.02, 0.03, 0.04, 0.05, 0.06, 0.07, 0.08, 0.09, 0.1];
 const RESTING_STEP_M: f64 = 0.002;
 const RESTING_DIFFERENCE_M: f64 = 0.016;
+const RESTING_TRIES: usize = 6;
 
 /// Lengths (m, both tubes) from which a front face resting on a surface is
 /// laid flat when no free touchdown exists.
@@ -133,7 +137,7 @@ pub struct PlanOptions {
 
 impl Default for PlanOptions {
     fn default() -> Self {
-        PlanOptions { max_strides: 30, beam: 2, candidates: 3, grid: 11, time_limit: None, solver: Solver::default() }
+        PlanOptions { max_strides: 30, beam: 1, candidates: 2, grid: 11, time_limit: None, solver: Solver::default() }
     }
 }
 
@@ -446,18 +450,28 @@ impl Planner<'_> {
             let goal = self.goal.point_m;
             pulls.sort_by(|a, b| norm(sub(a.1.centre_m, goal)).total_cmp(&norm(sub(b.1.centre_m, goal))));
             // Where the released unit rests on a surface (a floor), no free
-            // touchdown exists: the face lies down among the solids.
-            if pulls.is_empty() {
-                let lo = robot.limits.tube_length_min_m;
-                pulls = self.resting_touchdowns(Hold::Front(front_pose), Cup::Rear, &RESTING_BASES_M.map(|b| lo + b));
-                pulls.sort_by(|a, b| norm(sub(a.1.centre_m, goal)).total_cmp(&norm(sub(b.1.centre_m, goal))));
-            }
+            // touchdown exists: the face lies down among the solids. Those
+            // touchdowns are searched one base at a time, shortest first (the
+            // unit drawn nearest the front cup), until a pull passes.
+            let lo = robot.limits.tube_length_min_m;
+            let bases = if pulls.is_empty() { RESTING_BASES_M.map(|b| lo + b).to_vec() } else { Vec::new() };
+            let mut queue: std::collections::VecDeque<_> = pulls.into();
+            let mut next_base = 0;
             let mut last = Rejection {
                 blocking: Blocking::Reach,
                 phase: Phase::Pull,
                 detail: "no rear touchdown within the tube length range with the front cup holding".into(),
             };
-            for (pulled, new_rear) in pulls {
+            loop {
+                while queue.is_empty() && next_base < bases.len() {
+                    queue.extend(self.resting_touchdowns(
+                        Hold::Front(front_pose),
+                        Cup::Rear,
+                        &bases[next_base..=next_base],
+                    ));
+                    next_base += 1;
+                }
+                let Some((pulled, new_rear)) = queue.pop_front() else { break };
                 let attempt = (|| {
                     let pull = self.touch_down(Phase::Pull, stride, pulled, Hold::Front(front_pose), Cup::Rear)?;
                     let unit = pressed(robot, pull.held.unit, new_rear);
@@ -622,7 +636,10 @@ impl Planner<'_> {
         let limits = &self.robot.limits;
         let (lo, hi) = (limits.tube_length_min_m, limits.tube_length_max_m);
         let n = self.options.grid.max(2);
-        let mut found: Vec<([f64; 2], Foothold)> = Vec::new();
+        // Seeds near a surface and near flush, the nearest (distance plus the
+        // lever of the tilt over the cup's radius) first: neighbouring seeds
+        // lead Newton to the same touchdown, so only the best few start it.
+        let mut seeds = Vec::new();
         for i in 0..n {
             for j in 0..n {
                 let seed = [lo + (hi - lo) * i as f64 / (n - 1) as f64, lo + (hi - lo) * j as f64 / (n - 1) as f64];
@@ -630,24 +647,29 @@ impl Planner<'_> {
                 let Some((target, direction)) = self.scene.surface_frame(centre) else { continue };
                 let (distance, ..) = self.scene.signed_distance(centre);
                 let off = angle_difference(angle, direction).abs();
-                if distance.abs() > SEED_DISTANCE_M || off > SEED_ANGLE_DEG.to_radians() {
+                if distance.abs() <= SEED_DISTANCE_M && off <= SEED_ANGLE_DEG.to_radians() {
+                    let score = distance.abs() + 0.5 * self.robot.cup.diameter_m * off;
+                    seeds.push((score, seed, target, direction));
+                }
+            }
+        }
+        seeds.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut found: Vec<([f64; 2], Foothold)> = Vec::new();
+        for (_, seed, target, direction) in seeds.into_iter().take(SEEDS_TRIED) {
+            for tilt in TILTS_DEG {
+                let Some(lengths) = self.lay(holding, moving, seed, target, direction, tilt.to_radians()) else {
+                    continue;
+                };
+                let same = |l: &[f64; 2]| (0..2).all(|k| (l[k] - lengths[k]).abs() < SAME_TOUCHDOWN_M);
+                if found.iter().any(|(l, _)| same(l)) {
                     continue;
                 }
-                for tilt in TILTS_DEG {
-                    let Some(lengths) = self.lay(holding, moving, seed, target, direction, tilt.to_radians()) else {
-                        continue;
-                    };
-                    let same = |l: &[f64; 2]| (0..2).all(|k| (l[k] - lengths[k]).abs() < SAME_TOUCHDOWN_M);
-                    if found.iter().any(|(l, _)| same(l)) {
-                        continue;
-                    }
-                    let Some((centre, angle)) = self.face(holding, moving, lengths) else { continue };
-                    if !self.flush(centre, angle) {
-                        continue;
-                    }
-                    if let Some((on, direction)) = self.scene.surface_frame(centre) {
-                        found.push((lengths, Foothold { centre_m: on, direction_rad: direction }));
-                    }
+                let Some((centre, angle)) = self.face(holding, moving, lengths) else { continue };
+                if !self.flush(centre, angle) {
+                    continue;
+                }
+                if let Some((on, direction)) = self.scene.surface_frame(centre) {
+                    found.push((lengths, Foothold { centre_m: on, direction_rad: direction }));
                 }
             }
             if self.out_of_time() {
@@ -660,14 +682,13 @@ impl Planner<'_> {
     /// Touchdowns of `moving` among the solids with the other cup held by
     /// `holding`, where its face comes to rest on a surface (a released unit
     /// on a floor, a front cup pressed on a wall): from each of `bases` (both
-    /// tubes, m), differences between the tubes from 0 outwards, either way,
-    /// in steps of [`RESTING_STEP_M`] up to [`RESTING_DIFFERENCE_M`], until
-    /// the resting face lies flush; then one secant step on the face's tilt
-    /// from the try before, kept if it lies flatter.
+    /// tubes, m), the difference between the tubes (secant on the resting
+    /// face's tilt from 0 and [`RESTING_STEP_M`], within
+    /// [`RESTING_DIFFERENCE_M`] either way, at most [`RESTING_TRIES`] solves)
+    /// at which the face lies flush.
     fn resting_touchdowns(&mut self, holding: Hold, moving: Cup, bases: &[f64]) -> Vec<([f64; 2], Foothold)> {
         let limits = &self.robot.limits;
         let (lo, hi) = (limits.tube_length_min_m, limits.tube_length_max_m);
-        let steps = (RESTING_DIFFERENCE_M / RESTING_STEP_M).round() as usize;
         let mut found = Vec::new();
         for &base in bases {
             let at = |x: f64| [(base + x.max(0.0)).clamp(lo, hi), (base + (-x).max(0.0)).clamp(lo, hi)];
@@ -688,31 +709,23 @@ impl Planner<'_> {
                 let foothold = Foothold { centre_m: on, direction_rad: direction };
                 Some((angle_difference(angle, direction), planner.flush(centre, angle), foothold))
             };
-            let mut before: [Option<(f64, f64)>; 2] = [None, None];
-            'scan: for k in 0..=steps {
-                for (side, sign) in [1.0, -1.0].into_iter().enumerate() {
-                    if k == 0 && side == 1 {
-                        continue;
-                    }
-                    let x = sign * k as f64 * RESTING_STEP_M;
-                    let Some((tilt, flush, foothold)) = rest(self, x) else { continue };
-                    if flush {
-                        let mut best = (x, tilt, foothold);
-                        if let Some((x0, t0)) = before[side] {
-                            let secant = x - tilt * (x - x0) / (tilt - t0);
-                            if let Some((t, true, f)) = (secant.is_finite()).then(|| rest(self, secant)).flatten() {
-                                if t.abs() < tilt.abs() {
-                                    best = (secant, t, f);
-                                }
-                            }
-                        }
-                        found.push((at(best.0), best.2));
-                        break 'scan;
-                    }
-                    before[side] = Some((x, tilt));
-                    if k == 0 {
-                        before[1] = Some((x, tilt));
-                    }
+            // Secant on the tilt from the tries at 0 and one step, within the range.
+            let mut tries: Vec<(f64, f64)> = Vec::new();
+            let mut x = 0.0;
+            for _ in 0..RESTING_TRIES {
+                let Some((tilt, flush, foothold)) = rest(self, x) else { break };
+                if flush {
+                    found.push((at(x), foothold));
+                    break;
+                }
+                tries.push((x, tilt));
+                x = match tries.as_slice() {
+                    [.., (x0, t0), (x1, t1)] if (t1 - t0).abs() > 1e-12 => x1 - t1 * (x1 - x0) / (t1 - t0),
+                    [(x0, _)] => x0 + RESTING_STEP_M,
+                    _ => break,
+                };
+                if !(x.abs() <= RESTING_DIFFERENCE_M) {
+                    break;
                 }
             }
             if self.out_of_time() {
