@@ -457,6 +457,7 @@ impl Planner<'_> {
             let bases = if pulls.is_empty() { RESTING_BASES_M.map(|b| lo + b).to_vec() } else { Vec::new() };
             let mut queue: std::collections::VecDeque<_> = pulls.into();
             let mut next_base = 0;
+            let mut best: Option<(f64, Foothold, Pose, [Step; 3])> = None;
             let mut last = Rejection {
                 blocking: Blocking::Reach,
                 phase: Phase::Pull,
@@ -489,14 +490,29 @@ impl Planner<'_> {
                     Ok((unit, [pull, attach, settled]))
                 })();
                 match attempt {
+                    // The first pull that passes draws the unit farthest;
+                    // where that overshoots the goal, longer pulls are tried
+                    // too and the touchdown nearest the goal is kept.
                     Ok((unit, three)) => {
-                        steps.extend(three);
-                        return Ok((new_rear, unit));
+                        let off = norm(sub(new_rear.centre_m, goal));
+                        let beyond = norm(sub(new_rear.centre_m, front.centre_m)) < norm(sub(goal, front.centre_m));
+                        if best.as_ref().is_none_or(|(o, ..)| off < *o) {
+                            best = Some((off, new_rear, unit, three));
+                        }
+                        if off <= self.goal.tolerance_m || !beyond {
+                            break;
+                        }
                     }
                     Err(r) => last = r,
                 }
             }
-            Err(last)
+            match best {
+                Some((_, new_rear, unit, three)) => {
+                    steps.extend(three);
+                    Ok((new_rear, unit))
+                }
+                None => Err(last),
+            }
         })();
         Ok(result.map(|(new_rear, unit)| {
             let mut all = stance.steps.clone();
