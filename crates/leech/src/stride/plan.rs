@@ -153,6 +153,8 @@ pub enum Blocking {
     Collision,
     /// A solve failed to converge or the body snapped.
     Snap,
+    /// Not a physical block: the search ran out of its time limit.
+    TimeLimit,
 }
 
 impl Blocking {
@@ -163,6 +165,7 @@ impl Blocking {
             Blocking::CupForce => "cup_force",
             Blocking::Collision => "collision",
             Blocking::Snap => "snap",
+            Blocking::TimeLimit => "time_limit",
         }
     }
 }
@@ -354,10 +357,11 @@ impl Planner<'_> {
             });
         }
         let reason = if self.out_of_time() {
+            let limit = self.options.time_limit.unwrap_or_default().as_secs_f64();
             Rejection {
-                blocking: Blocking::Snap,
+                blocking: Blocking::TimeLimit,
                 phase: Phase::Push,
-                detail: "the search ran out of its time limit".into(),
+                detail: format!("the search ran out of its time limit ({limit} s) before reaching the goal"),
             }
         } else {
             last_reason.unwrap_or(Rejection {

@@ -127,3 +127,16 @@ points_m = [[0.62, -0.2], [2.0, -0.2], [2.0, 0.0], [0.62, 0.0]]
     let rear = plan.steps.last().unwrap().held.rear_cup_m(&robot);
     assert!(rear[0] < 0.12, "{rear:?}");
 }
+
+/// A search cut short by its time limit says so, not that the climb is impossible for a physical reason.
+#[test]
+fn a_search_out_of_time_says_so() {
+    let robot = Robot::builtin();
+    let floor = Scene::builtin("floor").unwrap();
+    let start = Foothold { centre_m: [0.0, 0.0], direction_rad: 0.0 };
+    let goal = Goal { point_m: [2.0, 0.0], tolerance_m: 0.03 };
+    let options = PlanOptions { time_limit: Some(std::time::Duration::from_millis(100)), ..PlanOptions::default() };
+    let plan = stride::plan(&robot, &floor, start, goal, &options).unwrap();
+    assert_eq!(plan.status, Status::Impossible);
+    assert_eq!(plan.reason.unwrap().blocking, stride::Blocking::TimeLimit);
+}
