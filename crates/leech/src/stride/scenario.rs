@@ -228,10 +228,7 @@ impl Scenario {
 
 /// The `description = "..."` line of a built-in scenario file.
 fn description(toml: &'static str) -> &'static str {
-    toml.lines()
-        .find_map(|l| l.strip_prefix("description = \""))
-        .and_then(|rest| rest.strip_suffix('"'))
-        .unwrap_or("")
+    toml.lines().find_map(|l| l.strip_prefix("description = \"")).and_then(|rest| rest.strip_suffix('"')).unwrap_or("")
 }
 
 /// The scene a `scene` value names or holds.
