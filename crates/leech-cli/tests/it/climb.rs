@@ -18,7 +18,8 @@ fn a_floor_crawl_is_reached_and_its_steps_replay_through_shape() {
     assert_eq!(v["status"], "reached");
     assert_eq!(v["reason"], Value::Null);
     assert_eq!(v["scenario"], "crawl on the floor");
-    for key in ["robot", "strides", "tube_travel_m", "duration_s", "min_safety_factor", "solves", "goal_m", "tolerance_m"]
+    for key in
+        ["robot", "strides", "tube_travel_m", "duration_s", "min_safety_factor", "solves", "goal_m", "tolerance_m"]
     {
         assert!(v.get(key).is_some(), "missing {key}");
     }

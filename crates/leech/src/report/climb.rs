@@ -128,8 +128,9 @@ impl ClimbReport {
             reason: plan.reason.clone(),
             strides: plan.strides,
             steps: plan.steps.iter().map(|s| ClimbStep::new(robot, s)).collect(),
-            tube_travel_m: plan.tube_travel_m(),
-            duration_s: plan.duration_s(),
+            // `+ 0.0` turns the empty sum's -0 (a plan of the start alone) into 0.
+            tube_travel_m: plan.tube_travel_m() + 0.0,
+            duration_s: plan.duration_s() + 0.0,
             min_safety_factor: finite(plan.min_safety_factor()),
             solves: plan.solves,
             goal_m,

@@ -1,5 +1,5 @@
 //! Strides and climbs: the stride's state machine with its interlock
-//! ([`machine`]), the climb planner ([`plan`]) and the climbs to plan
+//! ([`machine`]), the climb planner ([`mod@plan`]) and the climbs to plan
 //! ([`scenario`]).
 
 pub mod machine;
