@@ -17,16 +17,20 @@ use leech::error::{positive, within};
 use leech::inverse_statics::check_target;
 use leech::prelude::*;
 use leech::scene::Scene;
-use leech::stance::{Hold, Pose};
+use leech::stance::{FreeCups, Hold, Pose};
+use leech::stride::Scenario;
 use leech::sweep::{Grid, Model, SweepOptions};
 
 use crate::failure::Failure;
 use crate::flags::{
-    self, Command, DiscretizationArg, FitArg, IntegratorArg, ModelArg, RobotChoice, SceneCommand, StartArg,
+    self, Command, DiscretizationArg, FitArg, FreeCupsArg, IntegratorArg, ModelArg, RobotChoice, ScenarioCommand,
+    SceneCommand, StartArg,
 };
 
+mod climb;
 mod holds;
 
+pub use climb::Climb;
 use holds::{load_scene, pose, situation};
 
 /// A command with its resolved arguments.
@@ -54,6 +58,17 @@ pub enum Args {
     SceneShow {
         scene: Scene,
         builtin: Option<&'static str>,
+        json: bool,
+    },
+    Climb(Climb),
+    /// `leech scenario list`.
+    Scenarios {
+        json: bool,
+    },
+    /// `leech scenario show`: the file's text as given (a built-in one's with its comments).
+    ScenarioShow {
+        scenario: Scenario,
+        text: String,
         json: bool,
     },
 }
@@ -98,6 +113,8 @@ pub struct Shape {
     pub hold: Hold,
     /// What the tubes rest on.
     pub scene: Option<Scene>,
+    /// Whether the free cups' faces rest on the scene's solids too.
+    pub free_cups: FreeCups,
     pub outputs: Outputs,
 }
 
@@ -211,6 +228,14 @@ impl Args {
                     Args::SceneShow { scene, builtin, json }
                 }
             },
+            Command::Climb(a) => Args::Climb(climb::climb(a)?),
+            Command::Scenario(a) => match a.command {
+                ScenarioCommand::List { json } => Args::Scenarios { json },
+                ScenarioCommand::Show { scenario, json } => {
+                    let (scenario, text) = climb::load_scenario(&scenario, "scenario show")?;
+                    Args::ScenarioShow { scenario, text, json }
+                }
+            },
         })
     }
 
@@ -221,7 +246,10 @@ impl Args {
             | Args::Reach(Reach { json, .. })
             | Args::Compare(Compare { json, .. })
             | Args::Scenes { json }
-            | Args::SceneShow { json, .. } => *json,
+            | Args::SceneShow { json, .. }
+            | Args::Scenarios { json }
+            | Args::ScenarioShow { json, .. } => *json,
+            Args::Climb(Climb { outputs, .. }) => outputs.json,
             Args::Chain(Chain { outputs, .. })
             | Args::Shape(Shape { outputs, .. })
             | Args::Workspace(Workspace { outputs, .. })
@@ -333,8 +361,12 @@ fn shape(a: flags::ShapeArgs) -> Result<Shape, Failure> {
         .or(start.map(|s| leech::stance::rear_pose_for_cup(&robot, s.rear_cup_m, s.direction_rad)))
         .unwrap_or_else(|| Pose::from_deg([0.0, 0.0], robot.world.base_angle_deg));
     let hold = situation(&a, &robot, rear, scene.as_ref())?;
-    let shape =
-        Shape { robot, lengths: a.lengths, body, models, solver, repeat, hold, scene, outputs: a.output.into() };
+    let free_cups = match a.free_cups {
+        Some(FreeCupsArg::Rest) => FreeCups::Rest,
+        Some(FreeCupsArg::PassThrough) | None => FreeCups::PassThrough,
+    };
+    let outputs = a.output.into();
+    let shape = Shape { robot, lengths: a.lengths, body, models, solver, repeat, hold, scene, free_cups, outputs };
     if shape.repeat.is_some() && !shape.clamped() {
         return Err(Failure::Input(
             "--repeat: times the clamped body only (no --scene, rear hold at the origin)".into(),
@@ -404,7 +436,7 @@ fn simulate(a: flags::SimulateArgs) -> Result<Simulate, Failure> {
 }
 
 /// The solver with the command line's bounds.
-fn solver(max_iterations: usize, time_limit: f64) -> Result<Solver, Failure> {
+pub(crate) fn solver(max_iterations: usize, time_limit: f64) -> Result<Solver, Failure> {
     let seconds = positive("--time-limit (s)", time_limit)?;
     let time_limit = Duration::try_from_secs_f64(seconds)
         .map_err(|_| Failure::Input(format!("--time-limit: got {seconds}, expected a number of seconds")))?;
@@ -412,7 +444,10 @@ fn solver(max_iterations: usize, time_limit: f64) -> Result<Solver, Failure> {
 }
 
 /// The chosen robot, edited by the command's overrides, then at the shape parameter asked for.
-fn tuned(choice: &RobotChoice, edit: impl FnOnce(Robot) -> Result<Robot, InputError>) -> Result<Robot, Failure> {
+pub(crate) fn tuned(
+    choice: &RobotChoice,
+    edit: impl FnOnce(Robot) -> Result<Robot, InputError>,
+) -> Result<Robot, Failure> {
     let robot = edit(load_robot_or_builtin(choice.file.as_deref())?)?;
     match choice.shape_parameter {
         Some(pi) => Ok(robot.with_shape_parameter(pi)?),

@@ -45,6 +45,79 @@ pub enum Command {
     Simulate(SimulateArgs),
     /// The built-in scenes and scene files: floors, walls, steps.
     Scene(SceneArgs),
+    /// Plan a climb: a scenario, or a scene with a start and a goal.
+    Climb(ClimbArgs),
+    /// The built-in climb scenarios and scenario files.
+    Scenario(ScenarioArgs),
+}
+
+/// `leech climb`.
+#[derive(Debug, Args)]
+#[command(allow_negative_numbers = true)]
+pub struct ClimbArgs {
+    /// A built-in scenario's name (`leech scenario list`) or a scenario file (TOML).
+    #[arg(long, value_name = "NAME|FILE", required_unless_present = "scene", conflicts_with = "scene")]
+    pub scenario: Option<PathBuf>,
+    /// Instead of a scenario: a built-in scene's name (`leech scene list`) or a scene file.
+    #[arg(long, value_name = "NAME|FILE", requires_all = ["start", "goal"])]
+    pub scene: Option<PathBuf>,
+    /// With --scene: the rear cup's face centre X,Y (m) on a surface and the body's heading DEG.
+    #[arg(long, value_name = "X,Y,DEG", value_parser = parse_pose, allow_hyphen_values = true, requires = "scene")]
+    pub start: Option<[f64; 3]>,
+    /// With --scene: where the rear cup's face centre should land, X,Y (m).
+    #[arg(long, value_name = "X,Y", value_parser = parse_pair, allow_hyphen_values = true, requires = "scene")]
+    pub goal: Option<[f64; 2]>,
+    /// With --scene: how close to the goal the rear cup must land (m).
+    #[arg(long, value_name = "M", requires = "scene")]
+    pub tolerance: Option<f64>,
+    #[command(flatten)]
+    pub robot: RobotChoice,
+    /// Wall-clock limit of the whole search (s); none by default.
+    #[arg(long, value_name = "S")]
+    pub time_limit: Option<f64>,
+    /// Print the plan as JSON (units in the keys) instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Write one CSV row per step (units in the headers).
+    #[arg(long, value_name = "FILE")]
+    pub csv: Option<PathBuf>,
+}
+
+/// `leech scenario`.
+#[derive(Debug, Args)]
+pub struct ScenarioArgs {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: ScenarioCommand,
+}
+
+/// The `leech scenario` subcommands.
+#[derive(Debug, Subcommand)]
+pub enum ScenarioCommand {
+    /// List the built-in scenarios with one line each.
+    List {
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Print a scenario file: a built-in one with its comments, a file as given once checked.
+    Show {
+        /// A built-in scenario's name, or a scenario file (TOML).
+        #[arg(value_name = "NAME|FILE")]
+        scenario: PathBuf,
+        /// Print JSON (units in the keys) instead of TOML.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+/// What besides the tubes rests on a scene's solids in `leech shape`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FreeCupsArg {
+    /// Only the tubes touch the solids; the free cups pass through them.
+    PassThrough,
+    /// The faces of the cups that do not hold rest on the solids too (as the climb planner solves).
+    Rest,
 }
 
 /// `leech scene`.
@@ -411,6 +484,9 @@ pub struct ShapeArgs {
     /// The front hold: the endpoint X,Y (m) and the plate's angle DEG.
     #[arg(long, value_name = "X,Y,DEG", value_parser = parse_pose, allow_hyphen_values = true)]
     pub front: Option<[f64; 3]>,
+    /// With --scene: whether the free cups' faces rest on the solids (default pass-through).
+    #[arg(long, value_enum, value_name = "MODE", requires = "scene")]
+    pub free_cups: Option<FreeCupsArg>,
     #[command(flatten)]
     pub output: Output,
 }

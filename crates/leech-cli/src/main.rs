@@ -1,7 +1,7 @@
 //! The `leech` command: parse the flags, resolve them ([`args`]), run the
 //! library, print ([`render`]). Exit codes: 0 done, 1 an unexpected failure
 //! (for example an unwritable picture), 2 bad input, 3 a solve that did not
-//! converge.
+//! converge (or a climb that cannot be planned).
 
 mod args;
 mod failure;
@@ -141,6 +141,14 @@ fn run(args: Args, out: &mut String) -> Result<(), Failure> {
         }
         Args::Scenes { json } => render::scenes(out, json),
         Args::SceneShow { scene, builtin, json } => render::scene(out, &scene, builtin, json),
+        Args::Climb(a) => {
+            let started = Instant::now();
+            let s = &a.scenario;
+            let plan = leech::stride::plan(&a.robot, &s.scene, s.start, s.goal, &a.options)?;
+            render::climb(out, &a, &plan, started.elapsed().as_secs_f64())
+        }
+        Args::Scenarios { json } => render::scenarios(out, json),
+        Args::ScenarioShow { scenario, text, json } => render::scenario(out, &scenario, &text, json),
     }
 }
 
@@ -150,7 +158,7 @@ fn run(args: Args, out: &mut String) -> Result<(), Failure> {
 fn solve_shape(a: &Shape, solver: &Solver) -> Result<render::Solved, Failure> {
     if !a.clamped() {
         let held = match &a.scene {
-            Some(scene) => stance::solve_in(&a.robot, a.lengths, a.hold, scene, solver)?,
+            Some(scene) => stance::solve_among(&a.robot, a.lengths, a.hold, scene, solver, a.free_cups)?,
             None => stance::solve(&a.robot, a.lengths, a.hold, solver)?,
         };
         return Ok(render::Solved { clamped: None, held });

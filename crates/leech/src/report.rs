@@ -12,8 +12,10 @@ use crate::dynamics::Sample;
 use crate::statics::{Equilibrium, Event, Solver};
 use crate::sweep::{Model, Point};
 
+mod climb;
 mod held;
 
+pub use climb::{write_climb_csv, ClimbReport, ClimbRow, ClimbStep, SafetyFactors};
 pub use held::{Cups, HalfPlaneReport, HoldReport, Holds, PolygonReport, SceneReport, ShapeReport, StanceReport};
 
 /// How the solve went.

@@ -95,7 +95,7 @@ pub(super) fn load_scene(given: &Path, flag: &str) -> Result<(Scene, Option<&'st
 }
 
 /// A text file of at most `limit` bytes, never reading more than one byte past it.
-fn read_at_most(path: &Path, flag: &str, limit: usize) -> Result<String, String> {
+pub(super) fn read_at_most(path: &Path, flag: &str, limit: usize) -> Result<String, String> {
     use std::io::Read;
     let cannot = |e: std::io::Error| format!("{flag}: cannot read '{}': {e}", path.display());
     let mut bytes = Vec::new();

@@ -32,6 +32,16 @@ pub fn csv_rows<T: Serialize>(path: &Path, rows: impl IntoIterator<Item = T>) ->
     write_csv(path, |w| rows.into_iter().try_for_each(|row| w.serialize(row)))
 }
 
+/// The steps of a climb, one row each.
+pub fn climb_csv(path: &Path, report: &leech::report::ClimbReport) -> Result<(), Failure> {
+    let write = || -> anyhow::Result<()> {
+        let file = std::io::BufWriter::new(std::fs::File::create(path)?);
+        leech::report::write_climb_csv(file, report)?;
+        Ok(())
+    };
+    Ok(write().with_context(|| format!("writing {}", path.display()))?)
+}
+
 /// A figure's data table.
 pub fn csv_table(path: &Path, table: &Table) -> Result<(), Failure> {
     write_csv(path, |w| {

@@ -16,17 +16,18 @@ use leech::dynamics::Simulation;
 use leech::inverse_statics::Reach;
 use leech::prelude::*;
 use leech::report::{
-    BodyReport, CantileverReport, ConstantCurvatureReport, SampleRow, SceneReport, ShapeReport, SolveTiming,
-    StanceReport, SweepRow, TubeInSceneReport,
+    BodyReport, CantileverReport, ClimbReport, ConstantCurvatureReport, SampleRow, SceneReport, ShapeReport,
+    SolveTiming, StanceReport, SweepRow, TubeInSceneReport,
 };
 use leech::scene::Scene;
 use leech::stance::{Held, TubeHeld};
+use leech::stride::{Plan, Scenario, Status};
 use leech::sweep::{Model, Sweep};
 use leech_plot::figures::Output;
 use serde::Serialize;
 use serde_json::json;
 
-use crate::args::{Calibrate, Chain, Shape, Simulate, Workspace};
+use crate::args::{Calibrate, Chain, Climb, Shape, Simulate, Workspace};
 use crate::failure::Failure;
 
 /// Writes to standard output; a closed pipe (`leech ... | head`) is not an error.
@@ -171,6 +172,60 @@ pub fn scene(out: &mut String, scene: &Scene, builtin: Option<&str>, as_json: bo
         (false, None) => out.push_str(&scene.to_toml_string()),
     }
     Ok(())
+}
+
+/// `leech climb`: the plan as JSON or text, its steps to CSV; an impossible
+/// climb is a failure (exit 3) after all that is printed and written.
+pub fn climb(out: &mut String, a: &Climb, plan: &Plan, elapsed_s: f64) -> Result<(), Failure> {
+    let s = &a.scenario;
+    let report = ClimbReport::new(&s.name, &a.robot, plan, s.goal.point_m, s.goal.tolerance_m);
+    if let Some(path) = &a.outputs.csv {
+        files::climb_csv(path, &report)?;
+    }
+    if a.outputs.json {
+        json(out, &report)?;
+    } else {
+        text::climb(out, &report, elapsed_s);
+    }
+    match (&plan.status, &report.reason) {
+        (Status::Reached, _) => Ok(()),
+        (Status::Impossible, reason) => Err(Failure::Unsolved(match reason {
+            Some(r) => {
+                format!("climb impossible: {} blocked the {} phase: {}", r.blocking.name(), r.phase.name(), r.detail)
+            }
+            None => "climb impossible".into(),
+        })),
+    }
+}
+
+/// `leech scenario list`: each built-in scenario's name and what it is.
+pub fn scenarios(out: &mut String, as_json: bool) -> Result<(), Failure> {
+    if as_json {
+        let list: Vec<_> =
+            Scenario::builtin_names().map(|(name, d)| json!({ "name": name, "description": d })).collect();
+        return json(out, &json!({ "scenarios": list }));
+    }
+    text::scenarios(out);
+    Ok(())
+}
+
+/// `leech scenario show`: the file's text, or its JSON form.
+pub fn scenario(out: &mut String, scenario: &Scenario, text: &str, as_json: bool) -> Result<(), Failure> {
+    if !as_json {
+        out.push_str(text);
+        return Ok(());
+    }
+    let start = scenario.start;
+    json(
+        out,
+        &json!({
+            "name": scenario.name,
+            "description": scenario.description,
+            "scene": SceneReport::from(&scenario.scene),
+            "start": { "rear_cup_m": start.centre_m, "heading_deg": start.direction_rad.to_degrees() },
+            "goal": { "point_m": scenario.goal.point_m, "tolerance_m": scenario.goal.tolerance_m },
+        }),
+    )
 }
 
 /// One figure of `leech figure`: its picture and table in `dir`.

@@ -9,7 +9,8 @@ use leech::dynamics::Simulation;
 use leech::inverse_statics::{Reach, ReachStatus};
 use leech::prelude::*;
 use leech::report::{
-    BodyReport, CantileverReport, ConstantCurvatureReport, Solution, SolveTiming, StanceReport, TubeInSceneReport,
+    BodyReport, CantileverReport, ClimbReport, ConstantCurvatureReport, Solution, SolveTiming, StanceReport,
+    TubeInSceneReport,
 };
 use leech::sweep::{Extreme, Sweep};
 
@@ -148,6 +149,61 @@ pub fn stance(out: &mut String, s: &StanceReport, minimum: f64) {
 pub fn scenes(out: &mut String) {
     for (name, description) in leech::scene::Scene::builtin_names() {
         say!(out, "{name:<14} {description}");
+    }
+}
+
+/// `leech scenario list`.
+pub fn scenarios(out: &mut String) {
+    for (name, description) in leech::stride::Scenario::builtin_names() {
+        say!(out, "{name:<16} {description}");
+    }
+}
+
+/// `leech climb`: one line per phase's end, then the totals (and why an
+/// impossible climb is).
+pub fn climb(out: &mut String, r: &ClimbReport, elapsed_s: f64) {
+    let mm = |p: [f64; 2]| format!("({:7.1}, {:7.1})", p[0] * 1e3, p[1] * 1e3);
+    let factor = |f: Option<f64>| match f {
+        None => "-".to_string(),
+        Some(f) if f < 1e3 => format!("{f:.2}"),
+        Some(f) => format!("{f:.1e}"),
+    };
+    say!(out, "{} ({}): to ({:.3}, {:.3}) m within {} m", r.scenario, r.robot, r.goal_m[0], r.goal_m[1], r.tolerance_m);
+    for s in &r.steps {
+        say!(
+            out,
+            "stride {:>2} {:<13} LA {:.4} LB {:.4} m  hold {:<5}  unit {} mm  rear cup {} mm  front cup {} mm  \
+             safety factor rear {} front {}{}",
+            s.stride,
+            s.phase,
+            s.lengths_m[0],
+            s.lengths_m[1],
+            s.hold,
+            mm(s.driving_unit_m),
+            mm(s.rear_cup_m),
+            mm(s.front_cup_m),
+            factor(s.safety_factor.rear),
+            factor(s.safety_factor.front),
+            if s.snapped { "  SNAPPED" } else { "" }
+        );
+    }
+    let status = match r.status {
+        leech::stride::Status::Reached => "reached",
+        leech::stride::Status::Impossible => "IMPOSSIBLE",
+    };
+    say!(
+        out,
+        "{status} in {} stride{}: tube travel {:.4} m, {:.1} s at {} mm/s, min safety factor {}, {} solves ({elapsed_s:.1} s)",
+        r.strides,
+        if r.strides == 1 { "" } else { "s" },
+        r.tube_travel_m,
+        r.duration_s,
+        leech::stride::plan::TUBE_SPEED_M_PER_S * 1e3,
+        factor(r.min_safety_factor),
+        r.solves
+    );
+    if let Some(reason) = &r.reason {
+        say!(out, "reason: {} in the {} phase: {}", reason.blocking.name(), reason.phase.name(), reason.detail);
     }
 }
 

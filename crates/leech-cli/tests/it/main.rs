@@ -403,6 +403,7 @@ fn simulate_writes_series_animation_and_summary() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+mod climb;
 mod holds;
 mod tube;
 

@@ -1,8 +1,11 @@
 //! Strides and climbs: the stride's state machine with its interlock
-//! ([`machine`]) and the climb planner ([`plan`]).
+//! ([`machine`]), the climb planner ([`mod@plan`]) and the climbs to plan
+//! ([`scenario`]).
 
 pub mod machine;
 pub mod plan;
+pub mod scenario;
 
 pub use machine::{Command, Cup, Evidence, Holding, Phase, StrideError, StrideMachine};
 pub use plan::{plan, Blocking, Foothold, Goal, Plan, PlanOptions, Rejection, Status, Step};
+pub use scenario::{BuiltinScenario, Scenario, BUILTIN_SCENARIOS};

@@ -1,0 +1,99 @@
+//! `leech climb` and `leech scenario`: scenarios by name or file, or built
+//! from a scene and the start and goal flags; the planner's options.
+
+use std::path::Path;
+use std::time::Duration;
+
+use leech::error::{positive, within};
+use leech::prelude::*;
+use leech::scene::{MAX_COORDINATE_M, MAX_SCENE_BYTES};
+use leech::stride::scenario::MAX_TOLERANCE_M;
+use leech::stride::{Foothold, Goal, PlanOptions, Scenario, BUILTIN_SCENARIOS};
+
+use super::holds::{load_scene, pose, read_at_most};
+use super::{tuned, Outputs};
+use crate::failure::Failure;
+use crate::flags;
+
+/// The goal tolerance `--tolerance` defaults to (m): a little more than half the built-in robot's cup.
+pub const DEFAULT_TOLERANCE_M: f64 = 0.03;
+
+/// `leech climb`: the robot, the climb and the planner's options.
+pub struct Climb {
+    pub robot: Robot,
+    pub scenario: Scenario,
+    pub options: PlanOptions,
+    /// JSON or text on standard output; `csv` the steps' table.
+    pub outputs: Outputs,
+}
+
+pub(super) fn climb(a: flags::ClimbArgs) -> Result<Climb, Failure> {
+    let scenario = match (&a.scenario, &a.scene) {
+        (Some(path), _) => load_scenario(path, "--scenario")?.0,
+        (None, Some(scene)) => flagged(&a, scene)?,
+        (None, None) => return Err(Failure::Input("--scenario or --scene: give one".into())),
+    };
+    let robot = tuned(&a.robot, Ok)?;
+    scenario.check_start(&robot).map_err(|e| match (&a.scenario, e) {
+        (None, InputError::Invalid { value, allowed, .. }) => {
+            Failure::Input(format!("--start: got {value}, expected {allowed}"))
+        }
+        (_, e) => e.into(),
+    })?;
+    let time_limit = a
+        .time_limit
+        .map(|s| {
+            let s = positive("--time-limit (s)", s)?;
+            Duration::try_from_secs_f64(s)
+                .map_err(|_| Failure::Input(format!("--time-limit: got {s}, expected a number of seconds")))
+        })
+        .transpose()?;
+    let options = PlanOptions { time_limit, ..PlanOptions::default() };
+    let outputs = Outputs { json: a.json, csv: a.csv, ..Outputs::default() };
+    Ok(Climb { robot, scenario, options, outputs })
+}
+
+/// The climb `--scene`, `--start`, `--goal` and `--tolerance` describe.
+fn flagged(a: &flags::ClimbArgs, scene: &Path) -> Result<Scenario, Failure> {
+    let (scene, _) = load_scene(scene, "--scene")?;
+    let (Some(start), Some([x, y])) = (a.start, a.goal) else {
+        return Err(Failure::Input("--scene: needs --start X,Y,DEG and --goal X,Y".into()));
+    };
+    let start = pose("--start", start, 360.0)?;
+    let m = MAX_COORDINATE_M;
+    let point_m = [within("--goal x (m)", x, -m, m)?, within("--goal y (m)", y, -m, m)?];
+    let tolerance_m = a.tolerance.unwrap_or(DEFAULT_TOLERANCE_M);
+    if !(tolerance_m.is_finite() && tolerance_m > 0.0 && tolerance_m <= MAX_TOLERANCE_M) {
+        return Err(InputError::invalid(
+            "--tolerance (m)",
+            tolerance_m,
+            format!("a number above 0 and at most {MAX_TOLERANCE_M}"),
+        )
+        .into());
+    }
+    Ok(Scenario {
+        name: scene.name.clone(),
+        description: String::new(),
+        scene,
+        start: Foothold { centre_m: start.point_m, direction_rad: start.angle_rad },
+        goal: Goal { point_m, tolerance_m },
+    })
+}
+
+/// A built-in scenario by name (with its file's text), else a scenario file (and its text).
+pub(super) fn load_scenario(given: &Path, flag: &str) -> Result<(Scenario, String), Failure> {
+    if let Some(b) = given.to_str().and_then(|name| BUILTIN_SCENARIOS.iter().find(|s| s.name == name)) {
+        return Ok((Scenario::builtin(b.name)?, b.toml.to_string()));
+    }
+    if !given.exists() {
+        let names: Vec<&str> = BUILTIN_SCENARIOS.iter().map(|s| s.name).collect();
+        return Err(Failure::Input(format!(
+            "{flag}: got '{}', expected a scenario file or one of {}",
+            given.display(),
+            names.join(", ")
+        )));
+    }
+    let text = read_at_most(given, flag, MAX_SCENE_BYTES).map_err(Failure::Input)?;
+    let scenario = Scenario::from_toml_str(&text, &given.display().to_string())?;
+    Ok((scenario, text))
+}
