@@ -138,7 +138,7 @@ impl Scene {
 
 /// The parser's message with its line number, folded to one line (the
 /// parser's own text spans several lines and draws a caret under the spot).
-fn one_line(text: &str, error: &toml::de::Error) -> String {
+pub(crate) fn one_line(text: &str, error: &toml::de::Error) -> String {
     let message = error.message().split_whitespace().collect::<Vec<_>>().join(" ");
     match error.span() {
         Some(span) => {

@@ -54,7 +54,7 @@
 //! under `crates/leech/scenes/`.
 
 mod builtin;
-mod file;
+pub(crate) mod file;
 mod query;
 mod solid;
 

@@ -316,14 +316,8 @@ impl Planner<'_> {
         let mut farthest = beam[0].clone();
         let mut last_reason = None;
         for _ in 0..self.options.max_strides {
-            if let Some(done) = beam.iter().find(|s| s.distance(&self.goal) <= self.goal.tolerance_m) {
-                return Ok(Plan {
-                    status: Status::Reached,
-                    reason: None,
-                    strides: done.strides,
-                    steps: done.steps.clone(),
-                    solves: self.solves,
-                });
+            if let Some(plan) = self.reached(&beam) {
+                return Ok(plan);
             }
             let mut next = Vec::new();
             for stance in &beam {
@@ -347,14 +341,8 @@ impl Planner<'_> {
             }
             beam = next;
         }
-        if let Some(done) = beam.iter().find(|s| s.distance(&self.goal) <= self.goal.tolerance_m) {
-            return Ok(Plan {
-                status: Status::Reached,
-                reason: None,
-                strides: done.strides,
-                steps: done.steps.clone(),
-                solves: self.solves,
-            });
+        if let Some(plan) = self.reached(&beam) {
+            return Ok(plan);
         }
         let reason = if self.out_of_time() {
             let limit = self.options.time_limit.unwrap_or_default().as_secs_f64();
@@ -371,6 +359,18 @@ impl Planner<'_> {
             })
         };
         Ok(self.impossible(reason, farthest.steps, farthest.strides))
+    }
+
+    /// The plan of the first stance of `beam` whose rear cup is within the goal's tolerance.
+    fn reached(&self, beam: &[Stance]) -> Option<Plan> {
+        let done = beam.iter().find(|s| s.distance(&self.goal) <= self.goal.tolerance_m)?;
+        Some(Plan {
+            status: Status::Reached,
+            reason: None,
+            strides: done.strides,
+            steps: done.steps.clone(),
+            solves: self.solves,
+        })
     }
 
     fn impossible(&self, reason: Rejection, steps: Vec<Step>, strides: usize) -> Plan {

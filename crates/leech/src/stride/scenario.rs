@@ -40,6 +40,7 @@ use serde::Deserialize;
 use super::plan::{Foothold, Goal};
 use crate::error::{within, InputError};
 use crate::robot::{Cup, Robot};
+use crate::scene::file::one_line;
 use crate::scene::{Scene, MAX_COORDINATE_M, MAX_SCENE_BYTES};
 
 /// The largest goal tolerance a scenario may ask for (m).
@@ -257,18 +258,6 @@ fn scene(value: &toml::Value, source: &str) -> Result<Scene, InputError> {
 
 fn count(n: usize) -> String {
     format!("{n} number{}", if n == 1 { "" } else { "s" })
-}
-
-/// The parser's message with its line number, folded to one line.
-fn one_line(text: &str, error: &toml::de::Error) -> String {
-    let message = error.message().split_whitespace().collect::<Vec<_>>().join(" ");
-    match error.span() {
-        Some(span) => {
-            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
-            format!("line {line}: {message}")
-        }
-        None => message,
-    }
 }
 
 #[cfg(test)]
