@@ -7,5 +7,7 @@ pub mod plan;
 pub mod scenario;
 
 pub use machine::{Command, Cup, Evidence, Holding, Phase, StrideError, StrideMachine};
-pub use plan::{plan, Blocking, Foothold, Goal, Plan, PlanOptions, Rejection, Status, Step};
+pub use plan::{
+    plan, plan_with_progress, Blocking, Foothold, Goal, Plan, PlanOptions, Progress, Rejection, Status, Step,
+};
 pub use scenario::{BuiltinScenario, Scenario, BUILTIN_SCENARIOS};

@@ -287,6 +287,17 @@ impl Stance {
     }
 }
 
+/// How far a search has come, reported after each stride's expansion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Progress {
+    /// Strides of the best stance so far.
+    pub strides: usize,
+    /// Its rear cup's distance to the goal (m).
+    pub distance_m: f64,
+    /// Statics solves so far.
+    pub solves: usize,
+}
+
 /// Plans a climb of `robot` in `scene` from the rear cup's foothold `start`
 /// (the tubes at their shortest) to `goal`.
 pub fn plan(
@@ -296,8 +307,21 @@ pub fn plan(
     goal: Goal,
     options: &PlanOptions,
 ) -> Result<Plan, InputError> {
+    plan_with_progress(robot, scene, start, goal, options, &mut |_| {})
+}
+
+/// [`plan`], calling `progress` after every stride of the search (a
+/// terminal's progress bar).
+pub fn plan_with_progress(
+    robot: &Robot,
+    scene: &Scene,
+    start: Foothold,
+    goal: Goal,
+    options: &PlanOptions,
+    progress: &mut dyn FnMut(Progress),
+) -> Result<Plan, InputError> {
     let mut planner = Planner { robot, scene, goal, options, started: Instant::now(), solves: 0 };
-    planner.search(start)
+    planner.search(start, progress)
 }
 
 impl Planner<'_> {
@@ -305,7 +329,7 @@ impl Planner<'_> {
         self.options.time_limit.is_some_and(|limit| self.started.elapsed() > limit)
     }
 
-    fn search(&mut self, start: Foothold) -> Result<Plan, InputError> {
+    fn search(&mut self, start: Foothold, progress: &mut dyn FnMut(Progress)) -> Result<Plan, InputError> {
         let short = self.robot.limits.tube_length_min_m;
         let unit = rear_pose(self.robot, start);
         let first = match self.step(Phase::Start, 0, [short; 2], Hold::Rear(unit)) {
@@ -339,6 +363,11 @@ impl Planner<'_> {
             if next[0].distance(&self.goal) < farthest.distance(&self.goal) {
                 farthest = next[0].clone();
             }
+            progress(Progress {
+                strides: next[0].strides,
+                distance_m: next[0].distance(&self.goal),
+                solves: self.solves,
+            });
             beam = next;
         }
         if let Some(plan) = self.reached(&beam) {
