@@ -144,7 +144,14 @@ fn run(args: Args, out: &mut String) -> Result<(), Failure> {
         Args::Climb(a) => {
             let started = Instant::now();
             let s = &a.scenario;
-            let plan = leech::stride::plan(&a.robot, &s.scene, s.start, s.goal, &a.options)?;
+            // The bar counts millimetres of the way to the goal (the rear cup's).
+            let to_go = |p: [f64; 2]| ((p[0] - s.goal.point_m[0]).hypot(p[1] - s.goal.point_m[1]) * 1e3) as u64;
+            let bar = render::progress(to_go(s.start.centre_m), "mm towards the goal");
+            let mut progress = |p: leech::stride::Progress| {
+                bar.set_position(bar.length().unwrap_or(0).saturating_sub((p.distance_m * 1e3) as u64));
+            };
+            let plan = leech::stride::plan_with_progress(&a.robot, &s.scene, s.start, s.goal, &a.options, &mut progress)?;
+            bar.finish_and_clear();
             render::climb(out, &a, &plan, started.elapsed().as_secs_f64())
         }
         Args::Scenarios { json } => render::scenarios(out, json),
