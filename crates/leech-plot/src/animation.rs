@@ -61,11 +61,6 @@ impl View {
         ([self.x0 * 1e-3, -(self.y0 + self.h) * 1e-3], [(self.x0 + self.w) * 1e-3, -self.y0 * 1e-3])
     }
 
-    /// Millimetres per pixel of the 760 px wide picture.
-    pub(crate) fn mm_per_px(&self) -> f64 {
-        self.span / 760.0
-    }
-
     /// The document's opening: the `<svg>` element, a white background, the
     /// title (its lines stacked above the drawing), the axes through the
     /// origin and a 10 mm scale bar.

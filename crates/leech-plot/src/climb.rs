@@ -22,6 +22,9 @@ use crate::stance::{body, cup_faces, solids_within, Segment};
 /// How long each frame is shown (s).
 pub const SECONDS_PER_STEP: f64 = 0.8;
 
+/// The drawing is at most this many times as tall as it is wide.
+const MAX_ASPECT: f64 = 1.5;
+
 const HOLDING: &str = "#009e73";
 const BELOW_MINIMUM: &str = "#e69f00";
 const RELEASED: &str = "#777777";
@@ -59,8 +62,12 @@ pub fn climb_svg(title: &str, robot: &Robot, scene: &Scene, steps: &[Step], stri
             hi[k] = hi[k].max(p[k] * 1e3);
         }
     }
-    let view = View::around(lo, hi);
-    let px = view.mm_per_px();
+    // A tall climb (up a wall) is widened, so that the captions fit.
+    let widen = 0.5 * ((hi[1] - lo[1]) / MAX_ASPECT - (hi[0] - lo[0])).max(0.0);
+    let mut view = View::around([lo[0] - widen, lo[1]], [hi[0] + widen, hi[1]]);
+    // The picture is 760 px wide: sizes in pixels, the text at most 16 px.
+    let px = view.w / 760.0;
+    view.font = view.font.min(16.0 * px);
     let mut svg = view.open(title);
     // The still parts: the solids within the view, the goal.
     let mut still = Figure::new(String::new());
@@ -99,7 +106,7 @@ pub fn climb_svg(title: &str, robot: &Robot, scene: &Scene, steps: &[Step], stri
             svg,
             r#"<text x="{:.3}" y="{:.3}" font-family="sans-serif" font-size="{:.3}">{}</text>"#,
             view.x0 + 0.02 * view.w,
-            view.y0 + 0.04 * view.h,
+            view.y0 + 1.2 * view.font,
             view.font,
             xml_escape(&caption(step, strides, i, n))
         );

@@ -100,13 +100,14 @@ pub fn climb_animation(path: &Path, a: &Climb, plan: &Plan) -> Result<(), Failur
     if plan.steps.is_empty() {
         return Ok(());
     }
+    let strides = if plan.strides == 1 { "1 stride".to_string() } else { format!("{} strides", plan.strides) };
     let outcome = match plan.status {
-        Status::Reached => format!("reached in {} strides", plan.strides),
-        Status::Impossible => format!("impossible: the {} strides to the farthest stance", plan.strides),
+        Status::Reached => format!("reached in {strides}"),
+        Status::Impossible => format!("impossible: {strides} to the farthest stance"),
     };
     let title = format!(
-        "{} on {}: {outcome}\ncups: filled holds (green; orange below SF {}), outline released",
-        a.robot.name, s.name, a.robot.cup.min_safety_factor
+        "{}, {}:\n{outcome}\ncups: filled hold (orange below SF {}), outline released",
+        s.name, a.robot.name, a.robot.cup.min_safety_factor
     );
     let svg = leech_plot::climb::climb_svg(&title, &a.robot, &s.scene, &plan.steps, plan.strides, &s.goal);
     std::fs::write(path, svg).with_context(|| format!("writing {}", path.display()))?;
