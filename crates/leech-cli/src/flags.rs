@@ -81,6 +81,9 @@ pub struct ClimbArgs {
     /// Write one CSV row per step (units in the headers).
     #[arg(long, value_name = "FILE")]
     pub csv: Option<PathBuf>,
+    /// Write an animated SVG (SMIL) of the climb: one frame per step, the scene and the goal.
+    #[arg(long, value_name = "FILE")]
+    pub svg: Option<PathBuf>,
 }
 
 /// `leech scenario`.

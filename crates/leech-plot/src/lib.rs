@@ -7,7 +7,8 @@
 //! without system fonts.
 //!
 //! [`shape`] builds the standard pictures of a body and of a single tube,
-//! [`stance`] a held body among a scene's solids with its cups and forces;
+//! [`stance`] a held body among a scene's solids with its cups and forces,
+//! [`climb`] a planned climb as an animated SVG (one frame per step);
 //! [`figures`] regenerates the paper's figures with their data.
 //!
 //! ```
@@ -23,6 +24,7 @@
 #![warn(missing_docs)]
 
 pub mod animation;
+pub mod climb;
 pub mod figure;
 pub mod figures;
 pub mod shape;

@@ -28,7 +28,7 @@ const MIN_MARGIN_M: f64 = 0.02;
 const ARROW_SHARE: f64 = 0.3;
 
 /// A straight piece of the picture: from, to.
-type Segment = [Vec2; 2];
+pub(crate) type Segment = [Vec2; 2];
 
 /// `held` (a body of `robot`) in `scene`, with the cups as [`Held::cups`]
 /// judged them: the solids clipped to the body's surroundings, each cup a
@@ -43,11 +43,7 @@ pub fn held_figure(robot: &Robot, held: &Held, scene: Option<&Scene>, cups: &Cup
     };
     let title = format!("{}: LA = {:.1} mm, LB = {:.1} mm, {holds}", robot.name, la * 1e3, lb * 1e3);
     let mut fig = Figure::new(title);
-    let plate = held.body.endpoint_angle(&held.equilibrium.q);
-    let faces = [
-        face(held.rear_cup_m(robot), held.unit.angle_rad, robot.cup.diameter_m),
-        face(held.front_cup_m(robot), plate, robot.cup.diameter_m),
-    ];
+    let faces = cup_faces(robot, held);
     let mut extent: Vec<Vec2> = a.iter().chain(&b).chain(faces.iter().flatten()).copied().collect();
     let (lo, hi) = bounds(&extent);
     // The holds' reactions at their cups' centres.
@@ -57,6 +53,20 @@ pub fn held_figure(robot: &Robot, held: &Held, scene: Option<&Scene>, cups: &Cup
     if let Some(scene) = scene {
         solids(&mut fig, scene, bounds(&extent));
     }
+    body(&mut fig, robot, held);
+    for ((name, cup), segment) in [("rear cup", &cups.0), ("front cup", &cups.1)].into_iter().zip(faces) {
+        let (label, color) = verdict(name, cup.as_ref(), robot.cup.min_safety_factor);
+        fig.push(label, segment.to_vec(), SeriesStyle::Thick, color);
+    }
+    forces.push(&mut fig, "hold reactions");
+    fig.gravity_arrow = held.body.gravity() > 0.0;
+    fig
+}
+
+/// The body of `held` as series: the driving unit, the arms to the cups,
+/// the chains and the endpoint plate (the cups themselves are not drawn).
+pub(crate) fn body(fig: &mut Figure, robot: &Robot, held: &Held) {
+    let [a, b] = held.chain_points(robot);
     let (a_tip, b_tip) = (*a.last().expect("a chain"), *b.last().expect("a chain"));
     fig.push("driving unit", vec![a[0], b[0]], SeriesStyle::Thick, GREY);
     fig.push("", vec![b[0], held.rear_cup_m(robot)], SeriesStyle::Line, GREY);
@@ -65,13 +75,15 @@ pub fn held_figure(robot: &Robot, held: &Held, scene: Option<&Scene>, cups: &Cup
     fig.push("chain B (side tubes)", b, SeriesStyle::LineAndDots, PALETTE[1]);
     // The rigid parts in grey: the cups' verdict colours stay distinct.
     fig.push("endpoint plate", vec![a_tip, b_tip], SeriesStyle::Thick, GREY);
-    for ((name, cup), segment) in [("rear cup", &cups.0), ("front cup", &cups.1)].into_iter().zip(faces) {
-        let (label, color) = verdict(name, cup.as_ref(), robot.cup.min_safety_factor);
-        fig.push(label, segment.to_vec(), SeriesStyle::Thick, color);
-    }
-    forces.push(&mut fig, "hold reactions");
-    fig.gravity_arrow = held.body.gravity() > 0.0;
-    fig
+}
+
+/// The faces of the rear and front cups of `held`: each its diameter on its face.
+pub(crate) fn cup_faces(robot: &Robot, held: &Held) -> [Segment; 2] {
+    let plate = held.body.endpoint_angle(&held.equilibrium.q);
+    [
+        face(held.rear_cup_m(robot), held.unit.angle_rad, robot.cup.diameter_m),
+        face(held.front_cup_m(robot), plate, robot.cup.diameter_m),
+    ]
 }
 
 /// The single tube `held` in `scene` ([`crate::shape::cantilever_figure`]
@@ -182,7 +194,12 @@ fn bounds(points: &[Vec2]) -> (Vec2, Vec2) {
 /// The scene's solids within `(lo, hi)` plus a margin, as filled polygons.
 fn solids(fig: &mut Figure, scene: &Scene, (lo, hi): (Vec2, Vec2)) {
     let margin = (MARGIN * (hi[0] - lo[0]).max(hi[1] - lo[1])).max(MIN_MARGIN_M);
-    let (x0, y0, x1, y1) = (lo[0] - margin, lo[1] - margin, hi[0] + margin, hi[1] + margin);
+    solids_within(fig, scene, ([lo[0] - margin, lo[1] - margin], [hi[0] + margin, hi[1] + margin]));
+}
+
+/// The scene's solids clipped to the box `(lo, hi)`, as filled polygons.
+pub(crate) fn solids_within(fig: &mut Figure, scene: &Scene, (lo, hi): (Vec2, Vec2)) {
+    let (x0, y0, x1, y1) = (lo[0], lo[1], hi[0], hi[1]);
     let view = vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]];
     let mut label = format!("scene: {}", scene.name);
     for solid in &scene.solids {

@@ -23,7 +23,7 @@ pub struct Climb {
     pub robot: Robot,
     pub scenario: Scenario,
     pub options: PlanOptions,
-    /// JSON or text on standard output; `csv` the steps' table.
+    /// JSON or text on standard output; `csv` the steps' table, `svg` the animation.
     pub outputs: Outputs,
 }
 
@@ -49,7 +49,7 @@ pub(super) fn climb(a: flags::ClimbArgs) -> Result<Climb, Failure> {
         })
         .transpose()?;
     let options = PlanOptions { time_limit, ..PlanOptions::default() };
-    let outputs = Outputs { json: a.json, csv: a.csv, ..Outputs::default() };
+    let outputs = Outputs { json: a.json, csv: a.csv, svg: a.svg, ..Outputs::default() };
     Ok(Climb { robot, scenario, options, outputs })
 }
 

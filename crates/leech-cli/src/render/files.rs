@@ -8,12 +8,13 @@ use anyhow::Context;
 use leech::calibration::Calibration;
 use leech::dynamics::{Actuation, Sample};
 use leech::prelude::*;
+use leech::stride::{Plan, Status};
 use leech_plot::animation::{animated_svg, Frame};
 use leech_plot::figures::Table;
 use leech_plot::Figure;
 use serde::Serialize;
 
-use crate::args::{Calibrate, Outputs};
+use crate::args::{Calibrate, Climb, Outputs};
 use crate::failure::Failure;
 
 /// The picture at each path asked for; `figure` draws it only if one is.
@@ -89,6 +90,27 @@ pub fn animation(path: &Path, lengths: [f64; 2], actuation: &Actuation, samples:
     };
     let title = format!("{}:\n{motion}", mm(lengths));
     std::fs::write(path, animated_svg(&title, &frames)).with_context(|| format!("writing {}", path.display()))?;
+    Ok(())
+}
+
+/// The animated SVG of a planned climb (for an impossible one, its steps to
+/// the farthest stance).
+pub fn climb_animation(path: &Path, a: &Climb, plan: &Plan) -> Result<(), Failure> {
+    let s = &a.scenario;
+    if plan.steps.is_empty() {
+        return Ok(());
+    }
+    let strides = if plan.strides == 1 { "1 stride".to_string() } else { format!("{} strides", plan.strides) };
+    let outcome = match plan.status {
+        Status::Reached => format!("reached in {strides}"),
+        Status::Impossible => format!("impossible: {strides} to the farthest stance"),
+    };
+    let title = format!(
+        "{}, {}:\n{outcome}\ncups: filled hold (orange below SF {}), outline released",
+        s.name, a.robot.name, a.robot.cup.min_safety_factor
+    );
+    let svg = leech_plot::climb::climb_svg(&title, &a.robot, &s.scene, &plan.steps, plan.strides, &s.goal);
+    std::fs::write(path, svg).with_context(|| format!("writing {}", path.display()))?;
     Ok(())
 }
 

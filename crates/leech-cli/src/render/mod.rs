@@ -174,13 +174,17 @@ pub fn scene(out: &mut String, scene: &Scene, builtin: Option<&str>, as_json: bo
     Ok(())
 }
 
-/// `leech climb`: the plan as JSON or text, its steps to CSV; an impossible
+/// `leech climb`: the plan as JSON or text, its steps to CSV, its animation
+/// to SVG; an impossible
 /// climb is a failure (exit 3) after all that is printed and written.
 pub fn climb(out: &mut String, a: &Climb, plan: &Plan, elapsed_s: f64) -> Result<(), Failure> {
     let s = &a.scenario;
     let report = ClimbReport::new(&s.name, &a.robot, plan, s.goal.point_m, s.goal.tolerance_m);
     if let Some(path) = &a.outputs.csv {
         files::climb_csv(path, &report)?;
+    }
+    if let Some(path) = &a.outputs.svg {
+        files::climb_animation(path, a, plan)?;
     }
     if a.outputs.json {
         json(out, &report)?;

@@ -13,8 +13,10 @@ fn pose_flag(v: &Value) -> String {
 fn a_floor_crawl_is_reached_and_its_steps_replay_through_shape() {
     let dir = std::env::temp_dir().join(format!("leech-cli-climb-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let csv = dir.join("crawl.csv");
-    let v = succeeds(leech().args(["climb", "--scenario", "crawl-floor", "--json", "--csv"]).arg(&csv));
+    let (csv, svg) = (dir.join("crawl.csv"), dir.join("crawl.svg"));
+    let v = succeeds(
+        leech().args(["climb", "--scenario", "crawl-floor", "--json", "--csv"]).arg(&csv).arg("--svg").arg(&svg),
+    );
     assert_eq!(v["status"], "reached");
     assert_eq!(v["reason"], Value::Null);
     assert_eq!(v["scenario"], "crawl on the floor");
@@ -59,6 +61,11 @@ fn a_floor_crawl_is_reached_and_its_steps_replay_through_shape() {
     let text = std::fs::read_to_string(&csv).unwrap();
     assert!(text.starts_with("phase,stride,la_m,lb_m,hold,"), "{text}");
     assert_eq!(text.lines().count(), 1 + steps.len());
+    // The animation: one frame per step, each shown in its turn.
+    let picture = std::fs::read_to_string(&svg).unwrap();
+    assert_one_frame_per_step(&picture, steps.len());
+    assert!(picture.contains("stride 7/7, release_front") || picture.contains(&format!("stride {strides}/{strides}")));
+    assert!(picture.contains(">goal</text>"));
     std::fs::remove_dir_all(&dir).ok();
 
     // A step with both holds and one with the front hold alone, replayed.
@@ -84,6 +91,36 @@ fn a_floor_crawl_is_reached_and_its_steps_replay_through_shape() {
             }
         }
     }
+}
+
+/// `svg` is a whole SVG document with `steps` frames, each animated.
+fn assert_one_frame_per_step(svg: &str, steps: usize) {
+    assert!(svg.starts_with("<svg") || svg.starts_with("<?xml"), "{}", &svg[..svg.len().min(200)]);
+    assert!(svg.trim_end().ends_with("</svg>"));
+    assert_eq!(svg.matches("<g visibility=").count(), steps, "one frame per step");
+    let animations = svg.matches(r#"<animate attributeName="visibility""#).count();
+    assert_eq!(animations, if steps > 1 { steps } else { 0 });
+    assert_eq!(svg.matches("<g visibility=\"visible\"").count(), 1, "the first frame shows without SMIL");
+}
+
+#[test]
+fn a_climb_cut_short_still_draws_its_steps_and_an_unwritable_svg_is_one_line() {
+    let dir = std::env::temp_dir().join(format!("leech-cli-climb-svg-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let svg = dir.join("short.svg");
+    let args = ["climb", "--scenario", "crawl-floor", "--time-limit", "0.001", "--json", "--svg"];
+    let out = leech().args(args).arg(&svg).output().unwrap();
+    assert_eq!(out.status.code(), Some(3), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    assert_eq!(v["status"], "impossible");
+    assert_one_frame_per_step(&std::fs::read_to_string(&svg).unwrap(), v["steps"].as_array().unwrap().len());
+
+    let out = leech().args(args).arg(dir.join("no/such/dir/climb.svg")).output().unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    assert!(err.contains("climb.svg"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
