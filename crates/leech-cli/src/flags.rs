@@ -245,7 +245,7 @@ pub enum FitArg {
 /// `leech calibrate`.
 #[derive(Debug, Args)]
 pub struct CalibrateArgs {
-    /// Tube-sag measurements (CSV: tube_length_m,base_angle_deg,x_m,y_m[,tip_mass_kg]).
+    /// Tube-sag measurements (CSV: `tube_length_m,base_angle_deg,x_m,y_m[,tip_mass_kg]`).
     #[arg(long, value_name = "FILE")]
     pub sag: PathBuf,
     /// Body-shape measurements (CSV: shape,la_m,lb_m,base_angle_deg,chain,x_m,y_m).
@@ -437,7 +437,7 @@ pub struct ChainArgs {
     #[arg(long, value_name = "NAME|FILE")]
     pub scene: Option<PathBuf>,
     /// The tube's outer diameter (m), its clearance from the scene (default: the built-in robot's
-    /// [tube] outer_diameter_m).
+    /// `[tube] outer_diameter_m`).
     #[arg(long, value_name = "M", requires = "scene")]
     pub outer_diameter: Option<f64>,
     #[command(flatten)]
