@@ -140,3 +140,40 @@ fn a_search_out_of_time_says_so() {
     assert_eq!(plan.status, Status::Impossible);
     assert_eq!(plan.reason.unwrap().blocking, stride::Blocking::TimeLimit);
 }
+
+/// Up a wall the plan is impossible for `reach`, and the physics says why:
+/// with the rear cup on the wall, no tube lengths in the range (a 10 mm grid,
+/// free space) bring the front face within the attach tolerances of the wall
+/// (2 mm and 5 deg), because the estimated faces sit 15 mm apart across the
+/// body: near the wall the face is turned away, and where it is square to the
+/// wall it stands 12 mm off.
+#[test]
+fn up_a_wall_the_front_face_cannot_land() {
+    use leech::stance::Hold;
+    let robot = Robot::builtin();
+    let scenario = stride::Scenario::builtin("climb-wall-up").unwrap();
+    let plan = stride::plan(&robot, &scenario.scene, scenario.start, scenario.goal, &PlanOptions::default()).unwrap();
+    assert_eq!(plan.status, Status::Impossible);
+    assert_eq!(plan.reason.as_ref().unwrap().blocking, stride::Blocking::Reach, "{:?}", plan.reason);
+    let rear = stride::plan::rear_pose(&robot, scenario.start);
+    let (tol_m, tol_rad) = (robot.cup.attach_distance_tolerance_m, robot.cup.attach_angle_tolerance_deg.to_radians());
+    let mut nearest = f64::INFINITY;
+    for i in 0..=25 {
+        for j in 0..=25 {
+            let lengths = [0.05 + 0.01 * i as f64, 0.05 + 0.01 * j as f64];
+            let held = stance::solve(&robot, lengths, Hold::Rear(rear), &Solver::default()).unwrap();
+            let (centre, angle) = cup_face(&robot, &held, Cup::Front);
+            let (distance, ..) = scenario.scene.signed_distance(centre);
+            let tilt = leech::geom::angle_difference(angle, std::f64::consts::FRAC_PI_2).abs();
+            assert!(
+                !(distance.abs() <= tol_m && tilt <= tol_rad),
+                "{lengths:?}: the face lands ({distance} m, {tilt} rad)"
+            );
+            if tilt <= tol_rad {
+                nearest = nearest.min(distance.abs());
+            }
+        }
+    }
+    // Square to the wall, the face stands about 12 mm off it.
+    assert!(nearest > 0.01, "{nearest}");
+}
