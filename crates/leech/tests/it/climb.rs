@@ -5,7 +5,7 @@ use leech::prelude::*;
 use leech::scene::Scene;
 use leech::stance::{self, FreeCups, Held};
 use leech::stride::plan::cup_face;
-use leech::stride::{self, Command, Cup, Foothold, Goal, Phase, PlanOptions, Status, StrideMachine};
+use leech::stride::{self, Command, Cup, Evidence, Foothold, Goal, Phase, PlanOptions, Status, StrideMachine};
 
 /// Replays every step of `plan`: the same equilibrium from the step's own
 /// inputs, the interlock fed the phases with their evidence, every holding
@@ -62,24 +62,24 @@ fn replay(robot: &Robot, scene: &Scene, plan: &stride::Plan, goal: Goal) {
                 cup.verdict.safety_factor
             );
         }
-        let command = match step.phase {
-            Phase::Start | Phase::Push | Phase::Pull => Command::Move,
-            // The cup attaches where the previous phase left its face.
-            Phase::AttachFront => {
-                Command::Attach { cup: Cup::Front, flush: flush(previous.as_ref().unwrap(), Cup::Front) }
+        // The evidence of the phase: an attaching cup's face as the previous
+        // phase left it; a release's partner safety factor after it.
+        let (none, held_before) = (f64::NAN, previous.as_ref());
+        let evidence = match step.phase {
+            Phase::AttachFront => Evidence { flush: flush(held_before.unwrap(), Cup::Front), safety_factor: none },
+            Phase::AttachRear => Evidence { flush: flush(held_before.unwrap(), Cup::Rear), safety_factor: none },
+            Phase::ReleaseRear => {
+                Evidence { flush: false, safety_factor: front.as_ref().unwrap().verdict.safety_factor }
             }
-            Phase::AttachRear => {
-                Command::Attach { cup: Cup::Rear, flush: flush(previous.as_ref().unwrap(), Cup::Rear) }
+            Phase::ReleaseFront => {
+                Evidence { flush: false, safety_factor: rear.as_ref().unwrap().verdict.safety_factor }
             }
-            Phase::ReleaseRear => Command::Release {
-                cup: Cup::Rear,
-                partner_safety_factor: front.as_ref().unwrap().verdict.safety_factor,
-            },
-            Phase::ReleaseFront => Command::Release {
-                cup: Cup::Front,
-                partner_safety_factor: rear.as_ref().unwrap().verdict.safety_factor,
-            },
+            Phase::Start | Phase::Push | Phase::Pull => Evidence { flush: false, safety_factor: none },
         };
+        let command = step.phase.command(evidence);
+        if matches!(step.phase, Phase::Start | Phase::Push | Phase::Pull) {
+            assert_eq!(command, Command::Move);
+        }
         let holding = machine.apply(command).unwrap_or_else(|e| panic!("{:?}: {e}", step.phase));
         assert_eq!(holding.name(), Some(again.hold.name()), "{:?}", step.phase);
         previous = Some(again);
