@@ -150,7 +150,8 @@ fn run(args: Args, out: &mut String) -> Result<(), Failure> {
             let mut progress = |p: leech::stride::Progress| {
                 bar.set_position(bar.length().unwrap_or(0).saturating_sub((p.distance_m * 1e3) as u64));
             };
-            let plan = leech::stride::plan_with_progress(&a.robot, &s.scene, s.start, s.goal, &a.options, &mut progress)?;
+            let plan =
+                leech::stride::plan_with_progress(&a.robot, &s.scene, s.start, s.goal, &a.options, &mut progress)?;
             bar.finish_and_clear();
             render::climb(out, &a, &plan, started.elapsed().as_secs_f64())
         }

@@ -134,7 +134,7 @@ fn an_impossible_climb_exits_3_with_its_reason_in_the_json() {
     let v: Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
     assert_eq!(v["status"], "impossible");
     let blocking = v["reason"]["blocking"].as_str().unwrap();
-    assert!(["reach", "cup_force", "collision", "snap"].contains(&blocking), "{blocking}");
+    assert!(["reach", "cup_force", "collision", "snap", "time_limit"].contains(&blocking), "{blocking}");
     assert!(v["reason"]["phase"].is_string() && v["reason"]["detail"].is_string());
     assert!(!v["steps"].as_array().unwrap().is_empty(), "the start at least");
     let err = String::from_utf8(out.stderr).unwrap();

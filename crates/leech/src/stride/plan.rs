@@ -656,7 +656,7 @@ impl Planner<'_> {
             Ok(())
         } else {
             Err(Rejection {
-                blocking: Blocking::Collision,
+                blocking: Blocking::Reach,
                 phase: step.phase,
                 detail: format!(
                     "among the solids the {cup} cup no longer lies flush at ({:.4}, {:.4}) m, its face at {:.2} deg",
