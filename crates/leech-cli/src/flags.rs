@@ -72,9 +72,9 @@ pub struct ClimbArgs {
     pub tolerance: Option<f64>,
     #[command(flatten)]
     pub robot: RobotChoice,
-    /// Wall-clock limit of the whole search (s); none by default.
-    #[arg(long, value_name = "S")]
-    pub time_limit: Option<f64>,
+    /// Wall-clock limit of the whole search (s).
+    #[arg(long, value_name = "S", default_value_t = 60.0)]
+    pub time_limit: f64,
     /// Print the plan as JSON (units in the keys) instead of text.
     #[arg(long)]
     pub json: bool,

@@ -40,15 +40,10 @@ pub(super) fn climb(a: flags::ClimbArgs) -> Result<Climb, Failure> {
         }
         (_, e) => e.into(),
     })?;
-    let time_limit = a
-        .time_limit
-        .map(|s| {
-            let s = positive("--time-limit (s)", s)?;
-            Duration::try_from_secs_f64(s)
-                .map_err(|_| Failure::Input(format!("--time-limit: got {s}, expected a number of seconds")))
-        })
-        .transpose()?;
-    let options = PlanOptions { time_limit, ..PlanOptions::default() };
+    let seconds = positive("--time-limit (s)", a.time_limit)?;
+    let time_limit = Duration::try_from_secs_f64(seconds)
+        .map_err(|_| Failure::Input(format!("--time-limit: got {seconds:e}, expected a number of seconds")))?;
+    let options = PlanOptions { time_limit: Some(time_limit), ..PlanOptions::default() };
     let outputs = Outputs { json: a.json, csv: a.csv, svg: a.svg, ..Outputs::default() };
     Ok(Climb { robot, scenario, options, outputs })
 }

@@ -155,6 +155,8 @@ pub enum Blocking {
     Snap,
     /// Not a physical block: the search ran out of its time limit.
     TimeLimit,
+    /// Not a physical block: the plan needs more strides than allowed.
+    StrideLimit,
 }
 
 impl Blocking {
@@ -166,6 +168,7 @@ impl Blocking {
             Blocking::Collision => "collision",
             Blocking::Snap => "snap",
             Blocking::TimeLimit => "time_limit",
+            Blocking::StrideLimit => "stride_limit",
         }
     }
 }
@@ -339,9 +342,14 @@ impl Planner<'_> {
         let mut beam = vec![Stance { rear: start, unit, lengths: [short; 2], steps: vec![first], strides: 0 }];
         let mut farthest = beam[0].clone();
         let mut last_reason = None;
-        for _ in 0..self.options.max_strides {
+        let mut strides_left = true;
+        for stride in 0..=self.options.max_strides {
             if let Some(plan) = self.reached(&beam) {
                 return Ok(plan);
+            }
+            if stride == self.options.max_strides {
+                strides_left = false;
+                break;
             }
             let mut next = Vec::new();
             for stance in &beam {
@@ -373,7 +381,17 @@ impl Planner<'_> {
         if let Some(plan) = self.reached(&beam) {
             return Ok(plan);
         }
-        let reason = if self.out_of_time() {
+        let reason = if !strides_left {
+            let max = self.options.max_strides;
+            Rejection {
+                blocking: Blocking::StrideLimit,
+                phase: Phase::ReleaseFront,
+                detail: format!(
+                    "the goal is more than {max} strides away (the search's limit); the last stance is {:.3} m from it",
+                    beam[0].distance(&self.goal)
+                ),
+            }
+        } else if self.out_of_time() {
             let limit = self.options.time_limit.unwrap_or_default().as_secs_f64();
             Rejection {
                 blocking: Blocking::TimeLimit,

@@ -177,3 +177,17 @@ fn up_a_wall_the_front_face_cannot_land() {
     // Square to the wall, the face stands about 12 mm off it.
     assert!(nearest > 0.01, "{nearest}");
 }
+
+/// A goal more strides away than the search allows is reported as the stride limit, not as a physical block.
+#[test]
+fn a_goal_beyond_the_stride_limit_says_so() {
+    let robot = Robot::builtin();
+    let floor = Scene::builtin("floor").unwrap();
+    let start = Foothold { centre_m: [0.0, 0.0], direction_rad: 0.0 };
+    let goal = Goal { point_m: [0.5, 0.0], tolerance_m: 0.03 };
+    let options = PlanOptions { max_strides: 2, ..PlanOptions::default() };
+    let plan = stride::plan(&robot, &floor, start, goal, &options).unwrap();
+    assert_eq!(plan.status, Status::Impossible);
+    assert_eq!(plan.reason.unwrap().blocking, stride::Blocking::StrideLimit);
+    assert_eq!(plan.strides, 2);
+}
