@@ -35,7 +35,10 @@ fn main() -> ExitCode {
     let json = args.json();
     let mut out = String::new();
     let result = run(args, &mut out);
-    render::emit(&out);
+    if let Err(e) = render::emit(&out) {
+        eprintln!("leech: writing the output: {e}");
+        return ExitCode::from(1);
+    }
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(failure) => exit_code(failure, json),
@@ -52,7 +55,9 @@ fn exit_code(failure: Failure, json: bool) -> ExitCode {
         }
         Failure::Solve(e, message) => {
             if json {
-                render::emit(&render::solve_failure(&e));
+                if let Err(e) = render::emit(&render::solve_failure(&e)) {
+                    eprintln!("leech: writing the output: {e}");
+                }
             }
             eprintln!("leech: {message}");
             ExitCode::from(3)
@@ -73,8 +78,13 @@ fn clap_failure(e: &clap::Error) -> ExitCode {
     use clap::error::ErrorKind;
     if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
         // `leech --help | head` closes the pipe early: not an error.
-        render::emit(&e.to_string());
-        return ExitCode::SUCCESS;
+        return match render::emit(&e.to_string()) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("leech: writing the output: {e}");
+                ExitCode::from(1)
+            }
+        };
     }
     // One line: clap's message without its usage and help hints.
     let rendered = e.to_string();

@@ -30,11 +30,15 @@ use serde_json::json;
 use crate::args::{Calibrate, Chain, Climb, Shape, Simulate, Workspace};
 use crate::failure::Failure;
 
-/// Writes to standard output; a closed pipe (`leech ... | head`) is not an error.
-pub fn emit(text: &str) {
+/// Writes to standard output; a closed pipe (`leech ... | head`) is not an
+/// error, any other failure (a full disk) is.
+pub fn emit(text: &str) -> std::io::Result<()> {
     use std::io::Write;
     let mut stdout = std::io::stdout().lock();
-    let _ = stdout.write_all(text.as_bytes()).and_then(|()| stdout.flush());
+    match stdout.write_all(text.as_bytes()).and_then(|()| stdout.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e),
+        _ => Ok(()),
+    }
 }
 
 /// The status of a failed solve, one JSON line.

@@ -425,3 +425,17 @@ fn help_into_a_closed_pipe_does_not_panic() {
     assert!(!stderr.contains("panicked"), "{stderr}");
     assert!(output.status.success(), "{:?}", output.status);
 }
+
+/// Output that cannot be written (a full disk) is a failure, exit 1, said on
+/// standard error; a pipe closed early is not.
+#[test]
+fn an_unwritable_standard_output_fails() {
+    let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") else { return };
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_leech"))
+        .args(["robot", "--json"])
+        .stdout(full)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("writing the output"));
+}
