@@ -89,6 +89,6 @@ pub(super) fn load_scenario(given: &Path, flag: &str) -> Result<(Scenario, Strin
         )));
     }
     let text = read_at_most(given, flag, MAX_SCENE_BYTES).map_err(Failure::Input)?;
-    let scenario = Scenario::from_toml_str(&text, &given.display().to_string())?;
+    let scenario = Scenario::parse(&text, &given.display().to_string())?;
     Ok((scenario, text))
 }

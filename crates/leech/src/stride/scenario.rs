@@ -110,9 +110,16 @@ struct RawGoal {
 impl Scenario {
     /// Parses and validates a scenario file; `source` (a path, or a built-in
     /// name) starts every error message. The start is checked against the
-    /// built-in robot's cup ([`Scenario::check_start`]); check it again for
-    /// another robot.
+    /// built-in robot's cup ([`Scenario::check_start`]); for another robot
+    /// use [`Scenario::parse`] and check it against that robot's cup.
     pub fn from_toml_str(text: &str, source: &str) -> Result<Scenario, InputError> {
+        let scenario = Scenario::parse(text, source)?;
+        scenario.check_cup(&Cup::default(), source)?;
+        Ok(scenario)
+    }
+
+    /// [`Scenario::from_toml_str`] without the start's check against a cup.
+    pub fn parse(text: &str, source: &str) -> Result<Scenario, InputError> {
         if text.len() > MAX_SCENE_BYTES {
             return Err(InputError::Invalid {
                 field: source.into(),
@@ -169,7 +176,6 @@ impl Scenario {
             start,
             goal: Goal { point_m, tolerance_m },
         };
-        scenario.check_cup(&Cup::default(), source)?;
         Ok(scenario)
     }
 
