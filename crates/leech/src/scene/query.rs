@@ -154,6 +154,13 @@ fn polygon_hit(solid: usize, points: &[Vec2], p: Vec2) -> Hit {
     Hit { distance, feature: Feature::Vertex { solid, vertex }, normal, closest }
 }
 
+/// A polygon's bounding box (lower-left, upper-right corners); none for a half-plane.
+fn bounding_box(s: &Solid) -> Option<[Vec2; 2]> {
+    let Solid::Polygon { points_m } = s else { return None };
+    let fold = |f: fn(f64, f64) -> f64, start: f64| [0, 1].map(|i| points_m.iter().fold(start, |acc, p| f(acc, p[i])));
+    Some([fold(f64::min, f64::INFINITY), fold(f64::max, f64::NEG_INFINITY)])
+}
+
 fn solid_hit(solid: usize, s: &Solid, p: Vec2) -> Hit {
     match s {
         Solid::HalfPlane { point_m, normal } => half_plane_hit(solid, *point_m, *normal, p),
@@ -288,28 +295,44 @@ impl Scene {
     /// It tests each vertex against every solid: call it once per scene, not
     /// per step.
     pub fn convex_corners(&self) -> impl Iterator<Item = Corner> + '_ {
+        // A polygon can bury a vertex only within its bounding box: the boxes
+        // spare the exact test for all the others (scenes of many polygons).
+        let boxes: std::rc::Rc<[Option<[Vec2; 2]>]> = self.solids.iter().map(bounding_box).collect();
         self.solids.iter().enumerate().flat_map(move |(solid, s)| {
             let points: &[Vec2] = match s {
                 Solid::Polygon { points_m } => points_m,
                 Solid::HalfPlane { .. } => &[],
             };
-            (0..points.len()).filter_map(move |vertex| self.exposed_corner(solid, points, vertex))
+            let boxes = std::rc::Rc::clone(&boxes);
+            (0..points.len()).filter_map(move |vertex| self.exposed_corner(solid, points, vertex, &boxes))
         })
     }
 
-    /// Vertex `vertex` of polygon `solid` as a [`Corner`], if convex and exposed.
-    fn exposed_corner(&self, solid: usize, points: &[Vec2], vertex: usize) -> Option<Corner> {
+    /// Vertex `vertex` of polygon `solid` as a [`Corner`], if convex and
+    /// exposed; `boxes` the solids' bounding boxes (none for a half-plane).
+    fn exposed_corner(
+        &self,
+        solid: usize,
+        points: &[Vec2],
+        vertex: usize,
+        boxes: &[Option<[Vec2; 2]>],
+    ) -> Option<Corner> {
         let point = points[vertex];
         let (d_in, d_out) = (sub(point, prev(points, vertex)), sub(next(points, vertex), point));
         let turn = cross(d_in, d_out);
         if !(turn > 0.0) {
             return None;
         }
+        let near = |j: usize| {
+            boxes[j].is_none_or(|[lo, hi]| {
+                (0..2).all(|i| point[i] >= lo[i] - ON_SURFACE_M && point[i] <= hi[i] + ON_SURFACE_M)
+            })
+        };
         let buried = self
             .solids
             .iter()
             .enumerate()
-            .any(|(j, other)| j != solid && solid_hit(j, other, point).distance <= ON_SURFACE_M);
+            .any(|(j, other)| j != solid && near(j) && solid_hit(j, other, point).distance <= ON_SURFACE_M);
         // The interior angle is what the left turn at the vertex leaves of a half turn.
         let interior_angle_rad = PI - turn.atan2(dot(d_in, d_out));
         (!buried).then(|| Corner { solid, vertex, point, bisector: bisector(points, vertex), interior_angle_rad })
