@@ -42,6 +42,24 @@ impl InputError {
     }
 }
 
+/// Longest name or description a file may give (characters).
+pub const MAX_NAME_CHARS: usize = 200;
+
+/// Checks a name or description is printable text of at most
+/// [`MAX_NAME_CHARS`] characters: it goes into titles, SVG text and
+/// one-line messages, where control characters break them.
+pub fn printable(field: &str, text: &str) -> Result<(), InputError> {
+    if text.chars().count() <= MAX_NAME_CHARS && !text.chars().any(char::is_control) {
+        return Ok(());
+    }
+    let shown: String = text.chars().take(40).flat_map(char::escape_default).collect();
+    Err(InputError::Invalid {
+        field: field.into(),
+        value: format!("\"{shown}\"{}", if text.chars().count() > 40 { "..." } else { "" }),
+        allowed: format!("printable text (no control characters) of at most {MAX_NAME_CHARS} characters"),
+    })
+}
+
 /// Checks `value` is finite and strictly positive.
 pub fn positive(field: &str, value: f64) -> Result<f64, InputError> {
     if value.is_finite() && value > 0.0 {

@@ -326,6 +326,7 @@ impl Robot {
 
     /// Checks every value; call it again after changing fields by hand.
     pub fn validate(&self) -> Result<(), InputError> {
+        crate::error::printable("name", &self.name)?;
         positive("tube.element_length_m", self.tube.element_length_m)?;
         positive("tube.element_mass_kg", self.tube.element_mass_kg)?;
         positive("tube.joint_stiffness_nm_per_rad", self.tube.joint_stiffness_nm_per_rad)?;

@@ -144,6 +144,7 @@ impl Scene {
     /// Fields are named as in the file: `half_plane[i]` and `polygon[i]` count
     /// each kind separately, in order.
     pub fn validate(&self) -> Result<(), InputError> {
+        crate::error::printable("name", &self.name)?;
         let count = self.solids.len();
         if !(1..=MAX_SOLIDS).contains(&count) {
             return Err(InputError::Invalid {

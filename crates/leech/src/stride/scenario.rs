@@ -19,7 +19,7 @@
 //!
 //! The file's keys:
 //!
-//! * `name`, `description` (optional): text.
+//! * `name` (required) and `description` (optional): printable text.
 //! * `scene`: a built-in scene's name ([`Scene::builtin_names`]), or instead
 //!   an inline `[scene]` table holding a scene file's contents (its own
 //!   `name`, `[[scene.half_plane]]` and `[[scene.polygon]]` tables).
@@ -169,6 +169,8 @@ impl Scenario {
                 format!("a number of m above 0 and at most {MAX_TOLERANCE_M}"),
             ));
         }
+        crate::error::printable(&format!("{source}: name"), &raw.name)?;
+        crate::error::printable(&format!("{source}: description"), &raw.description)?;
         let scenario = Scenario {
             name: raw.name,
             description: raw.description,

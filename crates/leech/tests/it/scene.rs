@@ -377,3 +377,13 @@ fn a_robot_base_stands_on_each_builtin() {
         assert!(scene.is_free(add_scaled(c, robot.body.base_spacing_m, unit(a + PI / 2.0)), 0.0));
     }
 }
+
+/// Names go into titles, SVG text and one-line messages: control characters are refused.
+#[test]
+fn a_name_with_control_characters_is_refused() {
+    let toml = "name = \"a\\u0001b\"\n[[half_plane]]\npoint_m = [0.0, 0.0]\nnormal = [0.0, 1.0]\n";
+    let e = leech::scene::Scene::from_toml_str(toml, "s.toml").unwrap_err().to_string();
+    assert!(e.starts_with("s.toml: name: got \"a\\u{1}b\""), "{e}");
+    assert!(leech::error::printable("name", "LEeCH (estimated parameters)").is_ok());
+    assert!(leech::error::printable("name", &"x".repeat(201)).is_err());
+}
