@@ -447,8 +447,7 @@ impl Planner<'_> {
                 ),
             });
         }
-        let goal = self.goal.point_m;
-        touchdowns.sort_by(|a, b| norm(sub(a.1.centre_m, goal)).total_cmp(&norm(sub(b.1.centre_m, goal))));
+        self.nearest_goal_first(&mut touchdowns);
         let mut out = Vec::new();
         for (lengths, front) in touchdowns.into_iter().take(self.options.candidates) {
             match self.stride(stance, lengths, front)? {
@@ -487,19 +486,11 @@ impl Planner<'_> {
             let front_pose =
                 pressed(robot, Pose { point_m: push.held.endpoint_m, angle_rad: push.held.plate_angle() }, front);
             steps.push(push);
-            self.guard(&mut machine, Phase::AttachFront, Command::Attach { cup: Cup::Front, flush: true })?;
-            steps.push(self.step(Phase::AttachFront, stride, lengths, Hold::Both { rear, front: front_pose })?);
-            let released = self.step(Phase::ReleaseRear, stride, lengths, Hold::Front(front_pose))?;
-            let factor = released.front_safety_factor.unwrap_or(f64::NAN);
-            self.guard(
-                &mut machine,
-                Phase::ReleaseRear,
-                Command::Release { cup: Cup::Rear, partner_safety_factor: factor },
-            )?;
-            steps.push(released);
+            let both = Hold::Both { rear, front: front_pose };
+            steps.extend(self.hand_over(&mut machine, stride, lengths, Cup::Front, both, Hold::Front(front_pose))?);
             let mut pulls = self.touchdowns(Hold::Front(front_pose), Cup::Rear).map_err(input_rejection)?;
             let goal = self.goal.point_m;
-            pulls.sort_by(|a, b| norm(sub(a.1.centre_m, goal)).total_cmp(&norm(sub(b.1.centre_m, goal))));
+            self.nearest_goal_first(&mut pulls);
             // Where the released unit rests on a surface (a floor), no free
             // touchdown exists: the face lies down among the solids. Those
             // touchdowns are searched one base at a time, shortest first (the
@@ -527,17 +518,9 @@ impl Planner<'_> {
                 let attempt = (|| {
                     let pull = self.touch_down(Phase::Pull, stride, pulled, Hold::Front(front_pose), Cup::Rear)?;
                     let unit = pressed(robot, pull.held.unit, new_rear);
-                    let mut m = machine;
-                    self.guard(&mut m, Phase::AttachRear, Command::Attach { cup: Cup::Rear, flush: true })?;
-                    let attach =
-                        self.step(Phase::AttachRear, stride, pulled, Hold::Both { rear: unit, front: front_pose })?;
-                    let settled = self.step(Phase::ReleaseFront, stride, pulled, Hold::Rear(unit))?;
-                    let factor = settled.rear_safety_factor.unwrap_or(f64::NAN);
-                    self.guard(
-                        &mut m,
-                        Phase::ReleaseFront,
-                        Command::Release { cup: Cup::Front, partner_safety_factor: factor },
-                    )?;
+                    let both = Hold::Both { rear: unit, front: front_pose };
+                    let [attach, settled] =
+                        self.hand_over(&mut machine.clone(), stride, pulled, Cup::Rear, both, Hold::Rear(unit))?;
                     Ok((unit, [pull, attach, settled]))
                 })();
                 match attempt {
@@ -586,6 +569,41 @@ impl Planner<'_> {
         let step = self.step(phase, stride, to, hold)?;
         self.flush_after(&step, moving)?;
         Ok(step)
+    }
+
+    /// Touchdowns ordered by their foothold's distance to the goal, nearest first.
+    fn nearest_goal_first(&self, touchdowns: &mut [([f64; 2], Foothold)]) {
+        let goal = self.goal.point_m;
+        touchdowns.sort_by(|a, b| norm(sub(a.1.centre_m, goal)).total_cmp(&norm(sub(b.1.centre_m, goal))));
+    }
+
+    /// `attaching` attaches (the phase's end with both holds, `both`), then
+    /// the other cup releases (the end with `attaching`'s hold alone,
+    /// `alone`): each behind the interlock, the release judged on the
+    /// attached cup's safety factor after it.
+    fn hand_over(
+        &mut self,
+        machine: &mut StrideMachine,
+        stride: usize,
+        lengths: [f64; 2],
+        attaching: Cup,
+        both: Hold,
+        alone: Hold,
+    ) -> Result<[Step; 2], Rejection> {
+        let (attach, release) = match attaching {
+            Cup::Front => (Phase::AttachFront, Phase::ReleaseRear),
+            Cup::Rear => (Phase::AttachRear, Phase::ReleaseFront),
+        };
+        self.guard(machine, attach, Command::Attach { cup: attaching, flush: true })?;
+        let attached = self.step(attach, stride, lengths, both)?;
+        let released = self.step(release, stride, lengths, alone)?;
+        let factor = match attaching {
+            Cup::Front => released.front_safety_factor,
+            Cup::Rear => released.rear_safety_factor,
+        };
+        let command = Command::Release { cup: attaching.other(), partner_safety_factor: factor.unwrap_or(f64::NAN) };
+        self.guard(machine, release, command)?;
+        Ok([attached, released])
     }
 
     /// Applies `command` to the interlock, a refusal as a rejection.
