@@ -93,15 +93,7 @@ impl Scene {
     /// The solids are the half-planes, then the polygons, each in file order.
     /// Text longer than [`MAX_SCENE_BYTES`] is rejected before parsing.
     pub fn from_toml_str(text: &str, source: &str) -> Result<Scene, InputError> {
-        if text.len() > MAX_SCENE_BYTES {
-            return Err(InputError::Invalid {
-                field: source.into(),
-                value: format!("{} bytes", text.len()),
-                allowed: format!("a scene file of at most {MAX_SCENE_BYTES} bytes"),
-            });
-        }
-        let raw: RawScene =
-            toml::from_str(text).map_err(|e| InputError::File { file: source.into(), message: one_line(text, &e) })?;
+        let raw: RawScene = parse_bounded(text, source, "scene")?;
         let name = raw.name.clone();
         let start = raw.start.as_ref().map(|s| start(s, source)).transpose()?;
         let scene = Scene { name, solids: solids(raw, source)?, start };
@@ -134,6 +126,23 @@ impl Scene {
         }
         toml::to_string(&raw).expect("a scene always serializes")
     }
+}
+
+/// `text` (a `what` file from `source`) parsed as TOML into `T`, refused
+/// beyond [`MAX_SCENE_BYTES`] before parsing; errors on one line.
+pub(crate) fn parse_bounded<T: serde::de::DeserializeOwned>(
+    text: &str,
+    source: &str,
+    what: &str,
+) -> Result<T, InputError> {
+    if text.len() > MAX_SCENE_BYTES {
+        return Err(InputError::Invalid {
+            field: source.into(),
+            value: format!("{} bytes", text.len()),
+            allowed: format!("a {what} file of at most {MAX_SCENE_BYTES} bytes"),
+        });
+    }
+    toml::from_str(text).map_err(|e| InputError::File { file: source.into(), message: one_line(text, &e) })
 }
 
 /// The parser's message with its line number, folded to one line (the

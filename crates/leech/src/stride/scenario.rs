@@ -31,7 +31,7 @@
 //!   [`MAX_TOLERANCE_M`]): where the rear cup's face centre should land.
 //!
 //! Coordinates are bounded as in scene files ([`MAX_COORDINATE_M`]), the
-//! text as a scene file's ([`MAX_SCENE_BYTES`]), and unknown keys are errors.
+//! text as a scene file's ([`crate::scene::MAX_SCENE_BYTES`]), and unknown keys are errors.
 //! Built-in scenarios ([`Scenario::builtin`]) are such files under
 //! `crates/leech/scenarios/`.
 
@@ -40,8 +40,8 @@ use serde::Deserialize;
 use super::plan::{Foothold, Goal};
 use crate::error::{within, InputError};
 use crate::robot::{Cup, Robot};
-use crate::scene::file::one_line;
-use crate::scene::{Scene, MAX_COORDINATE_M, MAX_SCENE_BYTES};
+use crate::scene::file::parse_bounded;
+use crate::scene::{Scene, MAX_COORDINATE_M};
 
 /// The largest goal tolerance a scenario may ask for (m).
 pub const MAX_TOLERANCE_M: f64 = 1.0;
@@ -120,15 +120,7 @@ impl Scenario {
 
     /// [`Scenario::from_toml_str`] without the start's check against a cup.
     pub fn parse(text: &str, source: &str) -> Result<Scenario, InputError> {
-        if text.len() > MAX_SCENE_BYTES {
-            return Err(InputError::Invalid {
-                field: source.into(),
-                value: format!("{} bytes", text.len()),
-                allowed: format!("a scenario file of at most {MAX_SCENE_BYTES} bytes"),
-            });
-        }
-        let raw: RawScenario =
-            toml::from_str(text).map_err(|e| InputError::File { file: source.into(), message: one_line(text, &e) })?;
+        let raw: RawScenario = parse_bounded(text, source, "scenario")?;
         let scene = scene(&raw.scene, source)?;
         let m = MAX_COORDINATE_M;
         let start = match raw.start.rear_cup.as_slice() {
