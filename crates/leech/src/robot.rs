@@ -159,8 +159,8 @@ impl Default for Cup {
             min_safety_factor: 1.5,
             attach_distance_tolerance_m: 0.002,
             attach_angle_tolerance_deg: 5.0,
-            rear_offset_m: 0.03,
-            front_offset_m: 0.02,
+            rear_offset_m: 0.015,
+            front_offset_m: 0.016,
             preload_m: 0.0,
         }
     }

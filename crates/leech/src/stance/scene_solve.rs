@@ -238,6 +238,12 @@ fn warm_iterate<S: Touching>(system: &S, previous: &Equilibrium, pushing: &[Push
         if let Some(known) = pushing.iter().find(|p| p.matches(system, row)) {
             it.lambda[first + i] = known.force;
             it.active[first + i] = true;
+        } else if on_cup(row.chain) && dot(row.normal, system.contact_point(&previous.q, row)) < row.offset {
+            // A free cup's rim already in a solid (a unit that hung into a
+            // floor before its rows existed): held as an equality from the
+            // first step, which lifts it out; it leaves the set if it then
+            // pulls.
+            it.active[first + i] = true;
         }
     }
     it

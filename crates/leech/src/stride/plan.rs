@@ -55,8 +55,11 @@ pub const SEED_DISTANCE_M: f64 = 0.03;
 /// ... and this close to flush (deg).
 pub const SEED_ANGLE_DEG: f64 = 25.0;
 
-/// Seeds a touchdown search starts Newton from, the nearest first.
+/// Seeds a touchdown search starts Newton from, those over spots nearest the goal first.
 pub const SEEDS_TRIED: usize = 4;
+
+/// Seeds tried are over spots of the surface at least this far apart (m).
+pub const SEED_SPACING_M: f64 = 0.02;
 
 /// A stride must bring the rear cup this much closer to the goal (m).
 pub const MIN_PROGRESS_M: f64 = 0.005;
@@ -125,7 +128,8 @@ pub struct PlanOptions {
     pub max_strides: usize,
     /// Stances kept per stride in the search.
     pub beam: usize,
-    /// Touchdowns tried per stance, nearest the goal first.
+    /// Strides kept per stance: its touchdowns are tried nearest the goal
+    /// first until this many pass.
     pub candidates: usize,
     /// Seeds per side of the tube-length grid of a touchdown search.
     pub grid: usize,
@@ -429,11 +433,9 @@ impl Planner<'_> {
     fn strides_from(&mut self, stance: &Stance, reason: &mut Option<Rejection>) -> Result<Vec<Stance>, InputError> {
         let holding = Hold::Rear(stance.unit);
         let mut touchdowns = self.touchdowns(holding, Cup::Front)?;
-        // A face that cannot land flush in free space may be pressed flat
-        // onto a surface it rests on.
-        if touchdowns.is_empty() {
-            touchdowns = self.resting_touchdowns(holding, Cup::Front, &FRONT_BASES_M);
-        }
+        // A face that cannot land flush in free space (a body sagging onto a
+        // floor) may be laid flat on a surface it rests on.
+        touchdowns.extend(self.resting_touchdowns(holding, Cup::Front, &FRONT_BASES_M));
         if touchdowns.is_empty() {
             *reason = Some(Rejection {
                 blocking: Blocking::Reach,
@@ -449,7 +451,10 @@ impl Planner<'_> {
         }
         self.nearest_goal_first(&mut touchdowns);
         let mut out = Vec::new();
-        for (lengths, front) in touchdowns.into_iter().take(self.options.candidates) {
+        for (lengths, front) in touchdowns {
+            if out.len() == self.options.candidates || self.out_of_time() {
+                break;
+            }
             match self.stride(stance, lengths, front)? {
                 Ok(child) if child.distance(&self.goal) < stance.distance(&self.goal) - MIN_PROGRESS_M => {
                     out.push(child)
@@ -490,13 +495,18 @@ impl Planner<'_> {
             steps.extend(self.hand_over(&mut machine, stride, lengths, Cup::Front, both, Hold::Front(front_pose))?);
             let mut pulls = self.touchdowns(Hold::Front(front_pose), Cup::Rear).map_err(input_rejection)?;
             let goal = self.goal.point_m;
+            // A pull that lands the rear cup no nearer the goal is no stride.
+            let now = stance.distance(&self.goal) - MIN_PROGRESS_M;
+            pulls.retain(|(_, foothold)| norm(sub(foothold.centre_m, goal)) < now);
             self.nearest_goal_first(&mut pulls);
-            // Where the released unit rests on a surface (a floor), no free
-            // touchdown exists: the face lies down among the solids. Those
-            // touchdowns are searched one base at a time, shortest first (the
-            // unit drawn nearest the front cup), until a pull passes.
+            // Where the released unit rests on a surface (a floor, a wall it
+            // sagged onto), the face lies down among the solids instead.
+            // Those touchdowns are searched after the free ones, one base at a
+            // time, shortest first (the unit drawn nearest the front cup),
+            // until a pull passes.
             let lo = robot.limits.tube_length_min_m;
-            let bases = if pulls.is_empty() { RESTING_BASES_M.map(|b| lo + b).to_vec() } else { Vec::new() };
+            let bases: Vec<f64> =
+                RESTING_BASES_M.iter().map(|b| lo + b).filter(|b| *b <= lengths[0].max(lengths[1])).collect();
             let mut queue: std::collections::VecDeque<_> = pulls.into();
             let mut next_base = 0;
             let mut best: Option<(f64, Foothold, Pose, [Step; 3])> = None;
@@ -721,9 +731,11 @@ impl Planner<'_> {
         let limits = &self.robot.limits;
         let (lo, hi) = (limits.tube_length_min_m, limits.tube_length_max_m);
         let n = self.options.grid.max(2);
-        // Seeds near a surface and near flush, the nearest (distance plus the
-        // lever of the tilt over the cup's radius) first: neighbouring seeds
-        // lead Newton to the same touchdown, so only the best few start it.
+        // Seeds near a surface and near flush, those whose face is over a
+        // spot nearest the goal first (fewest strides), at most one per
+        // SEED_SPACING_M of surface: neighbouring seeds lead Newton to the
+        // same touchdown, so only a few start it.
+        let goal = self.goal.point_m;
         let mut seeds = Vec::new();
         for i in 0..n {
             for j in 0..n {
@@ -733,14 +745,22 @@ impl Planner<'_> {
                 let (distance, ..) = self.scene.signed_distance(centre);
                 let off = angle_difference(angle, direction).abs();
                 if distance.abs() <= SEED_DISTANCE_M && off <= SEED_ANGLE_DEG.to_radians() {
-                    let score = distance.abs() + 0.5 * self.robot.cup.diameter_m * off;
-                    seeds.push((score, seed, target, direction));
+                    seeds.push((norm(sub(target, goal)), seed, target, direction));
                 }
             }
         }
         seeds.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut spread: Vec<(f64, [f64; 2], Vec2, f64)> = Vec::new();
+        for seed in seeds {
+            if spread.len() == SEEDS_TRIED {
+                break;
+            }
+            if spread.iter().all(|s| norm(sub(s.2, seed.2)) >= SEED_SPACING_M) {
+                spread.push(seed);
+            }
+        }
         let mut found: Vec<([f64; 2], Foothold)> = Vec::new();
-        for (_, seed, target, direction) in seeds.into_iter().take(SEEDS_TRIED) {
+        for (_, seed, target, direction) in spread {
             for tilt in TILTS_DEG {
                 let Some(lengths) = self.lay(holding, moving, seed, target, direction, tilt.to_radians()) else {
                     continue;

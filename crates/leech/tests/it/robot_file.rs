@@ -125,8 +125,8 @@ fn bad_new_values_name_field_value_and_range() {
         ("attach_distance_tolerance_m = 0.002 ", "attach_distance_tolerance_m = 0 ", "cup.attach_distance", "> 0"),
         ("attach_angle_tolerance_deg = 5 ", "attach_angle_tolerance_deg = 95 ", "cup.attach_angle", "(0, 90]"),
         ("attach_angle_tolerance_deg = 5 ", "attach_angle_tolerance_deg = 0 ", "cup.attach_angle", "(0, 90]"),
-        ("rear_offset_m = 0.03 ", "rear_offset_m = 0.004 ", "cup.rear_offset_m", "tube's radius (0.005"),
-        ("front_offset_m = 0.02 ", "front_offset_m = -0.02 ", "cup.front_offset_m", ">= 0"),
+        ("rear_offset_m = 0.015 ", "rear_offset_m = 0.004 ", "cup.rear_offset_m", "tube's radius (0.005"),
+        ("front_offset_m = 0.016 ", "front_offset_m = -0.02 ", "cup.front_offset_m", ">= 0"),
         ("preload_m = 0.0 ", "preload_m = -0.001 ", "cup.preload_m", ">= 0"),
         ("tube_length_min_m = 0.05 ", "tube_length_min_m = 0 ", "limits.tube_length_min_m", "> 0"),
         (
@@ -147,7 +147,7 @@ fn bad_new_values_name_field_value_and_range() {
 fn cup_offsets_follow_the_tube_diameter() {
     // A thicker tube needs its cups further out: the same offsets are rejected.
     let e = message(with("outer_diameter_m = 0.010 ", "outer_diameter_m = 0.05 "));
-    assert!(e.contains("cup.front_offset_m") && e.contains("0.025"), "{e}");
+    assert!(e.contains("cup.rear_offset_m") && e.contains("0.025"), "{e}");
     let robot = Robot::builtin();
     let e = robot.with_cup(Cup { rear_offset_m: 0.001, ..robot.cup.clone() }).unwrap_err().to_string();
     assert!(e.contains("cup.rear_offset_m"), "{e}");

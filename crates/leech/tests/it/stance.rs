@@ -201,7 +201,7 @@ fn a_released_rear_cup_rests_on_the_floor() {
     let front = stance::front_pose_for_cup(&robot, [0.15, 0.0], 0.0);
     let solver = Solver::default();
     let through = stance::solve_in(&robot, [0.05, 0.05], Hold::Front(front), &floor, &solver).unwrap();
-    assert!(through.rear_cup_m(&robot)[1] < -0.005, "the unit hangs through: {:?}", through.rear_cup_m(&robot));
+    assert!(through.rear_cup_m(&robot)[1] < -0.002, "the unit hangs through: {:?}", through.rear_cup_m(&robot));
     let held = stance::solve_among(&robot, [0.05, 0.05], Hold::Front(front), &floor, &solver, FreeCups::Rest).unwrap();
     let rims: Vec<_> = held.contacts.iter().filter(|c| c.chain == "rear_cup").collect();
     assert!(!rims.is_empty(), "{:?}", held.contacts);
