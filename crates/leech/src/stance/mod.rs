@@ -189,6 +189,31 @@ pub fn solve(robot: &Robot, lengths: [f64; 2], hold: Hold, solver: &Solver) -> R
     }
 }
 
+/// [`solve`] warm from `near`, an equilibrium of the same hold at nearby
+/// lengths: the chains' angles carried over, the driving unit's pose kept,
+/// Newton at full load (a front hold's cold solve follows the load from the
+/// unloaded shape). Where Newton fails or ends unstable, the cold solve.
+/// The equilibrium is the one nearest `near`, not necessarily the one
+/// [`solve`] finds: a search's probe, to be confirmed cold.
+pub fn solve_near(robot: &Robot, lengths: [f64; 2], near: &Held, solver: &Solver) -> Result<Held, StanceError> {
+    let Hold::Front(_) = near.hold else { return solve(robot, lengths, near.hold, solver) };
+    let body = robot.body(lengths[0], lengths[1])?;
+    let chains = near.body.dim();
+    let mut q = body.carry_over(&near.body, &near.equilibrium.q[..chains]);
+    q.extend_from_slice(&near.equilibrium.q[chains..]);
+    let floating =
+        FloatingBody::new(&body, robot.body.base_spacing_m, robot.driving_unit.mass_kg, near.hold, Approach::Load);
+    let warm = Scratch::with_spare(&floating, |ws| {
+        let mut it = Iterate::new(q);
+        let residual = solver.minimize(&floating, &mut it, 1.0, Stage::Load, ws)?;
+        Ok::<_, SolveError>(solver.finish(&floating, it, residual, ws))
+    });
+    match warm {
+        Ok(equilibrium) if equilibrium.stable => Ok(Held::new(&floating, equilibrium)),
+        _ => solve(robot, lengths, near.hold, solver),
+    }
+}
+
 /// The rear-held equilibrium `held` (no scene) with the front cup attached
 /// at `front`: the front hold's target moved from where the endpoint is to
 /// `front` under full gravity (warm: from `held`'s shape). A target out of

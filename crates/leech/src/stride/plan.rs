@@ -737,10 +737,21 @@ impl Planner<'_> {
         // same touchdown, so only a few start it.
         let goal = self.goal.point_m;
         let mut seeds = Vec::new();
+        // Along each row of the grid every solve is warm from the last one
+        // (a front hold's cold solve follows the load from zero).
         for i in 0..n {
+            let mut near: Option<Held> = None;
             for j in 0..n {
                 let seed = [lo + (hi - lo) * i as f64 / (n - 1) as f64, lo + (hi - lo) * j as f64 / (n - 1) as f64];
-                let Some((centre, angle)) = self.face(holding, moving, seed) else { continue };
+                let solved = match &near {
+                    Some(held) => self.face_near(held, moving, seed),
+                    None => self.face_held(holding, moving, seed),
+                };
+                let Some((centre, angle, held)) = solved else {
+                    near = None;
+                    continue;
+                };
+                near = Some(held);
                 let Some((target, direction)) = self.scene.surface_frame(centre) else { continue };
                 let (distance, ..) = self.scene.signed_distance(centre);
                 let off = angle_difference(angle, direction).abs();
@@ -842,9 +853,23 @@ impl Planner<'_> {
 
     /// The moving cup's face (centre, angle) at `lengths` in free space.
     fn face(&mut self, holding: Hold, moving: Cup, lengths: [f64; 2]) -> Option<(Vec2, f64)> {
+        self.face_held(holding, moving, lengths).map(|(centre, angle, _)| (centre, angle))
+    }
+
+    /// [`Self::face`] with the equilibrium.
+    fn face_held(&mut self, holding: Hold, moving: Cup, lengths: [f64; 2]) -> Option<(Vec2, f64, Held)> {
         self.solves += 1;
         let held = stance::solve(self.robot, lengths, holding, &self.options.solver).ok()?;
-        Some(cup_face(self.robot, &held, moving))
+        let (centre, angle) = cup_face(self.robot, &held, moving);
+        Some((centre, angle, held))
+    }
+
+    /// [`Self::face`] warm from `near` ([`stance::solve_near`]), with the equilibrium.
+    fn face_near(&mut self, near: &Held, moving: Cup, lengths: [f64; 2]) -> Option<(Vec2, f64, Held)> {
+        self.solves += 1;
+        let held = stance::solve_near(self.robot, lengths, near, &self.options.solver).ok()?;
+        let (centre, angle) = cup_face(self.robot, &held, moving);
+        Some((centre, angle, held))
     }
 
     /// Newton on the two lengths from `seed` laying the moving cup's face on
@@ -865,14 +890,17 @@ impl Planner<'_> {
         let normal = crate::geom::right_normal(direction);
         // The lower rim HOVER_M above the line.
         let height = HOVER_M + 0.5 * self.robot.cup.diameter_m * tilt.sin().abs();
-        let residual = |planner: &mut Self, l: [f64; 2]| -> Option<[f64; 2]> {
-            let (c, angle) = planner.face(holding, moving, l)?;
-            // The centre's height above the line (m), and the tilt error (rad).
-            Some([-crate::geom::dot(normal, sub(c, on)) - height, angle_difference(angle, direction) - tilt])
+        // The centre's height above the line (m), and the tilt error (rad);
+        // each solve warm from the last iterate's equilibrium.
+        let residual = |planner: &mut Self, near: &Held, l: [f64; 2]| -> Option<([f64; 2], Held)> {
+            let (c, angle, held) = planner.face_near(near, moving, l)?;
+            Some(([-crate::geom::dot(normal, sub(c, on)) - height, angle_difference(angle, direction) - tilt], held))
         };
+        let (.., mut near) = self.face_held(holding, moving, seed)?;
         let mut l = seed;
         for _ in 0..TOUCHDOWN_ITERATIONS {
-            let r = residual(self, l)?;
+            let (r, held) = residual(self, &near, l)?;
+            near = held;
             if r[0].abs() < TOUCHDOWN_TOLERANCE_M && r[1].abs() < TOUCHDOWN_TOLERANCE_M {
                 return Some(l);
             }
@@ -882,7 +910,7 @@ impl Planner<'_> {
                 let h = if l[k] + DIFFERENCE_M > hi { -DIFFERENCE_M } else { DIFFERENCE_M };
                 let mut lk = l;
                 lk[k] += h;
-                let rk = residual(self, lk)?;
+                let (rk, _) = residual(self, &near, lk)?;
                 jac[0][k] = (rk[0] - r[0]) / h;
                 jac[1][k] = (rk[1] - r[1]) / h;
             }
