@@ -320,7 +320,14 @@ impl Chain {
     /// `dphi` stands for an element length `l` of tube bent to radius
     /// `l / |dphi|` (the clamp counts as a joint). Infinite when straight.
     pub fn min_bend_radius(&self, q: &[f64]) -> f64 {
-        let mut prev = self.clamp_angle;
+        self.min_bend_radius_from(self.clamp_angle, q)
+    }
+
+    /// [`Self::min_bend_radius`] for the chain clamped along `clamp_angle`
+    /// (rad) instead of its own: a driving unit that floats (held by the
+    /// front cup) turns the clamp with it.
+    pub fn min_bend_radius_from(&self, clamp_angle: f64, q: &[f64]) -> f64 {
+        let mut prev = clamp_angle;
         let mut sharpest: f64 = 0.0;
         for phi in q {
             sharpest = sharpest.max((phi - prev).abs());

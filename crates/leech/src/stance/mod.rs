@@ -470,6 +470,15 @@ fn placed(body: &Body, q: &[f64], pose: Pose) -> Vec<f64> {
 }
 
 impl Held {
+    /// The tightest bend of the tubes (m), the clamp along the driving
+    /// unit's direction ([`Chain::min_bend_radius`](crate::chain::Chain::min_bend_radius)).
+    pub fn min_bend_radius(&self) -> f64 {
+        let (qa, rest) = self.equilibrium.q.split_at(self.body.chain_a().len());
+        let qb = &rest[..self.body.chain_b().len()];
+        let angle = self.unit.angle_rad;
+        self.body.chain_a().min_bend_radius_from(angle, qa).min(self.body.chain_b().min_bend_radius_from(angle, qb))
+    }
+
     fn new(floating: &FloatingBody<'_>, equilibrium: Equilibrium) -> Held {
         let hold = floating.hold();
         let reaction = |row: usize| Reaction {

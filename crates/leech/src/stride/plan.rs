@@ -157,6 +157,8 @@ pub enum Blocking {
     Collision,
     /// A solve failed to converge or the body snapped.
     Snap,
+    /// A tube would bend tighter than its smallest bending radius.
+    BendRadius,
     /// Not a physical block: the search ran out of its time limit.
     TimeLimit,
     /// Not a physical block: the plan needs more strides than allowed.
@@ -171,6 +173,7 @@ impl Blocking {
             Blocking::CupForce => "cup_force",
             Blocking::Collision => "collision",
             Blocking::Snap => "snap",
+            Blocking::BendRadius => "bend_radius",
             Blocking::TimeLimit => "time_limit",
             Blocking::StrideLimit => "stride_limit",
         }
@@ -531,13 +534,13 @@ impl Planner<'_> {
                     let both = Hold::Both { rear: unit, front: front_pose };
                     let [attach, settled] =
                         self.hand_over(&mut machine.clone(), stride, pulled, Cup::Rear, both, Hold::Rear(unit))?;
-                    Ok((unit, [pull, attach, settled]))
+                    Ok((new_rear, unit, [pull, attach, settled]))
                 })();
                 match attempt {
                     // The first pull that passes draws the unit farthest;
                     // where that overshoots the goal, longer pulls are tried
                     // too and the touchdown nearest the goal is kept.
-                    Ok((unit, three)) => {
+                    Ok((new_rear, unit, three)) => {
                         let off = norm(sub(new_rear.centre_m, goal));
                         let beyond = norm(sub(new_rear.centre_m, front.centre_m)) < norm(sub(goal, front.centre_m));
                         if best.as_ref().is_none_or(|(o, ..)| off < *o) {
@@ -665,6 +668,17 @@ impl Planner<'_> {
                 detail: "the body snapped through a fold".into(),
             });
         }
+        let radius = step.held.min_bend_radius();
+        if radius < self.robot.tube.min_bend_radius_m {
+            return Err(Rejection {
+                blocking: Blocking::BendRadius,
+                phase,
+                detail: format!(
+                    "a tube bends to a radius of {radius:.4} m, tighter than its smallest {} m",
+                    self.robot.tube.min_bend_radius_m
+                ),
+            });
+        }
         let deep = step.held.penetration_m(self.robot, self.scene);
         if deep > 1e-9 {
             return Err(Rejection {
@@ -780,8 +794,8 @@ impl Planner<'_> {
                 if found.iter().any(|(l, _)| same(l)) {
                     continue;
                 }
-                let Some((centre, angle)) = self.face(holding, moving, lengths) else { continue };
-                if !self.flush(centre, angle) {
+                let Some((centre, angle, held)) = self.face_held(holding, moving, lengths) else { continue };
+                if !self.flush(centre, angle) || held.min_bend_radius() < self.robot.tube.min_bend_radius_m {
                     continue;
                 }
                 if let Some((on, direction)) = self.scene.surface_frame(centre) {
@@ -851,12 +865,7 @@ impl Planner<'_> {
         found
     }
 
-    /// The moving cup's face (centre, angle) at `lengths` in free space.
-    fn face(&mut self, holding: Hold, moving: Cup, lengths: [f64; 2]) -> Option<(Vec2, f64)> {
-        self.face_held(holding, moving, lengths).map(|(centre, angle, _)| (centre, angle))
-    }
-
-    /// [`Self::face`] with the equilibrium.
+    /// The moving cup's face (centre, angle) at `lengths` in free space, with the equilibrium.
     fn face_held(&mut self, holding: Hold, moving: Cup, lengths: [f64; 2]) -> Option<(Vec2, f64, Held)> {
         self.solves += 1;
         let held = stance::solve(self.robot, lengths, holding, &self.options.solver).ok()?;
@@ -864,7 +873,7 @@ impl Planner<'_> {
         Some((centre, angle, held))
     }
 
-    /// [`Self::face`] warm from `near` ([`stance::solve_near`]), with the equilibrium.
+    /// [`Self::face_held`] warm from `near` ([`stance::solve_near`]), with the equilibrium.
     fn face_near(&mut self, near: &Held, moving: Cup, lengths: [f64; 2]) -> Option<(Vec2, f64, Held)> {
         self.solves += 1;
         let held = stance::solve_near(self.robot, lengths, near, &self.options.solver).ok()?;
