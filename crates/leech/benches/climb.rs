@@ -2,25 +2,23 @@
 //! `cargo bench -p leech --bench climb`.
 
 use leech::prelude::*;
-use leech::scene::Scene;
-use leech::stride::{self, Foothold, Goal, PlanOptions, Status};
+use leech::stride::{self, PlanOptions, Scenario};
 
 fn main() {
     divan::main();
 }
 
-/// The built-in robot crawling `distance` m along the floor from the
-/// origin: every stride's touchdowns searched and its phases solved among
-/// the solids (the solves a plan costs are printed once).
-#[divan::bench(args = [0.25, 0.5], sample_count = 5, sample_size = 1)]
-fn crawl_floor(bencher: divan::Bencher, distance: f64) {
+/// Each built-in scenario planned with the built-in robot: every stride's
+/// touchdowns searched and its phases solved among the solids, to the goal
+/// or to the block that makes it impossible (the outcome, strides and
+/// statics solves a plan costs are printed once).
+#[divan::bench(args = ["crawl-floor", "climb-wall-up", "climb-wall-down", "floor-to-wall", "wall-to-floor", "over-thin-wall", "wall-to-ceiling"], sample_count = 5, sample_size = 1)]
+fn scenario(bencher: divan::Bencher, name: &str) {
     let robot = Robot::builtin();
-    let floor = Scene::builtin("floor").unwrap();
-    let start = Foothold { centre_m: [0.0, 0.0], direction_rad: 0.0 };
-    let goal = Goal { point_m: [distance, 0.0], tolerance_m: 0.03 };
+    let scenario = Scenario::builtin(name).unwrap();
     let options = PlanOptions::default();
-    let plan = stride::plan(&robot, &floor, start, goal, &options).unwrap();
-    assert_eq!(plan.status, Status::Reached);
-    eprintln!("crawl {distance} m: {} strides, {} solves", plan.strides, plan.solves);
-    bencher.bench_local(|| stride::plan(&robot, &floor, start, goal, &options).unwrap());
+    let run = || stride::plan(&robot, &scenario.scene, scenario.start, scenario.goal, &options).unwrap();
+    let plan = run();
+    eprintln!("{name}: {:?} in {} strides, {} solves", plan.status, plan.strides, plan.solves);
+    bencher.bench_local(run);
 }

@@ -81,11 +81,14 @@ pub(super) fn load_scenario(given: &Path, flag: &str) -> Result<(Scenario, Strin
         return Ok((Scenario::builtin(b.name)?, b.toml.to_string()));
     }
     if !given.exists() {
-        let names: Vec<&str> = BUILTIN_SCENARIOS.iter().map(|s| s.name).collect();
+        // Not a file: the library says which names it knows (and why a sideways climb is not one).
+        let allowed = match Scenario::builtin(&given.to_string_lossy()) {
+            Err(InputError::Invalid { allowed, .. }) => allowed,
+            _ => String::new(),
+        };
         return Err(Failure::Input(format!(
-            "{flag}: got '{}', expected a scenario file or one of {}",
-            given.display(),
-            names.join(", ")
+            "{flag}: got '{}', expected a scenario file or {allowed}",
+            given.display()
         )));
     }
     let text = read_at_most(given, flag, MAX_SCENE_BYTES).map_err(Failure::Input)?;

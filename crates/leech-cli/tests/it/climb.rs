@@ -206,3 +206,9 @@ fn free_cups_need_a_scene() {
     let e = rejected(&["shape", "--lengths", "0.2,0.2", "--free-cups", "rest"]);
     assert!(e.contains("--scene") || e.contains("--free-cups"), "{e}");
 }
+
+#[test]
+fn a_sideways_climb_says_it_waits_for_the_3d_body() {
+    let e = rejected(&["climb", "--scenario", "sideways"]);
+    assert!(e.contains("sideways maneuver") && e.contains("3D") && e.contains("crawl-floor"), "{e}");
+}

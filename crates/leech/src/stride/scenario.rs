@@ -213,6 +213,16 @@ impl Scenario {
     pub fn builtin(name: &str) -> Result<Scenario, InputError> {
         match BUILTIN_SCENARIOS.iter().find(|s| s.name == name) {
             Some(s) => Scenario::from_toml_str(s.toml, &format!("built-in scenario {name}")),
+            // The paper's sideways climb turns the body in the wall's plane.
+            None if name.to_ascii_lowercase().contains("sideways") => Err(InputError::Invalid {
+                field: "scenario".into(),
+                value: format!("{name:?}"),
+                allowed: format!(
+                    "a planar scenario (the sideways maneuver bends the body out of this model's plane and \
+                     waits for the three-tube body in 3D): one of {}",
+                    BUILTIN_SCENARIOS.map(|s| s.name).join(", ")
+                ),
+            }),
             None => Err(InputError::Invalid {
                 field: "scenario".into(),
                 value: format!("{name:?}"),

@@ -145,7 +145,7 @@ fn a_search_out_of_time_says_so() {
 #[test]
 fn the_builtin_climbs_replay() {
     let robot = Robot::builtin();
-    for name in ["climb-wall-up", "climb-wall-down", "floor-to-wall"] {
+    for name in ["crawl-floor", "climb-wall-up", "climb-wall-down", "floor-to-wall"] {
         let scenario = stride::Scenario::builtin(name).unwrap();
         let plan =
             stride::plan(&robot, &scenario.scene, scenario.start, scenario.goal, &PlanOptions::default()).unwrap();
@@ -166,4 +166,187 @@ fn a_goal_beyond_the_stride_limit_says_so() {
     assert_eq!(plan.status, Status::Impossible);
     assert_eq!(plan.reason.unwrap().blocking, stride::Blocking::StrideLimit);
     assert_eq!(plan.strides, 1);
+}
+
+/// Every equilibrium of the body among `scene`'s solids with the rear cup
+/// held on one of six footholds from `a` to `b` (m) heading `heading_deg`,
+/// the tubes on a grid of 14 x 14 lengths over the range, the free front cup
+/// resting; those that penetrate a solid or bend a tube tighter than its
+/// smallest radius are left out (the planner rejects them). `visit` sees
+/// each with its front face's centre and angle (rad).
+fn each_front_face(
+    robot: &Robot,
+    scene: &Scene,
+    [a, b]: [[f64; 2]; 2],
+    heading_deg: f64,
+    mut visit: impl FnMut(&Held, [f64; 2], f64),
+) -> usize {
+    use leech::stance::Hold;
+    let (lo, hi) = (robot.limits.tube_length_min_m, robot.limits.tube_length_max_m);
+    let mut states = 0;
+    for k in 0..6 {
+        let t = k as f64 / 5.0;
+        let foot = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+        let rear = stance::rear_pose_for_cup(robot, foot, heading_deg.to_radians());
+        for i in 0..14 {
+            for j in 0..14 {
+                let lengths = [lo + (hi - lo) * i as f64 / 13.0, lo + (hi - lo) * j as f64 / 13.0];
+                let Ok(held) =
+                    stance::solve_among(robot, lengths, Hold::Rear(rear), scene, &Solver::default(), FreeCups::Rest)
+                else {
+                    continue;
+                };
+                if held.penetration_m(robot, scene) > 1e-9 || held.min_bend_radius() < robot.tube.min_bend_radius_m {
+                    continue;
+                }
+                states += 1;
+                let (centre, angle) = cup_face(robot, &held, Cup::Front);
+                visit(&held, centre, angle);
+            }
+        }
+    }
+    states
+}
+
+/// Whether a face (centre, angle) lies flush on `scene` within the robot's tolerances.
+fn flush_on(robot: &Robot, scene: &Scene, centre: [f64; 2], angle: f64) -> bool {
+    let c = &robot.cup;
+    scene.flat_on_one_edge(
+        centre,
+        angle,
+        0.5 * c.diameter_m,
+        c.attach_distance_tolerance_m,
+        c.attach_angle_tolerance_deg.to_radians(),
+    )
+}
+
+/// The smallest angle (deg) by which a front face whose centre is within
+/// 5 mm of a surface along `surface_deg` misses lying along it, over the
+/// states from the footholds `a`..`b`; infinite when no face comes that near.
+fn nearest_miss(robot: &Robot, scene: &Scene, feet: [[f64; 2]; 2], heading_deg: f64, surface_deg: f64) -> f64 {
+    let mut nearest = f64::INFINITY;
+    let states = each_front_face(robot, scene, feet, heading_deg, |_, centre, angle| {
+        let Some((on, direction)) = scene.surface_frame(centre) else { return };
+        let along = leech::geom::angle_difference(direction, surface_deg.to_radians()).abs() < 1e-6;
+        let off = ((on[0] - centre[0]).powi(2) + (on[1] - centre[1]).powi(2)).sqrt();
+        if along && off <= 0.005 {
+            assert!(!flush_on(robot, scene, centre, angle), "a face lands flush at {centre:?}");
+            nearest = nearest.min(leech::geom::angle_difference(angle, direction).abs().to_degrees());
+        }
+    });
+    assert!(states > 500, "only {states} states checked");
+    nearest
+}
+
+/// Up the block's face and onto its top (an outside corner, 90 to 0 deg):
+/// impossible for `reach`, and the physics agrees: from every foothold on
+/// the face up to the corner, no tube lengths lay the front face on the top.
+/// Near the top the face is turned at least 20 deg away from it: the body
+/// leans on the corner and its two tube lengths bend it evenly, so it
+/// cannot turn down onto the top just past the corner.
+#[test]
+fn onto_the_top_of_a_block_the_front_face_cannot_land() {
+    let robot = Robot::builtin();
+    let scenario = stride::Scenario::builtin("wall-to-floor").unwrap();
+    let plan = stride::plan(&robot, &scenario.scene, scenario.start, scenario.goal, &PlanOptions::default()).unwrap();
+    assert_eq!(plan.status, Status::Impossible);
+    assert_eq!(plan.reason.as_ref().unwrap().blocking, stride::Blocking::Reach, "{:?}", plan.reason);
+    let miss = nearest_miss(&robot, &scenario.scene, [[0.0, 0.0], [0.0, 0.125]], 90.0, 0.0);
+    assert!(miss > 20.0, "a face comes within {miss} deg of the top");
+}
+
+/// Over the thin wall (90 to 270 deg): impossible for `reach`; from every
+/// foothold on the near face, no front face comes within 5 mm of the far
+/// face: a U-turn over the 20 mm top would need the tubes straight up past
+/// the top and then a bend of 180 deg, and two tube lengths bend them evenly
+/// from the clamp.
+#[test]
+fn over_the_thin_wall_the_front_face_cannot_land() {
+    let robot = Robot::builtin();
+    let scenario = stride::Scenario::builtin("over-thin-wall").unwrap();
+    let plan = stride::plan(&robot, &scenario.scene, scenario.start, scenario.goal, &PlanOptions::default()).unwrap();
+    assert_eq!(plan.status, Status::Impossible);
+    assert_eq!(plan.reason.as_ref().unwrap().blocking, stride::Blocking::Reach, "{:?}", plan.reason);
+    let miss = nearest_miss(&robot, &scenario.scene, [[0.2, 0.05], [0.2, 0.225]], 90.0, -90.0);
+    assert!(miss.is_infinite(), "a face comes within {miss} deg of the far face");
+}
+
+/// Onto the ceiling: the robot gets there (its rear cup seals on the
+/// ceiling, held well within its capacity) but cannot walk along it, and the
+/// physics agrees: from the stance the plan reached, no tube lengths lay the
+/// front face on the ceiling nearer the goal. The unit hangs from its cup and
+/// the front end sags away from the ceiling.
+#[test]
+fn along_the_ceiling_the_front_face_cannot_land() {
+    use leech::stance::Hold;
+    let robot = Robot::builtin();
+    let scenario = stride::Scenario::builtin("wall-to-ceiling").unwrap();
+    let plan = stride::plan(&robot, &scenario.scene, scenario.start, scenario.goal, &PlanOptions::default()).unwrap();
+    assert_eq!(plan.status, Status::Impossible);
+    assert_eq!(plan.reason.as_ref().unwrap().blocking, stride::Blocking::Reach, "{:?}", plan.reason);
+    let last = plan.steps.last().unwrap();
+    let (rear_cup, rear_angle) = cup_face(&robot, &last.held, Cup::Rear);
+    assert!(flush_on(&robot, &scenario.scene, rear_cup, rear_angle), "the rear cup seals on the ceiling");
+    assert!((rear_cup[1] - 0.25).abs() < 0.002, "{rear_cup:?}");
+    assert!(last.rear_safety_factor.unwrap() >= 2.0 * robot.cup.min_safety_factor);
+    let Hold::Rear(unit) = last.held.hold else { panic!("{:?}", last.held.hold) };
+    let goal = scenario.goal.point_m;
+    let to_goal = |p: [f64; 2]| ((p[0] - goal[0]).powi(2) + (p[1] - goal[1]).powi(2)).sqrt();
+    let (lo, hi) = (robot.limits.tube_length_min_m, robot.limits.tube_length_max_m);
+    let mut states = 0;
+    for i in 0..26 {
+        for j in 0..26 {
+            let lengths = [lo + (hi - lo) * i as f64 / 25.0, lo + (hi - lo) * j as f64 / 25.0];
+            let Ok(held) = stance::solve_among(
+                &robot,
+                lengths,
+                Hold::Rear(unit),
+                &scenario.scene,
+                &Solver::default(),
+                FreeCups::Rest,
+            ) else {
+                continue;
+            };
+            if held.penetration_m(&robot, &scenario.scene) > 1e-9
+                || held.min_bend_radius() < robot.tube.min_bend_radius_m
+            {
+                continue;
+            }
+            states += 1;
+            let (centre, angle) = cup_face(&robot, &held, Cup::Front);
+            let nearer = to_goal(centre) < to_goal(rear_cup) - stride::plan::MIN_PROGRESS_M;
+            assert!(!(nearer && flush_on(&robot, &scenario.scene, centre, angle)), "{lengths:?} lands at {centre:?}");
+        }
+    }
+    assert!(states > 300, "only {states} states checked");
+}
+
+/// A wall taller than any stance allows: a 0.6 m wall between the start and
+/// a goal on the floor beyond it. The planner reports it impossible (never a
+/// false plan), and its farthest stance stays on the near side.
+#[test]
+fn a_wall_taller_than_any_stance_allows_is_impossible() {
+    let robot = Robot::builtin();
+    let toml = r#"
+name = "a tall wall"
+[[half_plane]]
+point_m = [0.0, 0.0]
+normal = [0.0, 1.0]
+[[polygon]]
+points_m = [[0.20, -0.05], [0.22, -0.05], [0.22, 0.6], [0.20, 0.6]]
+"#;
+    let scene = Scene::from_toml_str(toml, "tall wall").unwrap();
+    let start = Foothold { centre_m: [0.0, 0.0], direction_rad: 0.0 };
+    let goal = Goal { point_m: [0.45, 0.0], tolerance_m: 0.03 };
+    let plan = stride::plan(&robot, &scene, start, goal, &PlanOptions::default()).unwrap();
+    assert_eq!(plan.status, Status::Impossible);
+    let reason = plan.reason.expect("a reason");
+    assert!(
+        matches!(reason.blocking, stride::Blocking::Reach | stride::Blocking::CupForce | stride::Blocking::Collision),
+        "a physical block: {reason:?}"
+    );
+    for step in &plan.steps {
+        let rear = step.held.rear_cup_m(&robot);
+        assert!(rear[0] < 0.21, "{:?}: the rear cup at {rear:?}", step.phase);
+    }
 }
