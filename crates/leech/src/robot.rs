@@ -185,10 +185,15 @@ impl Cup {
         }
         non_negative("cup.rear_offset_m", self.rear_offset_m)?;
         non_negative("cup.front_offset_m", self.front_offset_m)?;
-        non_negative("cup.preload_m", self.preload_m)?;
+        // A push of a few millimetres past touchdown seals the lip; more
+        // would drive the face into the surface.
+        within("cup.preload_m", self.preload_m, 0.0, MAX_PRELOAD_M)?;
         Ok(())
     }
 }
+
+/// Largest `[cup] preload_m` (m).
+pub const MAX_PRELOAD_M: f64 = 0.01;
 
 /// The tube lengths planners may command (m): the body model itself takes
 /// any length from one element up (see [`Robot::check_tube_length`]).
@@ -341,13 +346,29 @@ impl Robot {
         non_negative("driving_unit.mass_kg", self.driving_unit.mass_kg)?;
         self.cup.validate()?;
         self.validate_cup_offsets()?;
-        let min = positive("limits.tube_length_min_m", self.limits.tube_length_min_m)?;
+        // Planners build the body at the shortest lengths: both tubes there
+        // must give it the four elements a body needs (see `body`).
+        let l = self.tube.element_length_m;
+        let min = self.limits.tube_length_min_m;
+        if !(min.is_finite() && min >= 2.0 * l * (1.0 - 1e-12)) {
+            return Err(InputError::invalid(
+                "limits.tube_length_min_m",
+                min,
+                format!(
+                    "at least two elements (2 x tube.element_length_m = {} m): the body needs four in all",
+                    2.0 * l
+                ),
+            ));
+        }
         let max = self.limits.tube_length_max_m;
-        if !(max.is_finite() && max > min) {
+        if !(max.is_finite() && max > min && max <= l * MAX_LINKS as f64) {
             return Err(InputError::invalid(
                 "limits.tube_length_max_m",
                 max,
-                format!("a finite number > limits.tube_length_min_m ({min})"),
+                format!(
+                    "a number > limits.tube_length_min_m ({min}) and at most {MAX_LINKS} elements ({} m)",
+                    l * MAX_LINKS as f64
+                ),
             ));
         }
         Ok(())

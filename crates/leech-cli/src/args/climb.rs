@@ -40,6 +40,12 @@ pub(super) fn climb(a: flags::ClimbArgs) -> Result<Climb, Failure> {
         }
         (_, e) => e.into(),
     })?;
+    scenario.check_goal().map_err(|e| match (&a.scenario, e) {
+        (None, InputError::Invalid { value, allowed, .. }) => {
+            Failure::Input(format!("--goal: got {value}, expected {allowed}"))
+        }
+        (_, e) => e.into(),
+    })?;
     let seconds = positive("--time-limit (s)", a.time_limit)?;
     let time_limit = Duration::try_from_secs_f64(seconds)
         .map_err(|_| Failure::Input(format!("--time-limit: got {seconds:e}, expected a number of seconds")))?;

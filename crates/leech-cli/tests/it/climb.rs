@@ -153,6 +153,8 @@ fn bad_climbs_exit_2_with_one_line() {
     assert!(e.starts_with("leech: --start: got [0, 0.2, 0.0000]") && e.contains("flush"), "{e}");
     let e = rejected(&["climb", "--scene", "floor", "--start", "0,0,0", "--goal", "0.5,0", "--tolerance", "0"]);
     assert!(e.contains("--tolerance"), "{e}");
+    let e = rejected(&["climb", "--scene", "floor", "--start", "0,0,0", "--goal", "0.3,-0.1"]);
+    assert!(e.starts_with("leech: --goal: got [0.3, -0.1] (inside a solid") && e.contains("tolerance"), "{e}");
     let e = rejected(&["climb", "--scenario", "crawl-floor", "--scene", "floor"]);
     assert!(e.contains("--scene") || e.contains("--scenario"), "{e}");
     let e = rejected(&["climb"]);

@@ -180,6 +180,22 @@ impl Scenario {
         self.check_cup(&robot.cup, &self.name)
     }
 
+    /// Whether the goal can be reached at all: a rear cup's face centre
+    /// lies on a surface, so the goal must be within its tolerance of one.
+    pub fn check_goal(&self) -> Result<(), InputError> {
+        let Goal { point_m: [x, y], tolerance_m } = self.goal;
+        let (d, ..) = self.scene.signed_distance(self.goal.point_m);
+        if d.abs() <= tolerance_m {
+            return Ok(());
+        }
+        let place = if d < 0.0 { "inside a solid" } else { "in free space" };
+        Err(InputError::Invalid {
+            field: format!("{}: goal.point_m", self.name),
+            value: format!("[{x}, {y}] ({place}, {:.4} m from the nearest surface)", d.abs()),
+            allowed: format!("a point within the goal's tolerance ({tolerance_m} m) of a surface"),
+        })
+    }
+
     fn check_cup(&self, cup: &Cup, source: &str) -> Result<(), InputError> {
         let Foothold { centre_m: [x, y], direction_rad } = self.start;
         let flush = self.scene.flat_on_one_edge(
@@ -286,6 +302,7 @@ mod tests {
             assert!(!description.is_empty() && !description.contains('\n'), "{name}");
             assert_eq!(description, s.description);
             s.check_start(&robot).unwrap_or_else(|e| panic!("{name}: {e}"));
+            s.check_goal().unwrap_or_else(|e| panic!("{name}: {e}"));
             // The start's face centre is on the surface, heading along it.
             let (d, ..) = s.scene.signed_distance(s.start.centre_m);
             let (_, direction) = s.scene.surface_frame(s.start.centre_m).unwrap();

@@ -127,8 +127,11 @@ fn bad_new_values_name_field_value_and_range() {
         ("attach_angle_tolerance_deg = 5 ", "attach_angle_tolerance_deg = 0 ", "cup.attach_angle", "(0, 90]"),
         ("rear_offset_m = 0.015 ", "rear_offset_m = 0.004 ", "cup.rear_offset_m", "tube's radius (0.005"),
         ("front_offset_m = 0.016 ", "front_offset_m = -0.02 ", "cup.front_offset_m", ">= 0"),
-        ("preload_m = 0.0 ", "preload_m = -0.001 ", "cup.preload_m", ">= 0"),
-        ("tube_length_min_m = 0.05 ", "tube_length_min_m = 0 ", "limits.tube_length_min_m", "> 0"),
+        ("preload_m = 0.0 ", "preload_m = -0.001 ", "cup.preload_m", "[0, 0.01]"),
+        ("preload_m = 0.0 ", "preload_m = 5 ", "cup.preload_m", "[0, 0.01]"),
+        ("tube_length_min_m = 0.05 ", "tube_length_min_m = 0 ", "limits.tube_length_min_m", "at least two elements"),
+        ("tube_length_min_m = 0.05 ", "tube_length_min_m = 0.01 ", "limits.tube_length_min_m", "0.02 m"),
+        ("tube_length_max_m = 0.30", "tube_length_max_m = 1000", "limits.tube_length_max_m", "at most"),
         (
             "tube_length_max_m = 0.30",
             "tube_length_max_m = 0.05",
