@@ -128,6 +128,25 @@ impl Scene {
     }
 }
 
+/// A file that holds a scene file's contents in its `[scene]` table (a
+/// scenario), the rest of it left as it is.
+#[derive(Deserialize)]
+struct InlineScene {
+    // Read only for its errors.
+    #[serde(rename = "scene")]
+    _scene: RawScene,
+    #[serde(flatten)]
+    _rest: toml::Table,
+}
+
+/// Where the `[scene]` table of `text` (a file from `source`) fails to read
+/// as a scene file, with the line in `text`: a scene read from the table on
+/// its own would count its lines from the table.
+pub(crate) fn inline_scene_error(text: &str, source: &str) -> Option<InputError> {
+    let error = toml::from_str::<InlineScene>(text).err()?;
+    Some(InputError::File { file: format!("{source}: [scene]"), message: one_line(text, &error) })
+}
+
 /// `text` (a `what` file from `source`) parsed as TOML into `T`, refused
 /// beyond [`MAX_SCENE_BYTES`] before parsing; errors on one line.
 pub(crate) fn parse_bounded<T: serde::de::DeserializeOwned>(

@@ -40,7 +40,7 @@ use serde::Deserialize;
 use super::plan::{Foothold, Goal};
 use crate::error::{within, InputError};
 use crate::robot::{Cup, Robot};
-use crate::scene::file::parse_bounded;
+use crate::scene::file::{inline_scene_error, parse_bounded};
 use crate::scene::{Scene, MAX_COORDINATE_M};
 
 /// The largest goal tolerance a scenario may ask for (m).
@@ -121,7 +121,7 @@ impl Scenario {
     /// [`Scenario::from_toml_str`] without the start's check against a cup.
     pub fn parse(text: &str, source: &str) -> Result<Scenario, InputError> {
         let raw: RawScenario = parse_bounded(text, source, "scenario")?;
-        let scene = scene(&raw.scene, source)?;
+        let scene = scene(&raw.scene, text, source)?;
         let m = MAX_COORDINATE_M;
         let start = match raw.start.rear_cup.as_slice() {
             [x, y, deg] => Foothold {
@@ -258,8 +258,8 @@ fn description(toml: &'static str) -> &'static str {
     toml.lines().find_map(|l| l.strip_prefix("description = \"")).and_then(|rest| rest.strip_suffix('"')).unwrap_or("")
 }
 
-/// The scene a `scene` value names or holds.
-fn scene(value: &toml::Value, source: &str) -> Result<Scene, InputError> {
+/// The scene a `scene` value of the file `text` names or holds.
+fn scene(value: &toml::Value, text: &str, source: &str) -> Result<Scene, InputError> {
     match value {
         toml::Value::String(name) => Scene::builtin(name).map_err(|e| match e {
             InputError::Invalid { value, allowed, .. } => {
@@ -268,11 +268,15 @@ fn scene(value: &toml::Value, source: &str) -> Result<Scene, InputError> {
             other => other,
         }),
         toml::Value::Table(table) => {
-            let text = toml::to_string(table).map_err(|e| InputError::File {
+            let table_text = toml::to_string(table).map_err(|e| InputError::File {
                 file: format!("{source}: [scene]"),
                 message: e.to_string().split_whitespace().collect::<Vec<_>>().join(" "),
             })?;
-            Scene::from_toml_str(&text, &format!("{source}: [scene]"))
+            Scene::from_toml_str(&table_text, &format!("{source}: [scene]")).map_err(|e| match e {
+                // A reading error: say where in the scenario's own text.
+                InputError::File { .. } => inline_scene_error(text, source).unwrap_or(e),
+                other => other,
+            })
         }
         other => Err(InputError::Invalid {
             field: format!("{source}: scene"),
@@ -291,6 +295,14 @@ mod tests {
     use super::*;
 
     const TEXT: &str = "name = \"n\"\nscene = \"floor\"\n[start]\nrear_cup = [0, 0, 0]\n[goal]\npoint_m = [0.5, 0]\ntolerance_m = 0.03\n";
+
+    #[test]
+    fn an_inline_scene_error_names_the_line_of_the_scenario() {
+        let text = "name = \"n\"\n[start]\nrear_cup = [0, 0, 0]\n[goal]\npoint_m = [0.5, 0]\ntolerance_m = 0.03\n\
+                    [scene]\nname = \"s\"\n[[scene.half_plane]]\npoint_m = [0, 0]\nnormal = [0, 1]\ncolour = 2\n";
+        let e = Scenario::parse(text, "x.toml").unwrap_err().to_string();
+        assert!(e.contains("x.toml: [scene]: line 12: unknown field `colour`"), "{e}");
+    }
 
     #[test]
     fn every_builtin_parses_with_its_start_on_a_surface() {
