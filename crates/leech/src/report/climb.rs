@@ -70,6 +70,9 @@ pub struct ClimbStep {
     pub driving_unit_m: Vec2,
     /// The holding cups' safety factors.
     pub safety_factor: SafetyFactors,
+    /// For a push or a pull, the holding cup's smallest safety factor on the
+    /// way (the tubes sampled every 10 mm); `null` for other phases.
+    pub path_safety_factor: Option<f64>,
     /// Whether the solve met a fold and snapped.
     pub snapped: bool,
 }
@@ -113,6 +116,7 @@ impl ClimbStep {
                 rear: step.rear_safety_factor.and_then(finite),
                 front: step.front_safety_factor.and_then(finite),
             },
+            path_safety_factor: step.path_safety_factor.and_then(finite),
             snapped: step.snapped(),
         }
     }
@@ -205,6 +209,9 @@ pub struct ClimbRow {
     /// The front cup's safety factor.
     #[serde(serialize_with = "optional")]
     pub front_safety_factor: Option<f64>,
+    /// The holding cup's smallest safety factor on the way (push, pull).
+    #[serde(serialize_with = "optional")]
+    pub path_safety_factor: Option<f64>,
     /// Whether the solve snapped.
     pub snapped: bool,
 }
@@ -233,6 +240,7 @@ impl From<&ClimbStep> for ClimbRow {
             driving_unit_y_m: s.driving_unit_m[1],
             rear_safety_factor: s.safety_factor.rear,
             front_safety_factor: s.safety_factor.front,
+            path_safety_factor: s.path_safety_factor,
             snapped: s.snapped,
         }
     }
@@ -270,6 +278,7 @@ mod tests {
             endpoint_m: [0.1, 0.3],
             driving_unit_m: [0.0, 0.05],
             safety_factor: SafetyFactors { rear: None, front: Some(2.5) },
+            path_safety_factor: Some(3.0),
             snapped: false,
         };
         let report = ClimbReport {

@@ -8,6 +8,6 @@ pub mod scenario;
 
 pub use machine::{Command, Cup, Evidence, Holding, Phase, StrideError, StrideMachine};
 pub use plan::{
-    plan, plan_with_progress, Blocking, Foothold, Goal, Plan, PlanOptions, Progress, Rejection, Status, Step,
+    plan, plan_with_progress, Blocking, Failed, Foothold, Goal, Plan, PlanOptions, Progress, Rejection, Status, Step,
 };
 pub use scenario::{BuiltinScenario, Scenario, BUILTIN_SCENARIOS};

@@ -64,6 +64,10 @@ pub const SEED_SPACING_M: f64 = 0.02;
 /// A stride must bring the rear cup this much closer to the goal (m).
 pub const MIN_PROGRESS_M: f64 = 0.005;
 
+/// A push or a pull is checked on the way at lengths this far apart (m,
+/// the tube that moves farther): both tubes move together, arriving at once.
+pub const PATH_STEP_M: f64 = 0.01;
+
 /// The motors' speed the paper drove the tubes at (m/s), for the plan's duration.
 pub const TUBE_SPEED_M_PER_S: f64 = 0.02;
 
@@ -189,6 +193,31 @@ pub struct Rejection {
     pub phase: Phase,
     /// What happened, with the numbers.
     pub detail: String,
+    /// Where it happened when a solve found it: the tube lengths and holds
+    /// of the failing state (`leech shape` reproduces it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub at: Option<Failed>,
+}
+
+/// The state a rejection was found at.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Failed {
+    /// Tube lengths (LA, LB) (m).
+    pub lengths_m: [f64; 2],
+    /// The holds.
+    #[serde(skip)]
+    pub hold: Hold,
+    /// The rear hold as `[x, y, deg]`, when the rear cup holds.
+    pub rear: Option<[f64; 3]>,
+    /// The front hold as `[x, y, deg]`, when the front cup holds.
+    pub front: Option<[f64; 3]>,
+}
+
+impl Failed {
+    fn new(lengths_m: [f64; 2], hold: Hold) -> Failed {
+        let deg = |p: Pose| [p.point_m[0], p.point_m[1], p.angle_rad.to_degrees()];
+        Failed { lengths_m, hold, rear: hold.rear().map(deg), front: hold.front().map(deg) }
+    }
 }
 
 /// One phase's end in a plan: the equilibrium reached and everything needed
@@ -207,6 +236,10 @@ pub struct Step {
     pub rear_safety_factor: Option<f64>,
     /// The front cup's safety factor when it holds.
     pub front_safety_factor: Option<f64>,
+    /// For a push or a pull: the smallest safety factor of the holding cup
+    /// on the way, at the samples between the phase's start and end
+    /// ([`PATH_STEP_M`] apart); `None` for phases without tube motion.
+    pub path_safety_factor: Option<f64>,
 }
 
 impl Step {
@@ -217,7 +250,10 @@ impl Step {
 
     /// The smallest safety factor of the cups that hold.
     pub fn safety_factor(&self) -> f64 {
-        self.rear_safety_factor.unwrap_or(f64::INFINITY).min(self.front_safety_factor.unwrap_or(f64::INFINITY))
+        [self.rear_safety_factor, self.front_safety_factor, self.path_safety_factor]
+            .into_iter()
+            .flatten()
+            .fold(f64::INFINITY, f64::min)
     }
 }
 
@@ -397,6 +433,7 @@ impl Planner<'_> {
                     "the goal is more than {max} strides away (the search's limit); the last stance is {:.3} m from it",
                     beam[0].distance(&self.goal)
                 ),
+                at: None,
             }
         } else if self.out_of_time() {
             let limit = self.options.time_limit.unwrap_or_default().as_secs_f64();
@@ -404,12 +441,14 @@ impl Planner<'_> {
                 blocking: Blocking::TimeLimit,
                 phase: Phase::Push,
                 detail: format!("the search ran out of its time limit ({limit} s) before reaching the goal"),
+                at: None,
             }
         } else {
             last_reason.unwrap_or(Rejection {
                 blocking: Blocking::Reach,
                 phase: Phase::Push,
                 detail: format!("no stride brings the rear cup {MIN_PROGRESS_M} m closer to the goal"),
+                at: None,
             })
         };
         Ok(self.impossible(reason, farthest.steps, farthest.strides))
@@ -450,6 +489,7 @@ impl Planner<'_> {
                     stance.rear.centre_m[0],
                     stance.rear.centre_m[1]
                 ),
+                at: None,
             });
         }
         self.nearest_goal_first(&mut touchdowns);
@@ -467,6 +507,7 @@ impl Planner<'_> {
                         blocking: Blocking::Reach,
                         phase: Phase::AttachRear,
                         detail: "the stride does not bring the rear cup closer to the goal".into(),
+                        at: None,
                     })
                 }
                 Err(r) => *reason = Some(r),
@@ -488,7 +529,7 @@ impl Planner<'_> {
         let rear = stance.unit;
         let mut steps = Vec::new();
         let result = (|| {
-            let push = self.touch_down(Phase::Push, stride, lengths, Hold::Rear(rear), Cup::Front)?;
+            let push = self.touch_down(Phase::Push, stride, [stance.lengths, lengths], Hold::Rear(rear), Cup::Front)?;
             // The cup seals where the face came to rest (its lip takes up what
             // is left of the tolerances), pressed on by the preload.
             let front_pose =
@@ -517,6 +558,7 @@ impl Planner<'_> {
                 blocking: Blocking::Reach,
                 phase: Phase::Pull,
                 detail: "no rear touchdown within the tube length range with the front cup holding".into(),
+                at: None,
             };
             loop {
                 while queue.is_empty() && next_base < bases.len() {
@@ -529,7 +571,8 @@ impl Planner<'_> {
                 }
                 let Some((pulled, new_rear)) = queue.pop_front() else { break };
                 let attempt = (|| {
-                    let pull = self.touch_down(Phase::Pull, stride, pulled, Hold::Front(front_pose), Cup::Rear)?;
+                    let pull =
+                        self.touch_down(Phase::Pull, stride, [lengths, pulled], Hold::Front(front_pose), Cup::Rear)?;
                     let unit = pressed(robot, pull.held.unit, new_rear);
                     let both = Hold::Both { rear: unit, front: front_pose };
                     let [attach, settled] =
@@ -575,13 +618,36 @@ impl Planner<'_> {
         &mut self,
         phase: Phase,
         stride: usize,
-        to: [f64; 2],
+        [from, to]: [[f64; 2]; 2],
         hold: Hold,
         moving: Cup,
     ) -> Result<Step, Rejection> {
-        let step = self.step(phase, stride, to, hold)?;
+        let on_the_way = self.on_the_way(phase, from, to, hold)?;
+        let mut step = self.step(phase, stride, to, hold)?;
+        step.path_safety_factor = Some(on_the_way);
         self.flush_after(&step, moving)?;
         Ok(step)
+    }
+
+    /// The tubes moving from `from` to `to` (m, both arriving together) with
+    /// `hold`: at samples [`PATH_STEP_M`] apart between the ends, the body
+    /// among the solids must not snap, penetrate or bend too tightly and the
+    /// holding cup must keep its minimum safety factor; its smallest safety
+    /// factor on the way (infinite without samples).
+    fn on_the_way(&mut self, phase: Phase, from: [f64; 2], to: [f64; 2], hold: Hold) -> Result<f64, Rejection> {
+        let travel = (to[0] - from[0]).abs().max((to[1] - from[1]).abs());
+        let samples = (travel / PATH_STEP_M).ceil() as usize;
+        let mut smallest = f64::INFINITY;
+        for k in 1..samples {
+            let t = k as f64 / samples as f64;
+            let at = [from[0] + t * (to[0] - from[0]), from[1] + t * (to[1] - from[1])];
+            let step = self.step(phase, 0, at, hold).map_err(|mut r| {
+                r.detail = format!("on the way from {:.4}/{:.4} m: {}", from[0], from[1], r.detail);
+                r
+            })?;
+            smallest = smallest.min(step.safety_factor());
+        }
+        Ok(smallest)
     }
 
     /// Touchdowns ordered by their foothold's distance to the goal, nearest first.
@@ -628,17 +694,29 @@ impl Planner<'_> {
             },
             phase,
             detail: e.to_string(),
+            at: None,
         })
     }
 
     /// The phase's end among the scene's solids, with the holding cups'
     /// safety factors; a failure, a snap or a penetration as a rejection.
     fn step(&mut self, phase: Phase, stride: usize, lengths: [f64; 2], hold: Hold) -> Result<Step, Rejection> {
+        self.judged_step(phase, stride, lengths, hold).map_err(|mut r| {
+            r.at.get_or_insert(Failed::new(lengths, hold));
+            r
+        })
+    }
+
+    /// [`Self::step`] without the rejection's state.
+    fn judged_step(&mut self, phase: Phase, stride: usize, lengths: [f64; 2], hold: Hold) -> Result<Step, Rejection> {
         self.solves += 1;
         let held = stance::solve_among(self.robot, lengths, hold, self.scene, &self.options.solver, FreeCups::Rest)
             .map_err(|e| {
                 let blocking = match &e {
                     StanceError::Solve(s) if s.to_string().contains("through a solid") => Blocking::Collision,
+                    // Both cups held farther apart than the tubes reach
+                    // (a preload pressing a straight body's cup further).
+                    StanceError::OutOfReach { .. } => Blocking::Reach,
                     StanceError::Input(_) => Blocking::Collision,
                     _ => Blocking::Snap,
                 };
@@ -646,12 +724,14 @@ impl Planner<'_> {
                     blocking,
                     phase,
                     detail: format!("{} at lengths {:.4}/{:.4} m: {e}", hold.name(), lengths[0], lengths[1]),
+                    at: None,
                 }
             })?;
         let (rear, front) = held.cups(self.robot).map_err(|e| Rejection {
             blocking: Blocking::CupForce,
             phase,
             detail: e.to_string(),
+            at: None,
         })?;
         let step = Step {
             phase,
@@ -659,6 +739,7 @@ impl Planner<'_> {
             lengths_m: lengths,
             rear_safety_factor: rear.map(|c| c.verdict.safety_factor),
             front_safety_factor: front.map(|c| c.verdict.safety_factor),
+            path_safety_factor: None,
             held,
         };
         if step.snapped() {
@@ -666,10 +747,11 @@ impl Planner<'_> {
                 blocking: Blocking::Snap,
                 phase,
                 detail: "the body snapped through a fold".into(),
+                at: None,
             });
         }
         let radius = step.held.min_bend_radius();
-        if radius < self.robot.tube.min_bend_radius_m {
+        if !(radius >= self.robot.tube.min_bend_radius_m) {
             return Err(Rejection {
                 blocking: Blocking::BendRadius,
                 phase,
@@ -677,14 +759,16 @@ impl Planner<'_> {
                     "a tube bends to a radius of {radius:.4} m, tighter than its smallest {} m",
                     self.robot.tube.min_bend_radius_m
                 ),
+                at: None,
             });
         }
         let deep = step.held.penetration_m(self.robot, self.scene);
-        if deep > 1e-9 {
+        if !(deep <= 1e-9) {
             return Err(Rejection {
                 blocking: Blocking::Collision,
                 phase,
                 detail: format!("the tubes penetrate a solid by {deep:.2e} m"),
+                at: None,
             });
         }
         if phase != Phase::ReleaseRear && phase != Phase::ReleaseFront {
@@ -702,6 +786,7 @@ impl Planner<'_> {
                     blocking: Blocking::CupForce,
                     phase,
                     detail: format!("the {cup} cup holds with safety factor {f:.3}, below the minimum {minimum}"),
+                    at: None,
                 });
             }
         }
@@ -724,6 +809,7 @@ impl Planner<'_> {
                     centre[1],
                     angle.to_degrees()
                 ),
+                at: None,
             })
         }
     }
@@ -795,7 +881,7 @@ impl Planner<'_> {
                     continue;
                 }
                 let Some((centre, angle, held)) = self.face_held(holding, moving, lengths) else { continue };
-                if !self.flush(centre, angle) || held.min_bend_radius() < self.robot.tube.min_bend_radius_m {
+                if !self.flush(centre, angle) || !(held.min_bend_radius() >= self.robot.tube.min_bend_radius_m) {
                     continue;
                 }
                 if let Some((on, direction)) = self.scene.surface_frame(centre) {
@@ -943,7 +1029,7 @@ impl Planner<'_> {
 /// A rejection for bad input met inside a stride (a robot the touchdown
 /// search cannot build).
 fn input_rejection(e: InputError) -> Rejection {
-    Rejection { blocking: Blocking::Reach, phase: Phase::Pull, detail: e.to_string() }
+    Rejection { blocking: Blocking::Reach, phase: Phase::Pull, detail: e.to_string(), at: None }
 }
 
 /// A hold's pose where a cup came to rest on `foothold`, pressed into the
