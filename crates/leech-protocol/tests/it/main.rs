@@ -1,0 +1,1 @@
+//! Integration tests of `leech-protocol`: one binary, one module per topic.
