@@ -63,6 +63,11 @@ pub const BOOT_TIMEOUT_MS: u32 = 3000;
 /// The shortest telemetry period the device accepts, ms (100 Hz).
 pub const MIN_TELEMETRY_PERIOD_MS: u16 = 10;
 
+/// How far beyond its configured limits a tube's measured length may go
+/// (overshoot of the position controller) before the device stops the
+/// motors and latches `LIMIT_HIT`, um.
+pub const LIMIT_MARGIN_UM: i32 = 2_000;
+
 // Every try of a command ends before the device could declare the link lost.
 const _: () = assert!((MAX_RETRIES + 1) * ACK_TIMEOUT_MS < LINK_TIMEOUT_MS);
 // Several heartbeats fit in the link timeout, so one lost frame is no loss.

@@ -20,12 +20,15 @@
 //! * Tubes are indexed `0 = L1` (the centre tube), `1 = L2`, `2 = L3`; a
 //!   planar robot sets `L2 = L3`. Cups are `0 = rear` (driving unit),
 //!   `1 = front` (endpoint). Bit sets use bit `i` for index `i`.
-//! * Decoding checks, in order: a header is present, the seq fits the type,
-//!   the type is known, the body has the type's exact length, and every
-//!   field with a closed set of values (tube, cup, boolean, status, reason,
-//!   fault code) holds one of them. Reserved bits in bit sets are sent as 0
-//!   and ignored on receipt; numeric ranges (lengths against limits, duty)
-//!   are the receiver's business, not the decoder's. Decoding never panics.
+//! * Decoding checks, in order: the two header bytes are present; for a
+//!   command, the seq is not 0 (a command that cannot be answered is
+//!   dropped, whatever its type); the type is one this side receives; the
+//!   body has the type's exact length; for a report, the seq fits the type;
+//!   every field with a closed set of values (tube, cup, boolean, status,
+//!   reason, fault code) holds one of them. Reserved bits in bit sets are
+//!   sent as 0 and ignored on receipt; numeric ranges (lengths against
+//!   limits, duty) are the receiver's business, not the decoder's. Decoding
+//!   never panics.
 //! * Within one major protocol version a message's layout never changes; a
 //!   minor version only adds message types and bits.
 

@@ -4,6 +4,7 @@
 use leech_protocol::cobs;
 use leech_protocol::crc::crc16;
 use leech_protocol::frame::{self, Counters, Decoder, EncodeError, FrameError, MAX_ENCODED, MAX_FRAME, MAX_MESSAGE};
+use leech_protocol::message::{AckStatus, Command, Report, Seq, Tube};
 use leech_protocol::BufferTooSmall;
 use proptest::prelude::*;
 
@@ -40,6 +41,16 @@ fn a_frame_is_the_cobs_payload_and_a_zero() {
     let crc = crc16(&message).to_le_bytes();
     let payload = [&message[..], &crc].concat();
     assert_eq!(framed(&message), raw_frame(&payload));
+}
+
+#[test]
+fn the_worked_example_of_the_spec() {
+    // docs/protocol.md, "Worked example": Jog L1 by +1000 um, seq 1, and its Ack.
+    let jog = crate::command_frame(&Command::Jog { tube: Tube::L1, delta_um: 1000 }, 1);
+    assert_eq!(crc16(&[0x05, 0x01, 0x00, 0xE8, 0x03, 0x00, 0x00]), 0x95B0);
+    assert_eq!(jog, [0x03, 0x05, 0x01, 0x03, 0xE8, 0x03, 0x01, 0x03, 0xB0, 0x95, 0x00]);
+    let ack = crate::report_frame(&Report::Ack { seq: Seq::FIRST, status: AckStatus::Ok });
+    assert_eq!(ack, [0x03, 0x80, 0x01, 0x01, 0x03, 0xC8, 0x6E, 0x00]);
 }
 
 #[test]

@@ -263,5 +263,5 @@ fn a_different_major_version_is_an_error_naming_both() {
 fn timing_constants() {
     // The spec's numbers; their relations are checked where they are defined.
     assert_eq!((ACK_TIMEOUT_MS, MAX_RETRIES, LINK_TIMEOUT_MS, HEARTBEAT_MS), (50, 5, 500, 100));
-    assert_eq!((MIN_TELEMETRY_PERIOD_MS, BOOT_TIMEOUT_MS, BAUD_RATE), (10, 3000, 115_200));
+    assert_eq!((MIN_TELEMETRY_PERIOD_MS, BOOT_TIMEOUT_MS, BAUD_RATE, LIMIT_MARGIN_UM), (10, 3000, 115_200, 2000));
 }
