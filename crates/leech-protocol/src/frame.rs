@@ -7,9 +7,9 @@
 //!   [`MAX_MESSAGE`] = 62 bytes. The [`message`](crate::message) module gives
 //!   it meaning; this module only carries it.
 //! * The **payload** is the message followed by its CRC-16/CCITT-FALSE
-//!   ([`crc`](crate::crc)), least significant byte first: 4 to
+//!   ([`crc`]), least significant byte first: 4 to
 //!   [`MAX_PAYLOAD`] = 64 bytes.
-//! * The **frame** is the payload COBS-encoded ([`cobs`](crate::cobs)), then
+//! * The **frame** is the payload COBS-encoded ([`cobs`]), then
 //!   one `0x00`: at most [`MAX_ENCODED`] = 65 bytes before the delimiter and
 //!   [`MAX_FRAME`] = 66 on the wire.
 //! * A receiver collects bytes up to each `0x00`. An empty frame (two zeros
