@@ -301,10 +301,10 @@ mod tests {
         let mut lines = text.lines();
         let header = lines.next().unwrap();
         assert!(header.starts_with("phase,stride,la_m,lb_m,hold,rear_x_m,"), "{header}");
-        assert_eq!(header.split(',').count(), 22);
+        assert_eq!(header.split(',').count(), 23);
         assert_eq!(
             lines.next().unwrap(),
-            "release_rear,1,0.2,0.15,front,,,,0.1,0.30000000000000004,-90,0,0,0.2,0,0.1,0.3,0,0.05,,2.5,false"
+            "release_rear,1,0.2,0.15,front,,,,0.1,0.30000000000000004,-90,0,0,0.2,0,0.1,0.3,0,0.05,,2.5,3,false"
         );
         let json = serde_json::to_value(&report).unwrap();
         assert_eq!(json["steps"][0]["safety_factor"]["rear"], serde_json::Value::Null);

@@ -196,7 +196,7 @@ pub struct Rejection {
     /// Where it happened when a solve found it: the tube lengths and holds
     /// of the failing state (`leech shape` reproduces it).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub at: Option<Failed>,
+    pub at: Option<Box<Failed>>,
 }
 
 /// The state a rejection was found at.
@@ -702,7 +702,7 @@ impl Planner<'_> {
     /// safety factors; a failure, a snap or a penetration as a rejection.
     fn step(&mut self, phase: Phase, stride: usize, lengths: [f64; 2], hold: Hold) -> Result<Step, Rejection> {
         self.judged_step(phase, stride, lengths, hold).map_err(|mut r| {
-            r.at.get_or_insert(Failed::new(lengths, hold));
+            r.at.get_or_insert_with(|| Box::new(Failed::new(lengths, hold)));
             r
         })
     }
