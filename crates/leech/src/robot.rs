@@ -170,6 +170,18 @@ impl Cup {
     /// Checks the cup's own values (the robot also checks the offsets
     /// against the tube's radius).
     pub fn validate(&self) -> Result<(), InputError> {
+        // Lengths of a cup for a robot of tubes a few tenths of a metre
+        // long: a metre bounds any real one (and keeps the geometry finite).
+        for (field, value) in [
+            ("cup.diameter_m", self.diameter_m),
+            ("cup.rear_offset_m", self.rear_offset_m),
+            ("cup.front_offset_m", self.front_offset_m),
+            ("cup.attach_distance_tolerance_m", self.attach_distance_tolerance_m),
+        ] {
+            if !(value <= MAX_CUP_LENGTH_M) {
+                return Err(InputError::invalid(field, value, format!("at most {MAX_CUP_LENGTH_M} m")));
+            }
+        }
         positive("cup.diameter_m", self.diameter_m)?;
         positive("cup.pull_off_force_n", self.pull_off_force_n)?;
         positive("cup.friction_coefficient", self.friction_coefficient)?;
@@ -191,6 +203,9 @@ impl Cup {
         Ok(())
     }
 }
+
+/// Largest cup length (diameter, offsets, attach distance) a robot file may give (m).
+pub const MAX_CUP_LENGTH_M: f64 = 1.0;
 
 /// Largest `[cup] preload_m` (m).
 pub const MAX_PRELOAD_M: f64 = 0.01;

@@ -52,23 +52,30 @@ pub(super) fn pose(flag: &str, [x, y, deg]: [f64; 3], max_deg: f64) -> Result<Po
     Ok(Pose::from_deg(point, within(&format!("{flag} angle (deg)"), deg, -max_deg, max_deg)?))
 }
 
-/// Rejects holds inside the scene's solids (deeper than [`ON_SURFACE_M`]):
-/// the driving unit's point and
-/// the rear cup's centre, the endpoint and the front cup's centre (each cup
-/// sits on chain B's side: `b` or `c` plus its offset along `nu`).
+/// Rejects holds inside the scene's solids: the driving unit's point and
+/// the endpoint deeper than [`ON_SURFACE_M`], the cups' centres (each cup
+/// sits on chain B's side: `b` or `c` plus its offset along `nu`) deeper
+/// than that plus the robot file's preload (a planner presses them in by it).
 fn clear_of(scene: &Scene, robot: &Robot, hold: Hold) -> Result<(), Failure> {
+    let (point, pressed) = (ON_SURFACE_M, ON_SURFACE_M + robot.cup.preload_m);
     let mut points = Vec::new();
     if let Some(p) = hold.rear() {
         let cup = stance::rear_cup_centre(robot, p);
-        points.extend([("--rear", "the driving unit", p.point_m), ("--rear", "the rear cup's centre", cup)]);
+        points.extend([
+            ("--rear", "the driving unit", p.point_m, point),
+            ("--rear", "the rear cup's centre", cup, pressed),
+        ]);
     }
     if let Some(p) = hold.front() {
         let cup = stance::front_cup_centre(robot, p);
-        points.extend([("--front", "the endpoint", p.point_m), ("--front", "the front cup's centre", cup)]);
+        points.extend([
+            ("--front", "the endpoint", p.point_m, point),
+            ("--front", "the front cup's centre", cup, pressed),
+        ]);
     }
     // A point on a surface is clear, to rounding.
-    match points.into_iter().find(|(_, _, p)| !scene.is_free(*p, -ON_SURFACE_M)) {
-        Some((flag, what, [x, y])) => Err(Failure::Input(format!(
+    match points.into_iter().find(|(_, _, p, depth)| !scene.is_free(*p, -depth)) {
+        Some((flag, what, [x, y], _)) => Err(Failure::Input(format!(
             "{flag}: {what} at ({:.1}, {:.1}) mm is inside a solid of the scene, expected free space or a surface",
             x * 1e3,
             y * 1e3

@@ -561,6 +561,9 @@ impl Planner<'_> {
                 at: None,
             };
             loop {
+                if self.out_of_time() {
+                    break;
+                }
                 while queue.is_empty() && next_base < bases.len() {
                     queue.extend(self.resting_touchdowns(
                         Hold::Front(front_pose),
@@ -639,6 +642,14 @@ impl Planner<'_> {
         let samples = (travel / PATH_STEP_M).ceil() as usize;
         let mut smallest = f64::INFINITY;
         for k in 1..samples {
+            if self.out_of_time() {
+                return Err(Rejection {
+                    blocking: Blocking::TimeLimit,
+                    phase,
+                    detail: "the search ran out of its time limit".into(),
+                    at: None,
+                });
+            }
             let t = k as f64 / samples as f64;
             let at = [from[0] + t * (to[0] - from[0]), from[1] + t * (to[1] - from[1])];
             let step = self.step(phase, 0, at, hold).map_err(|mut r| {
@@ -840,6 +851,9 @@ impl Planner<'_> {
         // Along each row of the grid every solve is warm from the last one
         // (a front hold's cold solve follows the load from zero).
         for i in 0..n {
+            if self.out_of_time() {
+                break;
+            }
             let mut near: Option<Held> = None;
             for j in 0..n {
                 let seed = [lo + (hi - lo) * i as f64 / (n - 1) as f64, lo + (hi - lo) * j as f64 / (n - 1) as f64];
@@ -994,6 +1008,9 @@ impl Planner<'_> {
         let (.., mut near) = self.face_held(holding, moving, seed)?;
         let mut l = seed;
         for _ in 0..TOUCHDOWN_ITERATIONS {
+            if self.out_of_time() {
+                return None;
+            }
             let (r, held) = residual(self, &near, l)?;
             near = held;
             if r[0].abs() < TOUCHDOWN_TOLERANCE_M && r[1].abs() < TOUCHDOWN_TOLERANCE_M {
