@@ -169,43 +169,53 @@ fn a_goal_beyond_the_stride_limit_says_so() {
 }
 
 /// Every equilibrium of the body among `scene`'s solids with the rear cup
-/// held on one of six footholds from `a` to `b` (m) heading `heading_deg`,
-/// the tubes on a grid of 14 x 14 lengths over the range, the free front cup
-/// resting; those that penetrate a solid or bend a tube tighter than its
-/// smallest radius are left out (the planner rejects them). `visit` sees
-/// each with its front face's centre and angle (rad).
+/// held at one of `rears`, the tubes on a grid of `grid` x `grid` lengths over
+/// the range, the free front cup resting; those that penetrate a solid or
+/// bend a tube tighter than its smallest radius are left out (the planner
+/// rejects them). `visit` sees each with its front face's centre and angle
+/// (rad); the number seen.
 fn each_front_face(
     robot: &Robot,
     scene: &Scene,
-    [a, b]: [[f64; 2]; 2],
-    heading_deg: f64,
-    mut visit: impl FnMut(&Held, [f64; 2], f64),
+    rears: &[leech::stance::Pose],
+    grid: usize,
+    mut visit: impl FnMut([f64; 2], [f64; 2], f64),
 ) -> usize {
     use leech::stance::Hold;
     let (lo, hi) = (robot.limits.tube_length_min_m, robot.limits.tube_length_max_m);
+    let at = |i: usize| lo + (hi - lo) * i as f64 / (grid - 1) as f64;
     let mut states = 0;
-    for k in 0..6 {
-        let t = k as f64 / 5.0;
-        let foot = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
-        let rear = stance::rear_pose_for_cup(robot, foot, heading_deg.to_radians());
-        for i in 0..14 {
-            for j in 0..14 {
-                let lengths = [lo + (hi - lo) * i as f64 / 13.0, lo + (hi - lo) * j as f64 / 13.0];
+    for rear in rears {
+        for i in 0..grid {
+            for j in 0..grid {
+                let lengths = [at(i), at(j)];
                 let Ok(held) =
-                    stance::solve_among(robot, lengths, Hold::Rear(rear), scene, &Solver::default(), FreeCups::Rest)
+                    stance::solve_among(robot, lengths, Hold::Rear(*rear), scene, &Solver::default(), FreeCups::Rest)
                 else {
                     continue;
                 };
-                if held.penetration_m(robot, scene) > 1e-9 || held.min_bend_radius() < robot.tube.min_bend_radius_m {
+                if !(held.penetration_m(robot, scene) <= 1e-9 && held.min_bend_radius() >= robot.tube.min_bend_radius_m)
+                {
                     continue;
                 }
                 states += 1;
                 let (centre, angle) = cup_face(robot, &held, Cup::Front);
-                visit(&held, centre, angle);
+                visit(lengths, centre, angle);
             }
         }
     }
     states
+}
+
+/// The built-in scenario `name` planned for the built-in robot: impossible,
+/// blocked by `blocking`.
+fn impossible(name: &str, blocking: stride::Blocking) -> (Robot, stride::Scenario, stride::Plan) {
+    let robot = Robot::builtin();
+    let scenario = stride::Scenario::builtin(name).unwrap();
+    let plan = stride::plan(&robot, &scenario.scene, scenario.start, scenario.goal, &PlanOptions::default()).unwrap();
+    assert_eq!(plan.status, Status::Impossible, "{name}");
+    assert_eq!(plan.reason.as_ref().unwrap().blocking, blocking, "{name}: {:?}", plan.reason);
+    (robot, scenario, plan)
 }
 
 /// Whether a face (centre, angle) lies flush on `scene` within the robot's tolerances.
@@ -223,9 +233,16 @@ fn flush_on(robot: &Robot, scene: &Scene, centre: [f64; 2], angle: f64) -> bool 
 /// The smallest angle (deg) by which a front face whose centre is within
 /// 5 mm of a surface along `surface_deg` misses lying along it, over the
 /// states from the footholds `a`..`b`; infinite when no face comes that near.
-fn nearest_miss(robot: &Robot, scene: &Scene, feet: [[f64; 2]; 2], heading_deg: f64, surface_deg: f64) -> f64 {
+fn nearest_miss(robot: &Robot, scene: &Scene, [a, b]: [[f64; 2]; 2], heading_deg: f64, surface_deg: f64) -> f64 {
+    let rears: Vec<_> = (0..6)
+        .map(|k| {
+            let t = k as f64 / 5.0;
+            let foot = [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+            stance::rear_pose_for_cup(robot, foot, heading_deg.to_radians())
+        })
+        .collect();
     let mut nearest = f64::INFINITY;
-    let states = each_front_face(robot, scene, feet, heading_deg, |_, centre, angle| {
+    let states = each_front_face(robot, scene, &rears, 14, |_, centre, angle| {
         let Some((on, direction)) = scene.surface_frame(centre) else { return };
         let along = leech::geom::angle_difference(direction, surface_deg.to_radians()).abs() < 1e-6;
         let off = ((on[0] - centre[0]).powi(2) + (on[1] - centre[1]).powi(2)).sqrt();
@@ -246,11 +263,7 @@ fn nearest_miss(robot: &Robot, scene: &Scene, feet: [[f64; 2]; 2], heading_deg: 
 /// cannot turn down onto the top just past the corner.
 #[test]
 fn onto_the_top_of_a_block_the_front_face_cannot_land() {
-    let robot = Robot::builtin();
-    let scenario = stride::Scenario::builtin("wall-to-floor").unwrap();
-    let plan = stride::plan(&robot, &scenario.scene, scenario.start, scenario.goal, &PlanOptions::default()).unwrap();
-    assert_eq!(plan.status, Status::Impossible);
-    assert_eq!(plan.reason.as_ref().unwrap().blocking, stride::Blocking::Reach, "{:?}", plan.reason);
+    let (robot, scenario, _) = impossible("wall-to-floor", stride::Blocking::Reach);
     let miss = nearest_miss(&robot, &scenario.scene, [[0.0, 0.0], [0.0, 0.125]], 90.0, 0.0);
     assert!(miss > 20.0, "a face comes within {miss} deg of the top");
 }
@@ -262,11 +275,7 @@ fn onto_the_top_of_a_block_the_front_face_cannot_land() {
 /// from the clamp.
 #[test]
 fn over_the_thin_wall_the_front_face_cannot_land() {
-    let robot = Robot::builtin();
-    let scenario = stride::Scenario::builtin("over-thin-wall").unwrap();
-    let plan = stride::plan(&robot, &scenario.scene, scenario.start, scenario.goal, &PlanOptions::default()).unwrap();
-    assert_eq!(plan.status, Status::Impossible);
-    assert_eq!(plan.reason.as_ref().unwrap().blocking, stride::Blocking::Reach, "{:?}", plan.reason);
+    let (robot, scenario, _) = impossible("over-thin-wall", stride::Blocking::Reach);
     let miss = nearest_miss(&robot, &scenario.scene, [[0.2, 0.05], [0.2, 0.225]], 90.0, -90.0);
     assert!(miss.is_infinite(), "a face comes within {miss} deg of the far face");
 }
@@ -279,11 +288,7 @@ fn over_the_thin_wall_the_front_face_cannot_land() {
 #[test]
 fn along_the_ceiling_the_front_face_cannot_land() {
     use leech::stance::Hold;
-    let robot = Robot::builtin();
-    let scenario = stride::Scenario::builtin("wall-to-ceiling").unwrap();
-    let plan = stride::plan(&robot, &scenario.scene, scenario.start, scenario.goal, &PlanOptions::default()).unwrap();
-    assert_eq!(plan.status, Status::Impossible);
-    assert_eq!(plan.reason.as_ref().unwrap().blocking, stride::Blocking::Reach, "{:?}", plan.reason);
+    let (robot, scenario, plan) = impossible("wall-to-ceiling", stride::Blocking::Reach);
     let last = plan.steps.last().unwrap();
     let (rear_cup, rear_angle) = cup_face(&robot, &last.held, Cup::Rear);
     assert!(flush_on(&robot, &scenario.scene, rear_cup, rear_angle), "the rear cup seals on the ceiling");
@@ -292,32 +297,10 @@ fn along_the_ceiling_the_front_face_cannot_land() {
     let Hold::Rear(unit) = last.held.hold else { panic!("{:?}", last.held.hold) };
     let goal = scenario.goal.point_m;
     let to_goal = |p: [f64; 2]| ((p[0] - goal[0]).powi(2) + (p[1] - goal[1]).powi(2)).sqrt();
-    let (lo, hi) = (robot.limits.tube_length_min_m, robot.limits.tube_length_max_m);
-    let mut states = 0;
-    for i in 0..26 {
-        for j in 0..26 {
-            let lengths = [lo + (hi - lo) * i as f64 / 25.0, lo + (hi - lo) * j as f64 / 25.0];
-            let Ok(held) = stance::solve_among(
-                &robot,
-                lengths,
-                Hold::Rear(unit),
-                &scenario.scene,
-                &Solver::default(),
-                FreeCups::Rest,
-            ) else {
-                continue;
-            };
-            if held.penetration_m(&robot, &scenario.scene) > 1e-9
-                || held.min_bend_radius() < robot.tube.min_bend_radius_m
-            {
-                continue;
-            }
-            states += 1;
-            let (centre, angle) = cup_face(&robot, &held, Cup::Front);
-            let nearer = to_goal(centre) < to_goal(rear_cup) - stride::plan::MIN_PROGRESS_M;
-            assert!(!(nearer && flush_on(&robot, &scenario.scene, centre, angle)), "{lengths:?} lands at {centre:?}");
-        }
-    }
+    let states = each_front_face(&robot, &scenario.scene, &[unit], 26, |lengths, centre, angle| {
+        let nearer = to_goal(centre) < to_goal(rear_cup) - stride::plan::MIN_PROGRESS_M;
+        assert!(!(nearer && flush_on(&robot, &scenario.scene, centre, angle)), "{lengths:?} lands at {centre:?}");
+    });
     assert!(states > 300, "only {states} states checked");
 }
 
@@ -359,13 +342,8 @@ points_m = [[0.20, -0.05], [0.22, -0.05], [0.22, 0.6], [0.20, 0.6]]
 /// (force balance), and its verdict is below the minimum.
 #[test]
 fn into_the_corner_the_front_cup_cannot_hold_the_pull() {
-    let robot = Robot::builtin();
-    let scenario = stride::Scenario::builtin("floor-to-wall").unwrap();
-    let plan = stride::plan(&robot, &scenario.scene, scenario.start, scenario.goal, &PlanOptions::default()).unwrap();
-    assert_eq!(plan.status, Status::Impossible);
-    let reason = plan.reason.expect("a reason");
-    assert_eq!(reason.blocking, stride::Blocking::CupForce, "{reason:?}");
-    let at = reason.at.expect("the failing state");
+    let (robot, scenario, plan) = impossible("floor-to-wall", stride::Blocking::CupForce);
+    let at = plan.reason.unwrap().at.expect("the failing state");
     let held = stance::solve_among(&robot, at.lengths_m, at.hold, &scenario.scene, &Solver::default(), FreeCups::Rest)
         .unwrap();
     let (rear, front) = held.cups(&robot).unwrap();
