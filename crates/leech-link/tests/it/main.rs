@@ -1,8 +1,11 @@
 //! Integration tests of leech-link: the simulated device alone, behind a
 //! pseudo-terminal, and driven by the host driver. Every wait is bounded.
 
+mod faults;
+mod fuzz;
 mod golden;
 mod handshake;
+mod motion;
 
 use std::time::{Duration, Instant};
 

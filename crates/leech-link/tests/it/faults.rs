@@ -1,0 +1,104 @@
+//! Injected faults: a noisy line, a cut line, and the last-cup rule.
+
+use std::time::{Duration, Instant};
+
+use leech_link::host::Link;
+use leech_link::sim::{Faults, SimConfig};
+use leech_protocol::frame::Decoder;
+use leech_protocol::link::{BAUD_RATE, LINK_TIMEOUT_MS};
+use leech_protocol::message::{AckStatus, Command, Cup, Faults as FaultBits, Refusal, Report};
+
+use super::{configure, device, frame, options, wait_until};
+
+#[test]
+fn every_command_arrives_through_one_percent_corruption() {
+    let config = SimConfig::default();
+    let device = device(config);
+    let link = Link::open(device.path(), options()).expect("handshake");
+    configure(&link, &config, 50);
+    device.set_faults(Faults { corrupt_rate: 0.01, ..Faults::default() });
+    let commands = 200;
+    for i in 0..commands {
+        let acked = link.clear_faults(FaultBits(0)).unwrap_or_else(|e| panic!("command {i}: {e}"));
+        assert!(acked.sends >= 1);
+    }
+    let health = link.health();
+    let device_counters = device.state().counters;
+    assert!(health.resends > 0, "{health:?}");
+    assert!(health.bad_crc + health.bad_frames > 0, "host counted no bad frame: {health:?}");
+    assert!(device_counters.bad_crc + device_counters.bad_frames > 0, "{device_counters:?}");
+    assert!(device_counters.duplicates > 0, "lost acks make retries the device answers from memory");
+}
+
+#[test]
+fn a_cut_link_stops_the_motors_and_keeps_the_pumps() {
+    let config = SimConfig::default();
+    let device = device(config);
+    let link = Link::open(device.path(), options()).expect("handshake");
+    configure(&link, &config, 0);
+    link.pump(Cup::Rear, true).expect("rear pump");
+    link.pump(Cup::Front, true).expect("front pump");
+    link.set_lengths([400_000; 3]).expect("a long move");
+    std::thread::sleep(Duration::from_millis(300));
+    assert!(device.state().speeds_mm_s.iter().all(|s| *s > 10.0), "{:?}", device.state());
+
+    device.set_faults(Faults { cut: true, ..Faults::default() });
+    let cut = Instant::now();
+    let stopped = || {
+        let state = device.state();
+        state.targets_um.iter().all(Option::is_none) && state.duty_permille.iter().all(|d| *d == 0)
+    };
+    assert!(wait_until(Duration::from_millis(u64::from(LINK_TIMEOUT_MS) + 200), stopped));
+    let took = cut.elapsed();
+    assert!(took >= Duration::from_millis(u64::from(LINK_TIMEOUT_MS) - 100), "stopped after {took:?}");
+    // The motors spin down within a few time constants.
+    std::thread::sleep(Duration::from_millis(150));
+    let state = device.state();
+    assert!(state.speeds_mm_s.iter().all(|s| s.abs() < 0.5), "{state:?}");
+    assert_eq!(state.pumps, [true, true]);
+    assert_eq!(state.holding, [true, true]);
+    assert!(FaultBits(state.faults).contains(FaultBits::LINK_LOST));
+}
+
+/// Sends `command` with `seq` on a raw port and returns the answer to it.
+fn ask(port: &mut dyn serialport::SerialPort, decoder: &mut Decoder, command: Command, seq: u8) -> Report {
+    port.write_all(&frame(command, seq)).expect("write");
+    let end = Instant::now() + Duration::from_secs(1);
+    let mut byte = [0u8; 1];
+    while Instant::now() < end {
+        if port.read(&mut byte).unwrap_or(0) == 0 {
+            continue;
+        }
+        if let Some(Ok(message)) = decoder.push(byte[0]) {
+            match Report::decode(message) {
+                Ok(report @ (Report::Ack { .. } | Report::Hello { reply_to: Some(_), .. })) => return report,
+                _ => continue,
+            }
+        }
+    }
+    panic!("no answer to {command:?}");
+}
+
+#[test]
+fn the_device_refuses_to_release_the_last_holding_cup() {
+    let device = device(SimConfig::default());
+    let mut port = serialport::new(device.path().to_string_lossy(), BAUD_RATE)
+        .timeout(Duration::from_millis(5))
+        .open()
+        .expect("the pty opens as a serial port");
+    let mut decoder = Decoder::new();
+    assert!(matches!(ask(&mut *port, &mut decoder, Command::Hello, 1), Report::Hello { .. }));
+    let ok = |report| assert!(matches!(report, Report::Ack { status: AckStatus::Ok, .. }), "{report:?}");
+    ok(ask(&mut *port, &mut decoder, Command::Pump { cup: Cup::Rear, on: true }, 2));
+    assert!(wait_until(Duration::from_secs(1), || device.state().holding[0]), "the rear cup attaches");
+    let refused = ask(&mut *port, &mut decoder, Command::Pump { cup: Cup::Rear, on: false }, 3);
+    assert!(matches!(refused, Report::Ack { status: AckStatus::Refused(Refusal::LastCup), .. }), "{refused:?}");
+    assert_eq!(device.state().pumps, [true, false]);
+    // With the front pump on but not yet holding, the reason changes.
+    ok(ask(&mut *port, &mut decoder, Command::Pump { cup: Cup::Front, on: true }, 4));
+    let refused = ask(&mut *port, &mut decoder, Command::Pump { cup: Cup::Rear, on: false }, 5);
+    assert!(matches!(refused, Report::Ack { status: AckStatus::Refused(Refusal::NotHolding), .. }), "{refused:?}");
+    // Once both hold, either may let go.
+    assert!(wait_until(Duration::from_secs(1), || device.state().holding == [true, true]));
+    ok(ask(&mut *port, &mut decoder, Command::Pump { cup: Cup::Rear, on: false }, 6));
+}

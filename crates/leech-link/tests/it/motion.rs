@@ -1,0 +1,95 @@
+//! Motion: the tubes reach their targets at the speed the drive allows, and
+//! telemetry arrives at the configured rate.
+
+use std::sync::mpsc::RecvTimeoutError;
+use std::time::{Duration, Instant};
+
+use leech_link::host::{Event, Link};
+use leech_link::sim::SimConfig;
+use leech_protocol::message::{Command, Tube};
+
+use super::{configure, device, exchange, frame, fresh_sim, options, wait_until};
+
+/// Tolerance on a reached length, um.
+const TOLERANCE_UM: f64 = 200.0;
+
+#[test]
+fn the_simulated_tubes_reach_their_targets_at_20_mm_per_s() {
+    let config = SimConfig::default();
+    let mut sim = fresh_sim(config);
+    let mut seq = 0;
+    let mut send = |sim: &mut leech_link::sim::Sim, command| {
+        seq += 1;
+        exchange(sim, &frame(command, seq))
+    };
+    for tube in Tube::ALL {
+        send(&mut sim, Command::ConfigureTube(config.tube_config(tube)));
+    }
+    let targets = [250_000, 230_000, 170_000];
+    send(&mut sim, Command::SetLengths { lengths_um: targets });
+    // The longest travel, 50 mm at 20 mm/s: 2.5 s.
+    let mut arrived = None;
+    for ms in 1..=4000 {
+        sim.step(0.001);
+        // Keep the link alive as a host would.
+        if ms % 100 == 0 {
+            send(&mut sim, Command::Heartbeat);
+        }
+        let state = sim.state();
+        let near = state.lengths_um.iter().zip(targets).all(|(l, t)| (l - f64::from(t)).abs() <= TOLERANCE_UM);
+        if near && arrived.is_none() {
+            arrived = Some(ms);
+        }
+        for speed in state.speeds_mm_s {
+            assert!(speed.abs() <= 20.0 * 1.15, "{speed} mm/s at {ms} ms");
+        }
+    }
+    let arrived = arrived.expect("the tubes arrived");
+    assert!((2400..=3000).contains(&arrived), "arrived after {arrived} ms");
+    let state = sim.state();
+    for (length, target) in state.lengths_um.iter().zip(targets) {
+        assert!((length - f64::from(target)).abs() <= TOLERANCE_UM, "{length} um for {target} um");
+    }
+    assert_eq!(state.faults, 0);
+}
+
+#[test]
+fn set_lengths_over_the_pty_and_telemetry_at_50_hz() {
+    let config = SimConfig::default();
+    let device = device(config);
+    let link = Link::open(device.path(), options()).expect("handshake");
+    let events = link.subscribe();
+    configure(&link, &config, 20);
+    let targets = [220_000, 210_000, 210_000];
+    let start = Instant::now();
+    link.set_lengths(targets).expect("accepted");
+    let reached = || {
+        let state = device.state();
+        state.lengths_um.iter().zip(targets).all(|(l, t)| (l - f64::from(t)).abs() <= TOLERANCE_UM)
+    };
+    // 20 mm at 20 mm/s: 1 s, and settling.
+    assert!(wait_until(Duration::from_secs(3), reached), "{:?}", device.state());
+    let took = start.elapsed();
+    assert!(took >= Duration::from_millis(950) && took <= Duration::from_millis(1600), "{took:?}");
+
+    // Count the telemetry of one second.
+    while events.try_recv().is_ok() {}
+    let window = Instant::now();
+    let mut reports = 0;
+    let mut last_time = None;
+    while window.elapsed() < Duration::from_secs(1) {
+        match events.recv_timeout(Duration::from_millis(100)) {
+            Ok(Event::Telemetry(t)) => {
+                reports += 1;
+                last_time = Some(t);
+            }
+            Ok(_) | Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => break,
+        }
+    }
+    assert!((45..=55).contains(&reports), "{reports} reports in 1 s");
+    let last = last_time.expect("telemetry");
+    for (measured, target) in last.lengths_um.iter().zip(targets) {
+        assert!((measured - target).abs() <= TOLERANCE_UM as i32, "{measured} um for {target} um");
+    }
+}
