@@ -104,3 +104,69 @@ fn the_device_refuses_to_release_the_last_holding_cup() {
     assert!(wait_until(Duration::from_secs(1), || device.state().holding == [true, true]));
     ok(ask(&mut *port, &mut decoder, Command::Pump { cup: Cup::Rear, on: false }, 6));
 }
+
+/// A fresh simulation with its tubes configured and the link kept alive by
+/// `run`.
+struct Bench {
+    sim: leech_link::sim::Sim,
+    seq: u8,
+}
+
+impl Bench {
+    fn new() -> Bench {
+        let config = SimConfig::default();
+        let mut bench = Bench { sim: super::fresh_sim(config), seq: 0 };
+        for tube in leech_protocol::message::Tube::ALL {
+            bench.ask(Command::ConfigureTube(config.tube_config(tube)));
+        }
+        bench
+    }
+
+    fn ask(&mut self, command: Command) -> Vec<Report> {
+        self.seq = self.seq.wrapping_add(1).max(1);
+        super::exchange(&mut self.sim, &frame(command, self.seq))
+    }
+
+    /// Runs `ms` milliseconds with a heartbeat every 100 ms; returns the
+    /// faults reported.
+    fn run(&mut self, ms: u32) -> Vec<Report> {
+        let mut reports = Vec::new();
+        for t in 1..=ms {
+            self.sim.step(0.001);
+            let answers = if t % 100 == 0 { self.ask(Command::Heartbeat) } else { super::exchange(&mut self.sim, &[]) };
+            reports.extend(answers.into_iter().filter(|r| matches!(r, Report::Fault { .. })));
+        }
+        reports
+    }
+}
+
+#[test]
+fn a_stalled_motor_latches_a_fault_that_blocks_motion_until_cleared() {
+    let mut bench = Bench::new();
+    bench.sim.set_faults(Faults { stalled: [false, true, false], ..Faults::default() });
+    bench.ask(Command::SetLengths { lengths_um: [210_000; 3] });
+    let faults = bench.run(1500);
+    assert!(faults.iter().any(|f| matches!(f, Report::Fault { code: 1, detail: 1, .. })), "{faults:?}");
+    let state = bench.sim.state();
+    assert!(FaultBits(state.faults).contains(FaultBits::MOTOR_STALL));
+    assert!(state.targets_um.iter().all(Option::is_none), "motors stopped");
+    let refused = bench.ask(Command::Jog { tube: leech_protocol::message::Tube::L1, delta_um: 1000 });
+    assert!(matches!(refused[..], [Report::Ack { status: AckStatus::Refused(Refusal::Faulted), .. }]), "{refused:?}");
+    bench.ask(Command::ClearFaults { faults: FaultBits::MOTOR_STALL });
+    let accepted = bench.ask(Command::Jog { tube: leech_protocol::message::Tube::L1, delta_um: 1000 });
+    assert!(matches!(accepted[..], [Report::Ack { status: AckStatus::Ok, .. }]), "{accepted:?}");
+}
+
+#[test]
+fn a_leaking_cup_latches_vacuum_lost_and_keeps_its_pump() {
+    let mut bench = Bench::new();
+    bench.ask(Command::Pump { cup: Cup::Front, on: true });
+    bench.run(1000);
+    assert!(bench.sim.state().holding[1]);
+    bench.sim.set_faults(Faults { vacuum_loss: [false, true], ..Faults::default() });
+    let faults = bench.run(1000);
+    assert!(faults.iter().any(|f| matches!(f, Report::Fault { code: 2, detail: 1, .. })), "{faults:?}");
+    let state = bench.sim.state();
+    assert_eq!((state.pumps, state.holding), ([false, true], [false, false]));
+    assert!(FaultBits(state.faults).contains(FaultBits::VACUUM_LOST));
+}

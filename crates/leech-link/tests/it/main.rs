@@ -6,6 +6,7 @@ mod fuzz;
 mod golden;
 mod handshake;
 mod motion;
+mod reconnect;
 
 use std::time::{Duration, Instant};
 

@@ -93,3 +93,16 @@ fn set_lengths_over_the_pty_and_telemetry_at_50_hz() {
         assert!((measured - target).abs() <= TOLERANCE_UM as i32, "{measured} um for {target} um");
     }
 }
+
+#[test]
+fn the_state_round_trips_through_json() {
+    let mut sim = fresh_sim(SimConfig::default());
+    exchange(&mut sim, &frame(Command::ConfigureTube(SimConfig::default().tube_config(Tube::L3)), 1));
+    exchange(&mut sim, &frame(Command::Jog { tube: Tube::L3, delta_um: 3000 }, 2));
+    sim.step(0.1);
+    let state = sim.state();
+    let json = serde_json::to_string(&state).expect("serializes");
+    assert!(json.contains("\"lengths_um\"") && json.contains("\"vacuum_kpa\""), "{json}");
+    let back: leech_link::sim::SimState = serde_json::from_str(&json).expect("deserializes");
+    assert_eq!(back, state);
+}
