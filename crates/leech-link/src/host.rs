@@ -59,9 +59,8 @@ pub const LATENCY_WINDOW: usize = 32;
 /// How long the port's reads wait for a byte: the reader's poll period.
 const READ_TIMEOUT: Duration = Duration::from_millis(1);
 
-/// The longest a caller waits for its command's outcome: every try takes
-/// 300 ms; the rest is slack for a busy machine.
-const CALL_TIMEOUT: Duration = Duration::from_secs(2);
+/// Slack on the wait for a command's outcome, for a busy machine.
+const CALL_SLACK: Duration = Duration::from_secs(1);
 
 /// How the driver opens and keeps the link.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -146,6 +145,9 @@ pub enum LinkError {
         /// The command's name.
         command: &'static str,
     },
+    /// The driver's thread could not start.
+    #[error("cannot start the link's thread: {0}")]
+    Spawn(std::io::Error),
     /// `Hello` is the handshake's, not a caller's, command.
     #[error("Hello is sent by the handshake only")]
     NotACommand,
@@ -266,6 +268,7 @@ impl Shared {
 
 /// An open link to a device.
 pub struct Link {
+    options: Options,
     requests: Option<Sender<Request>>,
     shared: Arc<Shared>,
     thread: Option<JoinHandle<()>>,
@@ -285,8 +288,8 @@ impl Link {
         let thread = std::thread::Builder::new()
             .name("leech-link".into())
             .spawn(move || io.run(&inbox))
-            .map_err(|source| LinkError::Io { path: PathBuf::new(), source })?;
-        Ok(Link { requests: Some(requests), shared, thread: Some(thread) })
+            .map_err(LinkError::Spawn)?;
+        Ok(Link { requests: Some(requests), shared, thread: Some(thread), options })
     }
 
     /// The device's `Hello` from the last handshake.
@@ -315,7 +318,11 @@ impl Link {
         let requests = self.requests.as_ref().ok_or(LinkError::Disconnected)?;
         let (reply, outcome) = mpsc::channel();
         requests.send(Request { command, reply }).map_err(|_| LinkError::Disconnected)?;
-        match outcome.recv_timeout(CALL_TIMEOUT) {
+        // Every try takes 300 ms; a reconnection's handshake may hold the
+        // I/O thread for the boot wait first (and then fails the commands
+        // that waited, so that none runs after its caller gave up).
+        let limit = self.options.boot_timeout + Duration::from_millis(300) + CALL_SLACK;
+        match outcome.recv_timeout(limit) {
             Ok(result) => result,
             Err(_) => Err(LinkError::Disconnected),
         }
@@ -522,6 +529,11 @@ impl Io {
                 if self.options.reconnect && last_attempt.elapsed() >= self.options.reconnect_interval {
                     last_attempt = Instant::now();
                     self.reconnect();
+                    // Commands that came during the handshake were sent to
+                    // a disconnected link: they fail rather than run late.
+                    while let Ok(request) = inbox.try_recv() {
+                        let _ = request.reply.send(Err(LinkError::Disconnected));
+                    }
                 }
                 std::thread::sleep(READ_TIMEOUT);
                 continue;

@@ -170,3 +170,16 @@ fn a_leaking_cup_latches_vacuum_lost_and_keeps_its_pump() {
     assert_eq!((state.pumps, state.holding), ([false, true], [false, false]));
     assert!(FaultBits(state.faults).contains(FaultBits::VACUUM_LOST));
 }
+
+#[test]
+fn an_added_delay_holds_bytes_both_ways() {
+    let mut sim = super::fresh_sim(SimConfig::default());
+    sim.set_faults(Faults { delay_s: 0.040, ..Faults::default() });
+    assert!(super::exchange(&mut sim, &frame(Command::Heartbeat, 1)).is_empty());
+    // 40 ms in, 40 ms out.
+    sim.step(0.079);
+    assert!(super::exchange(&mut sim, &[]).is_empty());
+    sim.step(0.002);
+    let answers = super::exchange(&mut sim, &[]);
+    assert!(matches!(answers[..], [Report::Ack { status: AckStatus::Ok, .. }]), "{answers:?}");
+}

@@ -36,3 +36,14 @@ fn no_device_is_a_clear_error() {
     assert!(matches!(error, LinkError::Open { .. }), "{error:?}");
     assert!(error.to_string().contains("leech-port"), "{error}");
 }
+
+#[test]
+fn a_device_already_running_is_greeted_after_the_boot_wait() {
+    let device = device(SimConfig::default());
+    drop(Link::open(device.path(), options()).expect("first session"));
+    // No boot Hello this time: the driver waits it out, then says Hello.
+    let start = std::time::Instant::now();
+    let link = Link::open(device.path(), options()).expect("second session");
+    assert!(start.elapsed() >= options().boot_timeout, "{:?}", start.elapsed());
+    link.stop().expect("acked");
+}
