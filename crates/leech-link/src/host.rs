@@ -528,12 +528,7 @@ impl Io {
                 }
                 if self.options.reconnect && last_attempt.elapsed() >= self.options.reconnect_interval {
                     last_attempt = Instant::now();
-                    self.reconnect();
-                    // Commands that came during the handshake were sent to
-                    // a disconnected link: they fail rather than run late.
-                    while let Ok(request) = inbox.try_recv() {
-                        let _ = request.reply.send(Err(LinkError::Disconnected));
-                    }
+                    self.reconnect(inbox);
                 }
                 std::thread::sleep(READ_TIMEOUT);
                 continue;
@@ -654,11 +649,18 @@ impl Io {
     }
 
     /// One attempt at reopening the port and doing the handshake again.
-    fn reconnect(&mut self) {
+    fn reconnect(&mut self, inbox: &Receiver<Request>) {
         let Ok(port) = open_port(&self.path) else { return };
         self.port = Some(port);
         self.decoder = Decoder::new();
-        match self.handshake() {
+        let handshake = self.handshake();
+        // Commands that came during the handshake were sent to a
+        // disconnected link: they fail rather than run late. (Before the
+        // news of the reconnection, so that none sent after it fails.)
+        while let Ok(request) = inbox.try_recv() {
+            let _ = request.reply.send(Err(LinkError::Disconnected));
+        }
+        match handshake {
             Ok(hello) => {
                 *lock(&self.shared.hello) = Some(hello);
                 let mut health = lock(&self.shared.health);
