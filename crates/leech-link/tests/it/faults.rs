@@ -2,7 +2,7 @@
 
 use std::time::{Duration, Instant};
 
-use leech_link::host::Link;
+use leech_link::host::{Link, LinkError};
 use leech_link::sim::{Faults, SimConfig};
 use leech_protocol::frame::Decoder;
 use leech_protocol::link::{BAUD_RATE, HEARTBEAT_MS, LINK_TIMEOUT_MS};
@@ -10,24 +10,67 @@ use leech_protocol::message::{AckStatus, Command, Cup, Faults as FaultBits, Refu
 
 use super::{configure, device, frame, options, wait_until};
 
-#[test]
-fn every_command_arrives_through_one_percent_corruption() {
+/// Sends 200 commands through a line with `faults`; each must be acked.
+fn commands_arrive_through(faults: Faults) -> (leech_link::host::Health, leech_link::sim::Counters) {
     let config = SimConfig::default();
     let device = device(config);
     let link = Link::open(device.path(), options()).expect("handshake");
     configure(&link, &config, 50);
-    device.set_faults(Faults { corrupt_rate: 0.01, ..Faults::default() });
-    let commands = 200;
-    for i in 0..commands {
-        let acked = link.clear_faults(FaultBits(0)).unwrap_or_else(|e| panic!("command {i}: {e}"));
-        assert!(acked.sends >= 1);
+    device.set_faults(faults);
+    for i in 0..200 {
+        link.clear_faults(FaultBits(0)).unwrap_or_else(|e| panic!("command {i}: {e}"));
     }
     let health = link.health();
-    let device_counters = device.state().counters;
     assert!(health.resends > 0, "{health:?}");
+    let counters = device.state().counters;
+    assert!(counters.duplicates > 0, "lost acks make retries the device answers from memory");
+    (health, counters)
+}
+
+#[test]
+fn every_command_arrives_through_one_percent_corruption() {
+    let (health, device) = commands_arrive_through(Faults { corrupt_rate: 0.01, ..Faults::default() });
     assert!(health.bad_crc + health.bad_frames > 0, "host counted no bad frame: {health:?}");
-    assert!(device_counters.bad_crc + device_counters.bad_frames > 0, "{device_counters:?}");
-    assert!(device_counters.duplicates > 0, "lost acks make retries the device answers from memory");
+    assert!(device.bad_crc + device.bad_frames > 0, "{device:?}");
+}
+
+#[test]
+fn every_command_arrives_through_one_percent_loss() {
+    let (health, device) = commands_arrive_through(Faults { drop_rate: 0.01, ..Faults::default() });
+    // A lost byte leaves a frame short or merges two: bad frames or CRCs.
+    assert!(health.bad_crc + health.bad_frames > 0, "{health:?}");
+    assert!(device.bad_crc + device.bad_frames > 0, "{device:?}");
+}
+
+#[test]
+fn a_stop_overtakes_the_command_in_flight() {
+    let config = SimConfig::default();
+    let device = device(config);
+    let link = Link::open(device.path(), options()).expect("handshake");
+    configure(&link, &config, 0);
+    device.set_faults(Faults { cut: true, ..Faults::default() });
+    std::thread::scope(|scope| {
+        let moving = scope.spawn(|| link.set_lengths([210_000; 3]));
+        std::thread::sleep(Duration::from_millis(60));
+        // Nothing gets through the cut line: the Stop itself is not acked.
+        assert!(matches!(link.stop(), Err(LinkError::NoAck { command: "Stop", sends: 6, .. })));
+        let overtaken = moving.join().expect("no panic");
+        assert!(matches!(overtaken, Err(LinkError::Overtaken { command: "SetLengths" })), "{overtaken:?}");
+    });
+}
+
+#[test]
+fn a_refusal_comes_back_as_an_error_with_its_reason() {
+    let config = SimConfig::default();
+    let device = device(config);
+    let link = Link::open(device.path(), options()).expect("handshake");
+    let error = link.jog(leech_protocol::message::Tube::L1, 1000).expect_err("not configured");
+    assert!(matches!(error, LinkError::Refused { reason: Refusal::NotConfigured, .. }), "{error:?}");
+    configure(&link, &config, 0);
+    let error = link.set_lengths([10_000; 3]).expect_err("below the limits");
+    assert!(matches!(error, LinkError::Refused { reason: Refusal::OutOfRange, .. }), "{error:?}");
+    let text = error.to_string();
+    assert!(text.contains("SetLengths") && !text.contains('\n'), "{text}");
 }
 
 #[test]
