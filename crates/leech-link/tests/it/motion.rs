@@ -106,3 +106,37 @@ fn the_state_round_trips_through_json() {
     let back: leech_link::sim::SimState = serde_json::from_str(&json).expect("deserializes");
     assert_eq!(back, state);
 }
+
+/// The front cup is flush only while the centre tube is at most 205 mm long.
+struct ShortReach;
+
+impl leech_link::sim::Cups for ShortReach {
+    fn sealed(&self, cup: leech_protocol::message::Cup, lengths_m: [f64; 3]) -> bool {
+        cup == leech_protocol::message::Cup::Rear || lengths_m[0] <= 0.205
+    }
+}
+
+#[test]
+fn a_cup_off_the_surface_builds_no_vacuum() {
+    use leech_protocol::message::Cup;
+    let config = SimConfig::default();
+    let mut sim = leech_link::sim::Sim::with_cups(config, Box::new(ShortReach));
+    exchange(&mut sim, &[]);
+    exchange(&mut sim, &frame(Command::ConfigureTube(config.tube_config(Tube::L1)), 1));
+    exchange(&mut sim, &frame(Command::Pump { cup: Cup::Front, on: true }, 2));
+    sim.step(1.0);
+    assert!(sim.state().holding[1], "sealed at 200 mm");
+    exchange(&mut sim, &frame(Command::Pump { cup: Cup::Front, on: false }, 3));
+    exchange(&mut sim, &frame(Command::Jog { tube: Tube::L1, delta_um: 10_000 }, 4));
+    for seq in 5..=20 {
+        sim.step(0.1);
+        exchange(&mut sim, &frame(Command::Heartbeat, seq));
+    }
+    exchange(&mut sim, &frame(Command::Pump { cup: Cup::Front, on: true }, 21));
+    sim.step(0.05);
+    exchange(&mut sim, &frame(Command::Heartbeat, 22));
+    sim.step(0.05);
+    let state = sim.state();
+    assert!(state.lengths_um[0] > 209_000.0, "{state:?}");
+    assert!(state.pumps[1] && !state.holding[1] && state.vacuum_kpa[1] < 1.0, "{state:?}");
+}
