@@ -181,6 +181,14 @@ pub enum Event {
         /// The tube or cup it concerns.
         detail: u8,
     },
+    /// A command (a heartbeat included) got no answer after every try: the
+    /// link is failing, though the port is still open.
+    NoAnswer {
+        /// The command's name.
+        command: &'static str,
+        /// Its seq.
+        seq: u8,
+    },
     /// The port failed; the driver tries to reopen it.
     Disconnected,
     /// The port was reopened and the handshake done again.
@@ -565,12 +573,9 @@ impl Io {
             Retry::GiveUp => {
                 lock(&self.shared.health).give_ups += 1;
                 if let Some(flight) = self.in_flight.take() {
-                    let error = LinkError::NoAck {
-                        command: name(&flight.command),
-                        seq: flight.pending.seq().get(),
-                        sends: flight.pending.sends(),
-                    };
-                    finish(flight.reply, Err(error));
+                    let (command, seq) = (name(&flight.command), flight.pending.seq().get());
+                    self.shared.publish(&Event::NoAnswer { command, seq });
+                    finish(flight.reply, Err(LinkError::NoAck { command, seq, sends: flight.pending.sends() }));
                 }
                 Ok(())
             }

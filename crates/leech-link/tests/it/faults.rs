@@ -2,7 +2,7 @@
 
 use std::time::{Duration, Instant};
 
-use leech_link::host::{Link, LinkError};
+use leech_link::host::{Event, Link, LinkError};
 use leech_link::sim::{Faults, SimConfig};
 use leech_protocol::frame::Decoder;
 use leech_protocol::link::{BAUD_RATE, HEARTBEAT_MS, LINK_TIMEOUT_MS};
@@ -78,6 +78,7 @@ fn a_cut_link_stops_the_motors_and_keeps_the_pumps() {
     let config = SimConfig::default();
     let device = device(config);
     let link = Link::open(device.path(), options()).expect("handshake");
+    let events = link.subscribe();
     configure(&link, &config, 0);
     link.pump(Cup::Rear, true).expect("rear pump");
     link.pump(Cup::Front, true).expect("front pump");
@@ -103,6 +104,9 @@ fn a_cut_link_stops_the_motors_and_keeps_the_pumps() {
     assert_eq!(state.pumps, [true, true]);
     assert_eq!(state.holding, [true, true]);
     assert!(FaultBits(state.faults).contains(FaultBits::LINK_LOST));
+    // The host saw its heartbeats go unanswered.
+    let failing = events.try_iter().any(|e| matches!(e, Event::NoAnswer { command: "Heartbeat", .. }));
+    assert!(failing && link.health().give_ups > 0);
 }
 
 /// Sends `command` with `seq` on a raw port and returns the answer to it.
