@@ -173,7 +173,8 @@ impl SimConfig {
 
     /// A `ConfigureTube` that fits this hardware: its scale, the power-up
     /// length as origin, limits 50..=800 mm, 20 mm/s, and gains tuned for
-    /// the default motor (kp 0.3 per mille per um, ki 0.5, kd 0.003).
+    /// the default motor: kp 0.3 per mille per um, ki 0.5 per mille per
+    /// (um s), kd 0.003 per mille per (um/s) (damping ratio about 0.8).
     pub fn tube_config(&self, tube: Tube) -> TubeConfig {
         let q16 = |gain: f64| (gain * 65536.0).round() as i32;
         TubeConfig {
