@@ -1,0 +1,40 @@
+//! # leech-link: a LEeCH robot's controller, simulated, and the host's driver
+//!
+//! * [`sim`]: the controller and its robot as pure logic with an explicit
+//!   clock: bytes in, bytes out, motors, encoders, pumps, faults.
+//! * [`pty`]: a [`sim::Sim`] running in real time behind a pseudo-terminal,
+//!   so that the host driver (or any serial program) talks to it as to a
+//!   real Mega's serial port.
+//! * [`host`]: the driver: opens a serial port, does the handshake, sends
+//!   typed commands with retries, delivers telemetry, keeps the link alive
+//!   and reconnects.
+//!
+//! ```
+//! use leech_link::host::{Event, Link, Options};
+//! use leech_link::pty::PtyDevice;
+//! use leech_link::sim::{Sim, SimConfig};
+//! use leech_protocol::message::Tube;
+//!
+//! let config = SimConfig::default();
+//! let device = PtyDevice::spawn(Sim::new(config))?;
+//! // A real robot: Link::open("/dev/ttyACM0", ...), the same from here on.
+//! let link = Link::open(device.path(), Options::default())?;
+//! for tube in Tube::ALL {
+//!     link.configure_tube(config.tube_config(tube))?;
+//! }
+//! let events = link.subscribe();
+//! link.set_telemetry(10)?; // 100 Hz
+//! link.jog(Tube::L1, 2_000)?; // 2 mm longer, at up to 20 mm/s
+//! let Event::Telemetry(first) = events.recv()? else { panic!("telemetry first") };
+//! assert!(first.active.contains(Tube::L1));
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! The protocol itself (frames, messages, link rules) is `leech-protocol`
+//! and `docs/protocol.md`.
+
+#![warn(missing_docs)]
+
+pub mod host;
+pub mod pty;
+pub mod sim;
