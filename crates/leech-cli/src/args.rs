@@ -29,6 +29,9 @@ use crate::flags::{
 
 mod climb;
 mod holds;
+mod link;
+
+pub use link::{Action, Drive, SimRobot};
 
 pub use climb::Climb;
 use holds::{load_scene, pose, situation};
@@ -71,6 +74,8 @@ pub enum Args {
         text: String,
         json: bool,
     },
+    SimRobot(SimRobot),
+    Drive(Drive),
 }
 
 /// Where results go: JSON or text on standard output, and the files asked for.
@@ -236,6 +241,8 @@ impl Args {
                     Args::ScenarioShow { scenario, text, json }
                 }
             },
+            Command::SimRobot(a) => Args::SimRobot(link::sim_robot(a)?),
+            Command::Drive(a) => Args::Drive(link::drive(a)?),
         })
     }
 
@@ -255,7 +262,8 @@ impl Args {
             | Args::Workspace(Workspace { outputs, .. })
             | Args::Calibrate(Calibrate { outputs, .. })
             | Args::Simulate(Simulate { outputs, .. }) => outputs.json,
-            Args::Figure(_) => false,
+            Args::Drive(Drive { json, .. }) => *json,
+            Args::Figure(_) | Args::SimRobot(_) => false,
         }
     }
 }

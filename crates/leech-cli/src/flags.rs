@@ -49,6 +49,93 @@ pub enum Command {
     Climb(ClimbArgs),
     /// The built-in climb scenarios and scenario files.
     Scenario(ScenarioArgs),
+    /// Run the simulated robot behind a pseudo-terminal: prints the port's path, serves until stopped.
+    SimRobot(SimRobotArgs),
+    /// Drive the robot (or the simulated one) over its serial port.
+    Drive(DriveArgs),
+}
+
+/// `leech sim-robot`.
+#[derive(Debug, Args)]
+pub struct SimRobotArgs {
+    /// The robot whose drive (`[drive]`: encoder calibration, lengths at power-up) the simulation has.
+    #[command(flatten)]
+    pub robot: RobotChoice,
+    /// Faults to inject, comma-separated: drop=P, corrupt=P (per byte, each way), delay=S, cut,
+    /// vacuum-loss=rear|front, stall=1|2|3, seed=N.
+    #[arg(long, value_name = "SPEC")]
+    pub faults: Option<String>,
+    /// Print the simulated robot's state as one JSON line every S seconds (0: never).
+    #[arg(long, value_name = "S", default_value_t = 0.0)]
+    pub status_every: f64,
+    /// Stop after S seconds (default: until interrupted).
+    #[arg(long, value_name = "S")]
+    pub duration: Option<f64>,
+}
+
+/// `leech drive`.
+#[derive(Debug, Args)]
+pub struct DriveArgs {
+    /// The controller's serial port (a real Arduino Mega's, or the path `leech sim-robot` prints).
+    #[arg(long, value_name = "PATH")]
+    pub port: PathBuf,
+    /// The robot whose `[drive]` section configures the controller's tubes.
+    #[command(flatten)]
+    pub robot: RobotChoice,
+    /// Print JSON (units in the keys) instead of text.
+    #[arg(long, global = true)]
+    pub json: bool,
+    /// What to do.
+    #[command(subcommand)]
+    pub action: DriveAction,
+}
+
+/// The `leech drive` actions.
+#[derive(Debug, Subcommand)]
+pub enum DriveAction {
+    /// The controller's state: lengths, duties, pumps, cups, faults, link health.
+    Status,
+    /// Move the tubes to L1,L2,L3 (m; planar use sets L2 = L3) and wait until they are there.
+    Lengths {
+        /// Target lengths L1,L2,L3 in m.
+        #[arg(value_name = "L1,L2,L3", value_parser = parse_triple)]
+        lengths: [f64; 3],
+    },
+    /// Move one tube (1, 2 or 3) by MM millimetres (negative draws it in).
+    #[command(allow_negative_numbers = true)]
+    Jog {
+        /// The tube: 1 (centre), 2 or 3.
+        tube: u8,
+        /// How far, mm.
+        mm: f64,
+    },
+    /// Switch a cup's pump on or off (the controller refuses to let go of the last holding cup).
+    Pump {
+        /// Which cup.
+        cup: CupArg,
+        /// On or off.
+        state: OnOff,
+    },
+    /// Stop the motors (the pumps stay as they are).
+    Stop,
+}
+
+/// A cup on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum CupArg {
+    /// The rear cup, on the driving unit.
+    Rear,
+    /// The front cup, on the endpoint.
+    Front,
+}
+
+/// A pump's state on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum OnOff {
+    /// Pump on.
+    On,
+    /// Pump off.
+    Off,
 }
 
 /// `leech climb`.
@@ -500,6 +587,10 @@ fn parse_pair(text: &str) -> Result<[f64; 2], String> {
 }
 
 /// Parses `X,Y,DEG` into three numbers.
+fn parse_triple(text: &str) -> Result<[f64; 3], String> {
+    numbers(text, "three numbers in m separated by commas", "a number in m")
+}
+
 fn parse_pose(text: &str) -> Result<[f64; 3], String> {
     numbers(text, "X,Y in m and DEG separated by commas", "a number")
 }

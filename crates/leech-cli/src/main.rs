@@ -6,6 +6,7 @@
 mod args;
 mod failure;
 mod flags;
+mod link;
 mod render;
 
 use std::process::ExitCode;
@@ -167,6 +168,8 @@ fn run(args: Args, out: &mut String) -> Result<(), Failure> {
         }
         Args::Scenarios { json } => render::scenarios(out, json),
         Args::ScenarioShow { scenario, text, json } => render::scenario(out, &scenario, &text, json),
+        Args::SimRobot(a) => link::sim_robot(a),
+        Args::Drive(a) => link::drive(out, a),
     }
 }
 

@@ -38,3 +38,4 @@
 pub mod host;
 pub mod pty;
 pub mod sim;
+pub mod wait;

@@ -8,7 +8,7 @@
 //! of the tube is `Pi = k / (m g l)` (docs/model.md section 8).
 //!
 //! Keys the statics do not need are optional, and the sections
-//! `[driving_unit]`, `[cup]` and `[limits]` may be left out whole: a missing
+//! `[driving_unit]`, `[cup]`, `[limits]` and `[drive]` may be left out whole: a missing
 //! key takes the built-in robot's value, so robot files written before these
 //! keys existed stay valid. They are the tube's outer diameter
 //! ([`DEFAULT_TUBE_OUTER_DIAMETER_M`]), the driving unit's mass
@@ -228,6 +228,47 @@ impl Default for Limits {
     }
 }
 
+/// How the controller drives the tubes: the calibration from encoder counts
+/// to tube length and the position loop's settings, sent to the device
+/// before it moves (`leech drive`; docs/protocol.md, `ConfigureTube`). One
+/// set for the three tubes (L1 centre, L2 and L3 the side pair).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Drive {
+    /// Encoder counts per mm of tube (12 CPR x 75:1 gear = 900 counts per
+    /// output turn, on a roller feeding 20 mm a turn: 45).
+    pub counts_per_mm: f64,
+    /// Each tube's free length at encoder count zero (m): where it stands
+    /// when the controller powers up.
+    pub zero_lengths_m: [f64; 3],
+    /// Fastest tube speed the position loop commands (m/s; the paper's 20 mm/s).
+    pub max_speed_m_per_s: f64,
+    /// Position loop gains: duty (per mille) per um of error, per um s, per um/s.
+    pub gains: [f64; 3],
+}
+
+impl Default for Drive {
+    /// The simulated robot's drive (and an estimate for the paper's).
+    fn default() -> Self {
+        Drive { counts_per_mm: 45.0, zero_lengths_m: [0.2; 3], max_speed_m_per_s: 0.02, gains: [0.3, 0.5, 0.003] }
+    }
+}
+
+impl Drive {
+    fn validate(&self) -> Result<(), InputError> {
+        within("drive.counts_per_mm", self.counts_per_mm, 1e-3, 1e6)?;
+        for (i, l) in self.zero_lengths_m.iter().enumerate() {
+            within(&format!("drive.zero_lengths_m[{i}]"), *l, 0.0, 10.0)?;
+        }
+        within("drive.max_speed_m_per_s", self.max_speed_m_per_s, 1e-4, 1.0)?;
+        for (name, g) in ["kp", "ki", "kd"].iter().zip(self.gains) {
+            // Sent as Q16.16: at most 32767.
+            within(&format!("drive.gains ({name})"), g, 0.0, 3e4)?;
+        }
+        Ok(())
+    }
+}
+
 /// A validated robot description.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Robot {
@@ -247,6 +288,8 @@ pub struct Robot {
     pub cup: Cup,
     /// Tube lengths for planners.
     pub limits: Limits,
+    /// The controller's drive: encoder calibration and position loop.
+    pub drive: Drive,
 }
 
 #[derive(Deserialize)]
@@ -277,6 +320,8 @@ struct RawRobot {
     cup: Cup,
     #[serde(default)]
     limits: Limits,
+    #[serde(default)]
+    drive: Drive,
 }
 
 /// One of two alternative keys, exactly one present.
@@ -339,6 +384,7 @@ impl Robot {
             driving_unit: raw.driving_unit,
             cup: raw.cup,
             limits: raw.limits,
+            drive: raw.drive,
         };
         robot.validate()?;
         Ok(robot)
@@ -361,6 +407,7 @@ impl Robot {
         non_negative("driving_unit.mass_kg", self.driving_unit.mass_kg)?;
         self.cup.validate()?;
         self.validate_cup_offsets()?;
+        self.drive.validate()?;
         // Planners build the body at the shortest lengths: both tubes there
         // must give it the four elements a body needs (see `body`).
         let l = self.tube.element_length_m;

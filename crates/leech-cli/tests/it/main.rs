@@ -404,6 +404,7 @@ fn simulate_writes_series_animation_and_summary() {
 }
 
 mod climb;
+mod drive;
 mod holds;
 mod tube;
 

@@ -1,0 +1,163 @@
+//! `leech sim-robot` and `leech drive`: flags resolved into the simulated
+//! robot's configuration and faults, and the controller's tube settings.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use leech_link::sim::{Faults, SimConfig};
+use leech_protocol::message::{Cup, Tube, TubeConfig};
+
+use super::tuned;
+use crate::failure::Failure;
+use crate::flags::{CupArg, DriveAction, DriveArgs, OnOff, SimRobotArgs};
+
+/// `leech sim-robot`: the device to simulate, its faults and how long to run.
+pub struct SimRobot {
+    pub config: SimConfig,
+    pub faults: Faults,
+    /// How often to print the state (None: never).
+    pub status_every: Option<Duration>,
+    /// How long to run (None: until interrupted).
+    pub duration: Option<Duration>,
+}
+
+/// `leech drive`: the port, the tubes' settings and the action.
+pub struct Drive {
+    pub port: PathBuf,
+    pub tubes: [TubeConfig; 3],
+    pub action: Action,
+    pub json: bool,
+}
+
+/// A `leech drive` action with its values checked.
+pub enum Action {
+    Status,
+    Lengths([i32; 3]),
+    Jog(Tube, i32),
+    Pump(Cup, bool),
+    Stop,
+}
+
+/// A positive number of seconds within a day, as a duration.
+fn seconds(flag: &str, s: f64) -> Result<Duration, Failure> {
+    if s.is_finite() && s > 0.0 && s <= 86_400.0 {
+        Ok(Duration::from_secs_f64(s))
+    } else {
+        Err(Failure::Input(format!("{flag}: got {s}, expected seconds in (0, 86400]")))
+    }
+}
+
+pub(super) fn sim_robot(a: SimRobotArgs) -> Result<SimRobot, Failure> {
+    let robot = tuned(&a.robot, Ok)?;
+    let default = SimConfig::default();
+    let config = SimConfig {
+        // The encoder's counts per turn stay; the turn feeds what the robot's calibration says.
+        mm_per_rev: default.counts_per_rev / robot.drive.counts_per_mm,
+        initial_lengths_um: robot.drive.zero_lengths_m.map(|l| (l * 1e6).round() as i32),
+        max_tube_speed_mm_s: robot.drive.max_speed_m_per_s * 1e3,
+        ..default
+    };
+    let faults = a.faults.as_deref().map(faults).transpose()?.unwrap_or_default();
+    let status_every = if a.status_every == 0.0 { None } else { Some(seconds("--status-every", a.status_every)?) };
+    let duration = a.duration.map(|s| seconds("--duration", s)).transpose()?;
+    Ok(SimRobot { config, faults, status_every, duration })
+}
+
+/// The `--faults` spec: `drop=P,corrupt=P,delay=S,cut,vacuum-loss=rear|front,stall=1|2|3,seed=N`.
+fn faults(spec: &str) -> Result<Faults, Failure> {
+    let mut f = Faults::default();
+    let bad = |item: &str, allowed: &str| Failure::Input(format!("--faults: got '{item}', expected {allowed}"));
+    let rate = |item: &str, v: &str| match v.parse::<f64>() {
+        Ok(p) if (0.0..=1.0).contains(&p) => Ok(p),
+        _ => Err(bad(item, "a probability in [0, 1]")),
+    };
+    for item in spec.split(',').map(str::trim).filter(|i| !i.is_empty()) {
+        let (key, value) = item.split_once('=').unwrap_or((item, ""));
+        match key {
+            "drop" => f.drop_rate = rate(item, value)?,
+            "corrupt" => f.corrupt_rate = rate(item, value)?,
+            "delay" => {
+                f.delay_s = match value.parse::<f64>() {
+                    Ok(s) if (0.0..=10.0).contains(&s) => s,
+                    _ => return Err(bad(item, "a delay in s within [0, 10]")),
+                }
+            }
+            "cut" if value.is_empty() => f.cut = true,
+            "vacuum-loss" => match value {
+                "rear" => f.vacuum_loss[0] = true,
+                "front" => f.vacuum_loss[1] = true,
+                _ => return Err(bad(item, "vacuum-loss=rear or vacuum-loss=front")),
+            },
+            "stall" => match value.parse::<usize>() {
+                Ok(t @ 1..=3) => f.stalled[t - 1] = true,
+                _ => return Err(bad(item, "stall=1, 2 or 3")),
+            },
+            "seed" => f.seed = value.parse().map_err(|_| bad(item, "a whole number"))?,
+            _ => {
+                return Err(bad(
+                    item,
+                    "drop=P, corrupt=P, delay=S, cut, vacuum-loss=rear|front, stall=1|2|3 or seed=N, comma-separated",
+                ))
+            }
+        }
+    }
+    Ok(f)
+}
+
+pub(super) fn drive(a: DriveArgs) -> Result<Drive, Failure> {
+    let robot = tuned(&a.robot, Ok)?;
+    let um = |m: f64| (m * 1e6).round() as i32;
+    let (lo, hi) = (robot.limits.tube_length_min_m, robot.limits.tube_length_max_m);
+    let action = match a.action {
+        DriveAction::Status => Action::Status,
+        DriveAction::Lengths { lengths } => {
+            for (i, l) in lengths.iter().enumerate() {
+                if !(lo..=hi).contains(l) {
+                    return Err(Failure::Input(format!(
+                        "lengths: got L{} = {l} m, expected a length within the robot's limits [{lo}, {hi}] m",
+                        i + 1
+                    )));
+                }
+            }
+            Action::Lengths(lengths.map(um))
+        }
+        DriveAction::Jog { tube, mm } => {
+            let tube = match tube {
+                1 => Tube::L1,
+                2 => Tube::L2,
+                3 => Tube::L3,
+                _ => return Err(Failure::Input(format!("jog: got tube {tube}, expected 1, 2 or 3"))),
+            };
+            let most = (hi - lo) * 1e3;
+            if !(mm.is_finite() && mm.abs() <= most) {
+                return Err(Failure::Input(format!("jog: got {mm} mm, expected at most {most} mm either way")));
+            }
+            Action::Jog(tube, (mm * 1e3).round() as i32)
+        }
+        DriveAction::Pump { cup, state } => Action::Pump(
+            match cup {
+                CupArg::Rear => Cup::Rear,
+                CupArg::Front => Cup::Front,
+            },
+            state == OnOff::On,
+        ),
+        DriveAction::Stop => Action::Stop,
+    };
+    let d = &robot.drive;
+    let q16 = |g: f64| (g * 65536.0).round() as i32;
+    let tubes = [Tube::L1, Tube::L2, Tube::L3].map(|tube| TubeConfig {
+        tube,
+        reverse_motor: false,
+        reverse_encoder: false,
+        counts_per_mm_x1000: (d.counts_per_mm * 1e3).round() as u32,
+        origin_um: um(d.zero_lengths_m[tube.index()]),
+        min_um: um(lo),
+        max_um: um(hi),
+        max_speed_um_s: (d.max_speed_m_per_s * 1e6).round() as u32,
+        max_duty_permille: 1000,
+        kp_q16: q16(d.gains[0]),
+        ki_q16: q16(d.gains[1]),
+        kd_q16: q16(d.gains[2]),
+    });
+    Ok(Drive { port: a.port, tubes, action, json: a.json })
+}

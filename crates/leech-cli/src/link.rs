@@ -1,0 +1,215 @@
+//! `leech sim-robot` and `leech drive`: run the library's simulated robot
+//! and host driver (`leech_link`), and print what they report.
+//!
+//! Exit codes: a port that cannot be opened is bad input (2); a command the
+//! controller refused (which rule, why) or a move that did not arrive is a
+//! failed operation (3); anything else (no device, another protocol
+//! version, a lost link) is 1.
+
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::time::{Duration, Instant};
+
+use leech_link::host::{Acked, Link, LinkError, Options};
+use leech_link::pty::PtyDevice;
+use leech_link::sim::Sim;
+use leech_link::wait::{self, WaitError};
+use leech_protocol::message::{Cup, Telemetry, NO_SENSOR};
+use serde::Serialize;
+
+use crate::args::{Action, Drive, SimRobot};
+use crate::failure::Failure;
+
+/// Runs the simulated robot: prints its port's path at once (a line of
+/// text, `port PATH`), then its state as a JSON line every `status_every`,
+/// until `duration` (or until the process is stopped).
+pub fn sim_robot(a: SimRobot) -> Result<(), Failure> {
+    let device = PtyDevice::spawn(Sim::new(a.config)).map_err(|e| Failure::Other(e.into()))?;
+    device.set_faults(a.faults);
+    let mut stdout = std::io::stdout();
+    let say = |stdout: &mut std::io::Stdout, line: String| -> Result<(), Failure> {
+        writeln!(stdout, "{line}").and_then(|()| stdout.flush()).map_err(|e| Failure::Other(e.into()))
+    };
+    say(&mut stdout, format!("port {}", device.path().display()))?;
+    let started = Instant::now();
+    let tick = a.status_every.unwrap_or(Duration::from_millis(100));
+    let mut next_status = started;
+    loop {
+        if a.duration.is_some_and(|d| started.elapsed() >= d) {
+            return Ok(());
+        }
+        if a.status_every.is_some() && Instant::now() >= next_status {
+            let state = serde_json::to_string(&device.state()).map_err(|e| Failure::Other(e.into()))?;
+            say(&mut stdout, state)?;
+            next_status += tick;
+        }
+        std::thread::sleep(Duration::from_millis(10).min(tick));
+    }
+}
+
+/// What `leech drive` reports.
+#[derive(Serialize)]
+struct DriveReport {
+    /// The action done.
+    action: &'static str,
+    /// The command's acknowledgement: round trip (s) and sends (1 without retries).
+    round_trip_s: Option<f64>,
+    sends: Option<u32>,
+    /// The controller's state after it.
+    state: State,
+    /// The link's health.
+    link: Health,
+}
+
+/// The controller's state from a telemetry report, with units.
+#[derive(Serialize)]
+struct State {
+    time_s: f64,
+    lengths_m: [f64; 3],
+    counts: [i32; 3],
+    duty_permille: [i16; 3],
+    pumps_on: Pair,
+    holding: Pair,
+    /// Vacuum per cup (kPa), `null` without a sensor.
+    vacuum_kpa: [Option<f64>; 2],
+    /// Latched fault bits (docs/protocol.md).
+    faults: u16,
+}
+
+#[derive(Serialize)]
+struct Pair {
+    rear: bool,
+    front: bool,
+}
+
+#[derive(Serialize)]
+struct Health {
+    last_round_trip_s: Option<f64>,
+    sent: u64,
+    resends: u64,
+    bad_crc: u64,
+    bad_frames: u64,
+}
+
+impl State {
+    fn new(t: &Telemetry) -> State {
+        let pair = |set: leech_protocol::message::CupSet| Pair {
+            rear: set.contains(Cup::Rear),
+            front: set.contains(Cup::Front),
+        };
+        State {
+            time_s: f64::from(t.time_ms) / 1e3,
+            lengths_m: t.lengths_um.map(|l| f64::from(l) / 1e6),
+            counts: t.counts,
+            duty_permille: t.duty_permille,
+            pumps_on: pair(t.pumps),
+            holding: pair(t.holding),
+            vacuum_kpa: t.vacuum_kpa_x10.map(|v| (v != NO_SENSOR).then(|| f64::from(v) / 10.0)),
+            faults: t.faults.0,
+        }
+    }
+}
+
+/// How a link error ends the command.
+fn failure(e: LinkError) -> Failure {
+    match e {
+        LinkError::Open { .. } => Failure::Input(format!("--port: {e}")),
+        LinkError::Refused { .. } | LinkError::Rejected { .. } => Failure::Unsolved(e.to_string()),
+        other => Failure::Other(other.into()),
+    }
+}
+
+fn waited(e: WaitError) -> Failure {
+    match e {
+        WaitError::NotReached { .. } | WaitError::Fault { .. } => Failure::Unsolved(e.to_string()),
+        other => Failure::Other(other.into()),
+    }
+}
+
+/// Telemetry period while a command waits on it (ms).
+const TELEMETRY_MS: u16 = 20;
+
+/// How close the tubes must come to their targets (um).
+const ARRIVED_UM: i32 = 500;
+
+/// Opens the port, configures the tubes from the robot file, does the
+/// action and reports the state after it.
+pub fn drive(out: &mut String, a: Drive) -> Result<(), Failure> {
+    let link = Link::open(&a.port, Options { reconnect: false, ..Options::default() }).map_err(failure)?;
+    for tube in a.tubes {
+        link.configure_tube(tube).map_err(failure)?;
+    }
+    let events = link.subscribe();
+    link.set_telemetry(TELEMETRY_MS).map_err(failure)?;
+    let first = wait::next_telemetry(&events, Duration::from_secs(2)).map_err(waited)?;
+    let (name, acked, state): (&str, Option<Acked>, Telemetry) = match a.action {
+        Action::Status => ("status", None, first),
+        Action::Lengths(targets) => {
+            let acked = link.set_lengths(targets).map_err(failure)?;
+            let travel_um = (0..3).map(|i| (targets[i] - first.lengths_um[i]).unsigned_abs()).max().unwrap_or(0);
+            let speed_um_s = f64::from(a.tubes[0].max_speed_um_s.max(1));
+            let timeout = Duration::from_secs_f64(f64::from(travel_um) / speed_um_s * 1.5 + 3.0);
+            let t = wait::until_lengths(&events, targets, ARRIVED_UM, timeout).map_err(waited)?;
+            ("lengths", Some(acked), t)
+        }
+        Action::Jog(tube, delta_um) => {
+            let acked = link.jog(tube, delta_um).map_err(failure)?;
+            ("jog", Some(acked), wait::next_telemetry(&events, Duration::from_secs(2)).map_err(waited)?)
+        }
+        Action::Pump(cup, on) => {
+            let acked = link.pump(cup, on).map_err(failure)?;
+            ("pump", Some(acked), wait::next_telemetry(&events, Duration::from_secs(2)).map_err(waited)?)
+        }
+        Action::Stop => {
+            let acked = link.stop().map_err(failure)?;
+            ("stop", Some(acked), wait::next_telemetry(&events, Duration::from_secs(2)).map_err(waited)?)
+        }
+    };
+    let health = link.health();
+    let report = DriveReport {
+        action: name,
+        round_trip_s: acked.map(|a| a.round_trip.as_secs_f64()),
+        sends: acked.map(|a| a.sends),
+        state: State::new(&state),
+        link: Health {
+            last_round_trip_s: health.last_round_trip().map(|d| d.as_secs_f64()),
+            sent: health.sent,
+            resends: health.resends,
+            bad_crc: health.bad_crc,
+            bad_frames: health.bad_frames,
+        },
+    };
+    if a.json {
+        let text = serde_json::to_string_pretty(&report).map_err(|e| Failure::Other(e.into()))?;
+        let _ = writeln!(out, "{text}");
+    } else {
+        let s = &report.state;
+        let mm = s.lengths_m.map(|l| l * 1e3);
+        let _ = writeln!(
+            out,
+            "{}: lengths {:.2} {:.2} {:.2} mm, duty {:?} per mille",
+            report.action, mm[0], mm[1], mm[2], s.duty_permille
+        );
+        let _ = writeln!(
+            out,
+            "pumps rear {} front {}; holding rear {} front {}; faults {:#06x}",
+            on(s.pumps_on.rear),
+            on(s.pumps_on.front),
+            s.holding.rear,
+            s.holding.front,
+            s.faults
+        );
+        if let (Some(rt), Some(n)) = (report.round_trip_s, report.sends) {
+            let _ = writeln!(out, "acknowledged in {:.2} ms after {n} send(s)", rt * 1e3);
+        }
+    }
+    Ok(())
+}
+
+fn on(b: bool) -> &'static str {
+    if b {
+        "on"
+    } else {
+        "off"
+    }
+}

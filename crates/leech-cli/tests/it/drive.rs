@@ -1,0 +1,91 @@
+//! `leech sim-robot` and `leech drive` together, as a user runs them: the
+//! simulated robot in one process behind a real pseudo-terminal, the
+//! driver in others. Bounded: the simulation ends by itself and is killed
+//! when the test ends.
+
+use std::io::{BufRead, BufReader};
+use std::process::{Child, Stdio};
+
+use super::*;
+
+/// A running `leech sim-robot`, killed on drop.
+struct SimRobot {
+    child: Child,
+    port: String,
+}
+
+impl SimRobot {
+    fn start(extra: &[&str]) -> SimRobot {
+        let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("leech"))
+            .args(["sim-robot", "--duration", "60"])
+            .args(extra)
+            .stdout(Stdio::piped())
+            .spawn()
+            .expect("leech sim-robot starts");
+        let mut line = String::new();
+        BufReader::new(child.stdout.take().unwrap()).read_line(&mut line).unwrap();
+        let port = line.trim().strip_prefix("port ").unwrap_or_else(|| panic!("first line: {line}")).to_string();
+        SimRobot { child, port }
+    }
+
+    fn drive(&self, args: &[&str]) -> std::process::Output {
+        leech()
+            .args(["drive", "--port", &self.port])
+            .args(args)
+            .timeout(std::time::Duration::from_secs(30))
+            .output()
+            .unwrap()
+    }
+}
+
+impl Drop for SimRobot {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+#[test]
+fn the_simulated_robot_is_driven_over_its_port() {
+    let sim = SimRobot::start(&[]);
+    let out = sim.drive(&["status", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["action"], "status");
+    // The built-in robot's [drive]: every tube 0.2 m at power-up.
+    for l in v["state"]["lengths_m"].as_array().unwrap() {
+        assert!((l.as_f64().unwrap() - 0.2).abs() < 1e-4, "{v}");
+    }
+    // A move is waited for: the tubes arrive within 0.5 mm.
+    let out = sim.drive(&["lengths", "0.23,0.21,0.21", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let got: Vec<f64> = v["state"]["lengths_m"].as_array().unwrap().iter().map(|x| x.as_f64().unwrap()).collect();
+    for (g, want) in got.iter().zip([0.23, 0.21, 0.21]) {
+        assert!((g - want).abs() <= 5e-4, "{got:?}");
+    }
+    assert_eq!(v["sends"], 1);
+    // The controller refuses to let go of the last holding cup: exit 3, the rule named.
+    assert!(sim.drive(&["pump", "rear", "on"]).status.success());
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let out = sim.drive(&["pump", "rear", "off"]);
+    assert_eq!(out.status.code(), Some(3));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("refused Pump") && err.contains("last one holding"), "{err}");
+    let v: Value = serde_json::from_slice(&sim.drive(&["stop", "--json"]).stdout).unwrap();
+    assert_eq!(v["state"]["pumps_on"]["rear"], true, "the pump stays on: {v}");
+}
+
+#[test]
+fn bad_drives_exit_2_with_one_line() {
+    let e = rejected(&["drive", "--port", "/nonexistent-leech-port", "status"]);
+    assert!(e.contains("--port") && e.contains("/nonexistent-leech-port"), "{e}");
+    let e = rejected(&["drive", "--port", "/nonexistent-leech-port", "lengths", "0.5,0.2,0.2"]);
+    assert!(e.contains("L1 = 0.5") && e.contains("[0.05, 0.3]"), "{e}");
+    let e = rejected(&["drive", "--port", "/nonexistent-leech-port", "jog", "4", "1"]);
+    assert!(e.contains("tube 4"), "{e}");
+    let e = rejected(&["sim-robot", "--faults", "corrupt=2"]);
+    assert!(e.contains("corrupt=2") && e.contains("probability"), "{e}");
+    let e = rejected(&["sim-robot", "--duration", "0"]);
+    assert!(e.contains("--duration"), "{e}");
+}
