@@ -35,6 +35,8 @@
 
 #![warn(missing_docs)]
 
+pub mod body;
+pub mod executor;
 pub mod host;
 pub mod pty;
 pub mod sim;
