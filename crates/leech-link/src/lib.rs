@@ -8,6 +8,11 @@
 //! * [`host`]: the driver: opens a serial port, does the handshake, sends
 //!   typed commands with retries, delivers telemetry, keeps the link alive
 //!   and reconnects.
+//! * [`executor`]: a climb plan (`leech::stride::Plan`) carried out on a
+//!   [`host::Link`] behind the stride's interlock, each step confirmed by
+//!   telemetry.
+//! * [`body`]: the simulated robot's body from leech's statics, as the
+//!   [`sim::Cups`] model that says where a cup's face seals.
 //!
 //! ```
 //! use leech_link::host::{Event, Link, Options};
@@ -35,6 +40,8 @@
 
 #![warn(missing_docs)]
 
+pub mod body;
+pub mod executor;
 pub mod host;
 pub mod pty;
 pub mod sim;

@@ -65,6 +65,12 @@ pub trait Cups: Send {
     /// Whether `cup` is sealed when the tubes are `lengths_m` long (metres,
     /// L1, L2, L3).
     fn sealed(&self, cup: Cup, lengths_m: [f64; 3]) -> bool;
+
+    /// Called every control tick before [`Cups::sealed`], with the tube
+    /// lengths (m, L1, L2, L3), the pumps running and the cups holding (rear,
+    /// front): a model whose body moves with its holds learns them here. The
+    /// default ignores them.
+    fn observe(&mut self, _lengths_m: [f64; 3], _pumps: [bool; 2], _holding: [bool; 2]) {}
 }
 
 /// Every cup always sealed: a robot on a flat surface.
@@ -756,6 +762,7 @@ impl Sim {
     fn run_pumps(&mut self, dt: f64) {
         let lengths_m: [f64; 3] = std::array::from_fn(|i| self.physical_length_um(i) * 1e-6);
         let decay = (-dt / self.config.vacuum_tau_s).exp();
+        self.cups_model.observe(lengths_m, self.cups.map(|c| c.pump_on), self.cups.map(|c| c.holding));
         for cup in Cup::BOTH {
             let i = cup.index();
             let sealed = self.cups_model.sealed(cup, lengths_m);

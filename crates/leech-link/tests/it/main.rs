@@ -1,6 +1,7 @@
 //! Integration tests of leech-link: the simulated device alone, behind a
 //! pseudo-terminal, and driven by the host driver. Every wait is bounded.
 
+mod executor;
 mod faults;
 mod fuzz;
 mod golden;

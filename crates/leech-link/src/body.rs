@@ -1,0 +1,220 @@
+//! The simulated robot's body: a [`Cups`] model backed by leech's statics,
+//! so that a simulated cup seals only where the body really puts its face.
+//!
+//! Rules (the climb planner's, `leech::stride::plan`, so that a plan's
+//! touchdowns seal in the simulation as they were planned):
+//!
+//! * **Lengths.** LA is L1; LB is the mean of L2 and L3 (m).
+//! * **Holds.** The body is held by the cups the device says hold. A cup
+//!   that starts holding is fixed where its face is at that moment: the
+//!   driving unit's pose for the rear cup, the endpoint and plate for the
+//!   front one, each pressed into its surface by the robot file's
+//!   `cup.preload_m` (the planner's hold poses). A cup that lets go frees
+//!   its end; while no cup holds, the body keeps its last holds (it lies
+//!   where it was). Before any cup holds, the rear hold is the starting
+//!   foothold's.
+//! * **Equilibrium.** The body among the scene's solids,
+//!   [`stance::solve_among`] with [`FreeCups::Rest`] (a free cup's face
+//!   rests on what it meets), at the lengths and under the holds.
+//! * **Seal.** A holding cup stays sealed. A free cup is sealed when its
+//!   face lies flush on a surface within the robot file's
+//!   `cup.attach_distance_tolerance_m` and `cup.attach_angle_tolerance_deg`
+//!   ([`Scene::flat_on_one_edge`]); with its pump off the question does
+//!   not arise and nothing is solved.
+//! * **Cost.** The control loop asks every millisecond; a solve takes
+//!   milliseconds to tens of them. The last equilibrium is kept and solved
+//!   again only when a length changed by more than [`RESOLVE_M`] or the
+//!   holds changed, and only when a free cup's pump runs, a hold starts, or
+//!   [`BodyCups::pose`] asks.
+//!
+//! The model is shared: [`BodyCups`] is a handle, its clones see the same
+//! body (one goes into the [`crate::sim::Sim`], a test keeps another).
+
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use leech::geom::{add_scaled, right_normal, Vec2};
+use leech::robot::Robot;
+use leech::scene::Scene;
+use leech::stance::{self, FreeCups, Held, Hold, Pose, StanceError};
+use leech::statics::Solver;
+use leech::stride::Foothold;
+use leech_protocol::message::Cup;
+
+use crate::sim::Cups;
+
+/// A length change that calls for a new equilibrium (m).
+pub const RESOLVE_M: f64 = 1e-4;
+
+/// Where the simulated body is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BodyPose {
+    /// Tube lengths of the equilibrium, LA and LB (m).
+    pub lengths_m: [f64; 2],
+    /// The driving unit's pose.
+    pub unit: Pose,
+    /// The endpoint (m) and the plate's angle (rad).
+    pub endpoint: Pose,
+    /// Centre of the rear cup's face (m).
+    pub rear_cup_m: Vec2,
+    /// Centre of the front cup's face (m).
+    pub front_cup_m: Vec2,
+    /// The holds the body is under.
+    pub hold: Hold,
+}
+
+/// The simulated body as a [`Cups`] model (module doc); clones share it.
+#[derive(Clone)]
+pub struct BodyCups {
+    inner: Arc<Mutex<Inner>>,
+}
+
+struct Inner {
+    robot: Robot,
+    scene: Scene,
+    solver: Solver,
+    /// The holds the body is under.
+    hold: Hold,
+    /// What the device last said holds (rear, front).
+    holding: [bool; 2],
+    /// The last lengths observed, LA and LB (m).
+    lengths: [f64; 2],
+    /// The last equilibrium: lengths, holds, result.
+    solved: Option<([f64; 2], Hold, Result<Held, StanceError>)>,
+    /// Whether each cup is sealed, as of the last observation.
+    sealed: [bool; 2],
+}
+
+impl BodyCups {
+    /// The body of `robot` in `scene`, its rear cup on `start` (the tubes'
+    /// lengths come with the first observation; until then, the shortest).
+    pub fn new(robot: Robot, scene: Scene, start: Foothold) -> BodyCups {
+        let hold = Hold::Rear(leech::stride::plan::rear_pose(&robot, start));
+        let short = robot.limits.tube_length_min_m;
+        let inner = Inner {
+            robot,
+            scene,
+            solver: Solver::default(),
+            hold,
+            holding: [false; 2],
+            lengths: [short; 2],
+            solved: None,
+            sealed: [false; 2],
+        };
+        BodyCups { inner: Arc::new(Mutex::new(inner)) }
+    }
+
+    /// The body's equilibrium at the last lengths observed, under its holds
+    /// (solved now if the last one is stale).
+    pub fn pose(&self) -> Result<BodyPose, StanceError> {
+        let mut inner = self.lock();
+        let lengths = inner.lengths;
+        let held = inner.held()?;
+        let robot = &inner.robot;
+        Ok(BodyPose {
+            lengths_m: lengths,
+            unit: held.unit,
+            endpoint: Pose { point_m: held.endpoint_m, angle_rad: held.plate_angle() },
+            rear_cup_m: held.rear_cup_m(robot),
+            front_cup_m: held.front_cup_m(robot),
+            hold: held.hold,
+        })
+    }
+
+    fn lock(&self) -> MutexGuard<'_, Inner> {
+        // A panic while solving leaves a usable model behind.
+        self.inner.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+    }
+}
+
+impl Inner {
+    /// The equilibrium at the current lengths and holds, from the cache when
+    /// it is close enough.
+    fn held(&mut self) -> Result<Held, StanceError> {
+        if let Some((lengths, hold, result)) = &self.solved {
+            if *hold == self.hold && (0..2).all(|i| (lengths[i] - self.lengths[i]).abs() <= RESOLVE_M) {
+                return result.clone();
+            }
+        }
+        let result =
+            stance::solve_among(&self.robot, self.lengths, self.hold, &self.scene, &self.solver, FreeCups::Rest);
+        self.solved = Some((self.lengths, self.hold, result.clone()));
+        result
+    }
+
+    /// Where `cup`'s hold fixes the body now that it seals: its face where
+    /// the equilibrium puts it, pressed into the surface below it.
+    fn hold_pose(&mut self, cup: Cup) -> Option<Pose> {
+        let held = self.held().ok()?;
+        let (pose, centre) = match cup {
+            Cup::Rear => (held.unit, held.rear_cup_m(&self.robot)),
+            Cup::Front => {
+                (Pose { point_m: held.endpoint_m, angle_rad: held.plate_angle() }, held.front_cup_m(&self.robot))
+            }
+        };
+        let (_, direction) = self.scene.surface_frame(centre)?;
+        Some(Pose {
+            point_m: add_scaled(pose.point_m, self.robot.cup.preload_m, right_normal(direction)),
+            angle_rad: pose.angle_rad,
+        })
+    }
+
+    /// The holds after the device's cups went from `self.holding` to `holding`.
+    fn update_holds(&mut self, holding: [bool; 2]) {
+        let [rear, front] = holding;
+        // A new hold keeps the pose the current holds already give that cup
+        // (the starting foothold), else takes the face's pose now.
+        let pose = |inner: &mut Inner, cup: Cup| {
+            let kept = match cup {
+                Cup::Rear => inner.hold.rear(),
+                Cup::Front => inner.hold.front(),
+            };
+            kept.or_else(|| inner.hold_pose(cup))
+        };
+        let rear_pose = if rear { pose(self, Cup::Rear) } else { None };
+        let front_pose = if front { pose(self, Cup::Front) } else { None };
+        self.hold = match (rear_pose, front_pose) {
+            (Some(rear), Some(front)) => Hold::Both { rear, front },
+            (Some(rear), None) => Hold::Rear(rear),
+            (None, Some(front)) => Hold::Front(front),
+            // No cup holds (or a hold's pose could not be found): the body
+            // lies where its last holds left it.
+            (None, None) => self.hold,
+        };
+        self.holding = holding;
+    }
+
+    /// Whether the free `cup`'s face lies flush on a surface now.
+    fn flush(&mut self, cup: Cup) -> bool {
+        let Ok(held) = self.held() else { return false };
+        let (centre, angle) = match cup {
+            Cup::Rear => (held.rear_cup_m(&self.robot), held.unit.angle_rad),
+            Cup::Front => (held.front_cup_m(&self.robot), held.plate_angle()),
+        };
+        let c = &self.robot.cup;
+        self.scene.flat_on_one_edge(
+            centre,
+            angle,
+            0.5 * c.diameter_m,
+            c.attach_distance_tolerance_m,
+            c.attach_angle_tolerance_deg.to_radians(),
+        )
+    }
+}
+
+impl Cups for BodyCups {
+    fn sealed(&self, cup: Cup, _lengths_m: [f64; 3]) -> bool {
+        self.lock().sealed[cup.index()]
+    }
+
+    fn observe(&mut self, lengths_m: [f64; 3], pumps: [bool; 2], holding: [bool; 2]) {
+        let mut inner = self.lock();
+        inner.lengths = [lengths_m[0], 0.5 * (lengths_m[1] + lengths_m[2])];
+        if holding != inner.holding {
+            inner.update_holds(holding);
+        }
+        for cup in Cup::BOTH {
+            let i = cup.index();
+            inner.sealed[i] = holding[i] || (pumps[i] && inner.flush(cup));
+        }
+    }
+}
