@@ -61,6 +61,10 @@ pub struct SimRobotArgs {
     /// The robot whose drive (`[drive]`: encoder calibration, lengths at power-up) the simulation has.
     #[command(flatten)]
     pub robot: RobotChoice,
+    /// Simulate the body in a climb scenario's scene from its start (`leech scenario list`): a cup
+    /// seals only where leech's statics put its face flush on a surface. Without it every cup seals.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub scenario: Option<PathBuf>,
     /// Faults to inject, comma-separated: drop=P, corrupt=P (per byte, each way), delay=S, cut,
     /// vacuum-loss=rear|front, stall=1|2|3, seed=N.
     #[arg(long, value_name = "SPEC")]
@@ -118,6 +122,13 @@ pub enum DriveAction {
     },
     /// Stop the motors (the pumps stay as they are).
     Stop,
+    /// Plan a climb scenario (as `leech climb`) and carry the plan out step by step, each confirmed by
+    /// telemetry, behind the stride interlock; a cup must hold to begin (`pump rear on`).
+    Run {
+        /// A built-in scenario's name or a scenario file.
+        #[arg(long, value_name = "NAME|FILE")]
+        scenario: PathBuf,
+    },
 }
 
 /// A cup on the command line.

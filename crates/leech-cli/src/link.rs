@@ -10,6 +10,8 @@ use std::fmt::Write as _;
 use std::io::Write as _;
 use std::time::{Duration, Instant};
 
+use leech_link::body::BodyCups;
+use leech_link::executor::{self, Executor};
 use leech_link::host::{Acked, Link, LinkError, Options};
 use leech_link::pty::PtyDevice;
 use leech_link::sim::Sim;
@@ -24,7 +26,13 @@ use crate::failure::Failure;
 /// text, `port PATH`), then its state as a JSON line every `status_every`,
 /// until `duration` (or until the process is stopped).
 pub fn sim_robot(a: SimRobot) -> Result<(), Failure> {
-    let device = PtyDevice::spawn(Sim::new(a.config)).map_err(|e| Failure::Other(e.into()))?;
+    let sim = match a.body {
+        Some((robot, scenario)) => {
+            Sim::with_cups(a.config, Box::new(BodyCups::new(robot, scenario.scene, scenario.start)))
+        }
+        None => Sim::new(a.config),
+    };
+    let device = PtyDevice::spawn(sim).map_err(|e| Failure::Other(e.into()))?;
     device.set_faults(a.faults);
     let mut stdout = std::io::stdout();
     let say = |stdout: &mut std::io::Stdout, line: String| -> Result<(), Failure> {
@@ -164,6 +172,25 @@ pub fn drive(out: &mut String, a: Drive) -> Result<(), Failure> {
             let acked = link.stop().map_err(failure)?;
             ("stop", Some(acked), wait::next_telemetry(&events, Duration::from_secs(2)).map_err(waited)?)
         }
+        Action::Run(robot, scenario) => {
+            let s = &scenario;
+            let options = leech::stride::PlanOptions::default();
+            let plan = leech::stride::plan(&robot, &s.scene, s.start, s.goal, &options)?;
+            if plan.status != leech::stride::Status::Reached {
+                let why = plan.reason.map_or_else(String::new, |r| format!(": {}", r.detail));
+                return Err(Failure::Unsolved(format!("run: the climb cannot be planned{why}")));
+            }
+            let mut executor = Executor::new(&link, robot.cup.min_safety_factor, executor::Options::default())
+                .map_err(|e| Failure::Unsolved(format!("run: {e}")))?;
+            let bar = crate::render::progress(plan.steps.len() as u64, "steps");
+            executor
+                .run(&plan, |done| bar.set_position(done.index as u64 + 1))
+                .map_err(|e| Failure::Unsolved(format!("run: {e}")))?;
+            bar.finish_and_clear();
+            // The reports queued during the run are stale: the state now.
+            let now = link.subscribe();
+            ("run", None, wait::next_telemetry(&now, Duration::from_secs(2)).map_err(waited)?)
+        }
     };
     let health = link.health();
     let report = DriveReport {
@@ -192,18 +219,36 @@ pub fn drive(out: &mut String, a: Drive) -> Result<(), Failure> {
         );
         let _ = writeln!(
             out,
-            "pumps rear {} front {}; holding rear {} front {}; faults {:#06x}",
+            "pumps rear {} front {}; holding rear {} front {}; faults: {}",
             on(s.pumps_on.rear),
             on(s.pumps_on.front),
             s.holding.rear,
             s.holding.front,
-            s.faults
+            fault_names(s.faults)
         );
         if let (Some(rt), Some(n)) = (report.round_trip_s, report.sends) {
             let _ = writeln!(out, "acknowledged in {:.2} ms after {n} send(s)", rt * 1e3);
         }
     }
     Ok(())
+}
+
+/// The latched faults by name (docs/protocol.md), `none` without any.
+fn fault_names(bits: u16) -> String {
+    use leech_protocol::message::Faults;
+    let names = [
+        (Faults::LINK_LOST, "link lost"),
+        (Faults::MOTOR_STALL, "motor stalled"),
+        (Faults::VACUUM_LOST, "vacuum lost"),
+        (Faults::LIMIT_HIT, "limit hit"),
+        (Faults::WATCHDOG_RESET, "watchdog reset"),
+    ];
+    let set: Vec<&str> = names.iter().filter(|(f, _)| bits & f.0 != 0).map(|(_, n)| *n).collect();
+    if set.is_empty() {
+        "none".into()
+    } else {
+        set.join(", ")
+    }
 }
 
 fn on(b: bool) -> &'static str {

@@ -4,6 +4,8 @@
 use std::path::PathBuf;
 use std::time::Duration;
 
+use leech::prelude::Robot;
+use leech::stride::Scenario;
 use leech_link::sim::{Faults, SimConfig};
 use leech_protocol::message::{Cup, Tube, TubeConfig};
 
@@ -14,6 +16,8 @@ use crate::flags::{CupArg, DriveAction, DriveArgs, OnOff, SimRobotArgs};
 /// `leech sim-robot`: the device to simulate, its faults and how long to run.
 pub struct SimRobot {
     pub config: SimConfig,
+    /// The robot and the scenario whose body is simulated (None: every cup seals).
+    pub body: Option<(Robot, Scenario)>,
     pub faults: Faults,
     /// How often to print the state (None: never).
     pub status_every: Option<Duration>,
@@ -36,6 +40,8 @@ pub enum Action {
     Jog(Tube, i32),
     Pump(Cup, bool),
     Stop,
+    /// Plan the scenario for the robot and run it.
+    Run(Box<Robot>, Box<Scenario>),
 }
 
 /// A positive number of seconds within a day, as a duration.
@@ -60,7 +66,15 @@ pub(super) fn sim_robot(a: SimRobotArgs) -> Result<SimRobot, Failure> {
     let faults = a.faults.as_deref().map(faults).transpose()?.unwrap_or_default();
     let status_every = if a.status_every == 0.0 { None } else { Some(seconds("--status-every", a.status_every)?) };
     let duration = a.duration.map(|s| seconds("--duration", s)).transpose()?;
-    Ok(SimRobot { config, faults, status_every, duration })
+    let body = match &a.scenario {
+        Some(path) => {
+            let (scenario, _) = super::climb::load_scenario(path, "--scenario")?;
+            scenario.check_start(&robot)?;
+            Some((robot, scenario))
+        }
+        None => None,
+    };
+    Ok(SimRobot { config, body, faults, status_every, duration })
 }
 
 /// The `--faults` spec: `drop=P,corrupt=P,delay=S,cut,vacuum-loss=rear|front,stall=1|2|3,seed=N`.
@@ -142,6 +156,12 @@ pub(super) fn drive(a: DriveArgs) -> Result<Drive, Failure> {
             state == OnOff::On,
         ),
         DriveAction::Stop => Action::Stop,
+        DriveAction::Run { scenario } => {
+            let (scenario, _) = super::climb::load_scenario(&scenario, "--scenario")?;
+            scenario.check_start(&robot)?;
+            scenario.check_goal()?;
+            Action::Run(Box::new(robot.clone()), Box::new(scenario))
+        }
     };
     let d = &robot.drive;
     let q16 = |g: f64| (g * 65536.0).round() as i32;

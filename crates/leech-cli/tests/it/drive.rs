@@ -89,3 +89,30 @@ fn bad_drives_exit_2_with_one_line() {
     let e = rejected(&["sim-robot", "--duration", "0"]);
     assert!(e.contains("--duration"), "{e}");
 }
+
+/// A planned climb carried out on the simulated robot, whose body is the
+/// scenario's (a cup seals only where its face lies flush): one stride on the
+/// floor, each step confirmed by telemetry, ending with the rear cup holding
+/// and the tubes back at their shortest.
+#[test]
+fn a_planned_climb_runs_on_the_simulated_robot() {
+    let dir = std::env::temp_dir().join(format!("leech-cli-run-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("short.toml");
+    let text = "name = \"short crawl\"\nscene = \"floor\"\n[start]\nrear_cup = [0.0, 0.0, 0.0]\n\
+                [goal]\npoint_m = [0.12, 0.0]\ntolerance_m = 0.03\n";
+    std::fs::write(&file, text).unwrap();
+    let scenario = file.to_str().unwrap();
+    let sim = SimRobot::start(&["--scenario", scenario]);
+    assert!(sim.drive(&["pump", "rear", "on"]).status.success());
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let out = sim.drive(&["run", "--scenario", scenario, "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["state"]["holding"]["rear"], true, "{v}");
+    assert_eq!(v["state"]["pumps_on"]["front"], false, "{v}");
+    for l in v["state"]["lengths_m"].as_array().unwrap() {
+        assert!((l.as_f64().unwrap() - 0.05).abs() < 1e-3, "{v}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
