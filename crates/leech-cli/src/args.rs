@@ -31,7 +31,7 @@ mod climb;
 mod holds;
 mod link;
 
-pub use link::{Action, Drive, SimRobot};
+pub use link::{Action, Drive, Run, SimRobot};
 
 pub use climb::Climb;
 use holds::{load_scene, pose, situation};

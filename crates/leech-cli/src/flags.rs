@@ -122,12 +122,15 @@ pub enum DriveAction {
     },
     /// Stop the motors (the pumps stay as they are).
     Stop,
-    /// Plan a climb scenario (as `leech climb`) and carry the plan out step by step, each confirmed by
-    /// telemetry, behind the stride interlock; a cup must hold to begin (`pump rear on`).
+    /// Carry out a climb step by step, each confirmed by telemetry, behind the stride interlock: a
+    /// plan from `leech climb --json`, or a scenario planned first; a cup must hold to begin.
     Run {
-        /// A built-in scenario's name or a scenario file.
+        /// A plan as `leech climb --json` writes it (status "reached").
+        #[arg(value_name = "PLAN.json", required_unless_present = "scenario", conflicts_with = "scenario")]
+        plan: Option<PathBuf>,
+        /// Instead: a built-in scenario's name or a scenario file, planned as `leech climb` does.
         #[arg(long, value_name = "NAME|FILE")]
-        scenario: PathBuf,
+        scenario: Option<PathBuf>,
     },
 }
 

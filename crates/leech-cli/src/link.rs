@@ -19,7 +19,7 @@ use leech_link::wait::{self, WaitError};
 use leech_protocol::message::{Cup, Telemetry, NO_SENSOR};
 use serde::Serialize;
 
-use crate::args::{Action, Drive, SimRobot};
+use crate::args::{Action, Drive, Run, SimRobot};
 use crate::failure::Failure;
 
 /// Runs the simulated robot: prints its port's path at once (a line of
@@ -143,6 +143,20 @@ const ARRIVED_UM: i32 = 500;
 /// Opens the port, configures the tubes from the robot file, does the
 /// action and reports the state after it.
 pub fn drive(out: &mut String, a: Drive) -> Result<(), Failure> {
+    // A scenario is planned before the port is opened: the controller waits on nothing.
+    let moves = match &a.action {
+        Action::Run(Run::Moves(moves)) => Some(moves.clone()),
+        Action::Run(Run::Scenario(robot, s)) => {
+            let options = leech::stride::PlanOptions::default();
+            let plan = leech::stride::plan(robot, &s.scene, s.start, s.goal, &options)?;
+            if plan.status != leech::stride::Status::Reached {
+                let why = plan.reason.map_or_else(String::new, |r| format!(": {}", r.detail));
+                return Err(Failure::Unsolved(format!("run: the climb cannot be planned{why}")));
+            }
+            Some(executor::moves(&plan))
+        }
+        _ => None,
+    };
     let link = Link::open(&a.port, Options { reconnect: false, ..Options::default() }).map_err(failure)?;
     for tube in a.tubes {
         link.configure_tube(tube).map_err(failure)?;
@@ -172,19 +186,13 @@ pub fn drive(out: &mut String, a: Drive) -> Result<(), Failure> {
             let acked = link.stop().map_err(failure)?;
             ("stop", Some(acked), wait::next_telemetry(&events, Duration::from_secs(2)).map_err(waited)?)
         }
-        Action::Run(robot, scenario) => {
-            let s = &scenario;
-            let options = leech::stride::PlanOptions::default();
-            let plan = leech::stride::plan(&robot, &s.scene, s.start, s.goal, &options)?;
-            if plan.status != leech::stride::Status::Reached {
-                let why = plan.reason.map_or_else(String::new, |r| format!(": {}", r.detail));
-                return Err(Failure::Unsolved(format!("run: the climb cannot be planned{why}")));
-            }
-            let mut executor = Executor::new(&link, robot.cup.min_safety_factor, executor::Options::default())
+        Action::Run(_) => {
+            let moves = moves.unwrap_or_default();
+            let mut executor = Executor::new(&link, a.min_safety_factor, executor::Options::default())
                 .map_err(|e| Failure::Unsolved(format!("run: {e}")))?;
-            let bar = crate::render::progress(plan.steps.len() as u64, "steps");
+            let bar = crate::render::progress(moves.len() as u64, "steps");
             executor
-                .run(&plan, |done| bar.set_position(done.index as u64 + 1))
+                .run(&moves, |done| bar.set_position(done.index as u64 + 1))
                 .map_err(|e| Failure::Unsolved(format!("run: {e}")))?;
             bar.finish_and_clear();
             // The reports queued during the run are stale: the state now.

@@ -163,6 +163,37 @@ pub enum ExecError {
     Telemetry(LinkError),
 }
 
+/// What the executor needs of a plan's step: its phase, the tube lengths
+/// at its end and the safety factors the plan found there (the evidence a
+/// release is judged on).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Move {
+    /// The phase.
+    pub phase: Phase,
+    /// Tube lengths (LA, LB) at its end (m): L1 = LA, L2 = L3 = LB.
+    pub lengths_m: [f64; 2],
+    /// The rear cup's safety factor at its end, when it holds.
+    pub rear_safety_factor: Option<f64>,
+    /// The front cup's safety factor at its end, when it holds.
+    pub front_safety_factor: Option<f64>,
+}
+
+impl From<&Step> for Move {
+    fn from(step: &Step) -> Move {
+        Move {
+            phase: step.phase,
+            lengths_m: step.lengths_m,
+            rear_safety_factor: step.rear_safety_factor,
+            front_safety_factor: step.front_safety_factor,
+        }
+    }
+}
+
+/// The moves of every step of `plan`.
+pub fn moves(plan: &Plan) -> Vec<Move> {
+    plan.steps.iter().map(Move::from).collect()
+}
+
 /// Carries out stride steps on a robot (module doc).
 pub struct Executor<'a> {
     link: &'a Link,
@@ -217,9 +248,9 @@ impl<'a> Executor<'a> {
 
     /// Checks every step of `plan` against a copy of the interlock, in
     /// order, without sending anything.
-    pub fn check(&self, plan: &Plan) -> Result<(), ExecError> {
+    pub fn check(&self, plan: &[Move]) -> Result<(), ExecError> {
         let mut machine = self.machine;
-        for (index, step) in plan.steps.iter().enumerate() {
+        for (index, step) in plan.iter().enumerate() {
             machine.apply(command(step)).map_err(|source| ExecError::Interlock { index, phase: step.phase, source })?;
         }
         Ok(())
@@ -227,10 +258,10 @@ impl<'a> Executor<'a> {
 
     /// Carries out every step of `plan` in order (the interlock checked on
     /// the whole plan first), calling `progress` after each.
-    pub fn run(&mut self, plan: &Plan, mut progress: impl FnMut(StepDone)) -> Result<(), ExecError> {
+    pub fn run(&mut self, plan: &[Move], mut progress: impl FnMut(StepDone)) -> Result<(), ExecError> {
         self.check(plan)?;
-        let total = plan.steps.len();
-        for (index, step) in plan.steps.iter().enumerate() {
+        let total = plan.len();
+        for (index, step) in plan.iter().enumerate() {
             let started = Instant::now();
             self.step(index, step)?;
             progress(StepDone { index, total, phase: step.phase, took: started.elapsed() });
@@ -240,7 +271,7 @@ impl<'a> Executor<'a> {
 
     /// Carries out one step (`index`: its place in its plan, for errors);
     /// on failure the motors are stopped and the pumps left as they are.
-    pub fn step(&mut self, index: usize, step: &Step) -> Result<(), ExecError> {
+    pub fn step(&mut self, index: usize, step: &Move) -> Result<(), ExecError> {
         let at = At { index, phase: step.phase };
         let result = self.try_step(at, step);
         if result.is_err() {
@@ -253,7 +284,7 @@ impl<'a> Executor<'a> {
         result
     }
 
-    fn try_step(&mut self, at: At, step: &Step) -> Result<(), ExecError> {
+    fn try_step(&mut self, at: At, step: &Move) -> Result<(), ExecError> {
         let command = command(step);
         // Judged before anything is sent; applied once the telemetry confirms.
         self.machine.check(command).map_err(|source| ExecError::Interlock {
@@ -344,7 +375,7 @@ impl<'a> Executor<'a> {
 /// touchdown lies flush; a release leaves the other cup at the safety
 /// factor the plan found after it (NaN, which the interlock refuses, when
 /// the plan has none).
-fn command(step: &Step) -> StrideCommand {
+fn command(step: &Move) -> StrideCommand {
     let after = match step.phase {
         Phase::ReleaseRear => step.front_safety_factor,
         Phase::ReleaseFront => step.rear_safety_factor,

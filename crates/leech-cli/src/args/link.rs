@@ -5,7 +5,9 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use leech::prelude::Robot;
+use leech::stride::Phase;
 use leech::stride::Scenario;
+use leech_link::executor::Move;
 use leech_link::sim::{Faults, SimConfig};
 use leech_protocol::message::{Cup, Tube, TubeConfig};
 
@@ -28,6 +30,8 @@ pub struct SimRobot {
 /// `leech drive`: the port, the tubes' settings and the action.
 pub struct Drive {
     pub port: PathBuf,
+    /// The robot's minimum safety factor (the interlock's, for `run`).
+    pub min_safety_factor: f64,
     pub tubes: [TubeConfig; 3],
     pub action: Action,
     pub json: bool,
@@ -40,8 +44,16 @@ pub enum Action {
     Jog(Tube, i32),
     Pump(Cup, bool),
     Stop,
-    /// Plan the scenario for the robot and run it.
-    Run(Box<Robot>, Box<Scenario>),
+    /// Carry out a plan's moves.
+    Run(Run),
+}
+
+/// What `leech drive run` carries out.
+pub enum Run {
+    /// A plan read from `leech climb --json`.
+    Moves(Vec<Move>),
+    /// A scenario to plan first, for the robot.
+    Scenario(Box<Robot>, Box<Scenario>),
 }
 
 /// A positive number of seconds within a day, as a duration.
@@ -156,12 +168,14 @@ pub(super) fn drive(a: DriveArgs) -> Result<Drive, Failure> {
             state == OnOff::On,
         ),
         DriveAction::Stop => Action::Stop,
-        DriveAction::Run { scenario } => {
+        DriveAction::Run { scenario: Some(scenario), .. } => {
             let (scenario, _) = super::climb::load_scenario(&scenario, "--scenario")?;
             scenario.check_start(&robot)?;
             scenario.check_goal()?;
-            Action::Run(Box::new(robot.clone()), Box::new(scenario))
+            Action::Run(Run::Scenario(Box::new(robot.clone()), Box::new(scenario)))
         }
+        DriveAction::Run { plan: Some(plan), .. } => Action::Run(Run::Moves(plan_moves(&plan, [lo, hi])?)),
+        DriveAction::Run { .. } => return Err(Failure::Input("run: give PLAN.json or --scenario".into())),
     };
     let d = &robot.drive;
     let q16 = |g: f64| (g * 65536.0).round() as i32;
@@ -179,5 +193,46 @@ pub(super) fn drive(a: DriveArgs) -> Result<Drive, Failure> {
         ki_q16: q16(d.gains[1]),
         kd_q16: q16(d.gains[2]),
     });
-    Ok(Drive { port: a.port, tubes, action, json: a.json })
+    Ok(Drive { port: a.port, min_safety_factor: robot.cup.min_safety_factor, tubes, action, json: a.json })
+}
+
+/// Largest plan file `leech drive run` reads (bytes).
+const MAX_PLAN_BYTES: usize = 16 << 20;
+
+/// The moves of a plan written by `leech climb --json`: a reached plan,
+/// each step's phase known and its lengths within the robot's limits.
+fn plan_moves(path: &std::path::Path, [lo, hi]: [f64; 2]) -> Result<Vec<Move>, Failure> {
+    let text = super::holds::read_at_most(path, "run", MAX_PLAN_BYTES).map_err(Failure::Input)?;
+    let name = path.display();
+    let bad = |what: String| Failure::Input(format!("run: {name}: {what}"));
+    let v: serde_json::Value = serde_json::from_str(&text)
+        .map_err(|e| bad(format!("not JSON ({e}), expected a plan from leech climb --json")))?;
+    if v["status"] != "reached" {
+        return Err(bad(format!("status {}, expected a plan that reached its goal (\"reached\")", v["status"])));
+    }
+    let steps = v["steps"].as_array().ok_or_else(|| bad("no steps, expected a plan from leech climb --json".into()))?;
+    steps
+        .iter()
+        .enumerate()
+        .map(|(i, step)| {
+            let phase = step["phase"].as_str().and_then(Phase::from_name).ok_or_else(|| {
+                bad(format!("steps[{i}].phase: got {}, expected a phase name (push, attach_front, ...)", step["phase"]))
+            })?;
+            let length = |k: usize| {
+                step["lengths_m"][k].as_f64().filter(|l| (lo..=hi).contains(l)).ok_or_else(|| {
+                    bad(format!(
+                        "steps[{i}].lengths_m[{k}]: got {}, expected a length within the robot's limits [{lo}, {hi}] m",
+                        step["lengths_m"][k]
+                    ))
+                })
+            };
+            let factor = |cup: &str| step["safety_factor"][cup].as_f64();
+            Ok(Move {
+                phase,
+                lengths_m: [length(0)?, length(1)?],
+                rear_safety_factor: factor("rear"),
+                front_safety_factor: factor("front"),
+            })
+        })
+        .collect()
 }

@@ -84,14 +84,16 @@ fn bad_drives_exit_2_with_one_line() {
     assert!(e.contains("L1 = 0.5") && e.contains("[0.05, 0.3]"), "{e}");
     let e = rejected(&["drive", "--port", "/nonexistent-leech-port", "jog", "4", "1"]);
     assert!(e.contains("tube 4"), "{e}");
+    let e = rejected(&["drive", "--port", "/nonexistent-leech-port", "run", "/nonexistent-plan.json"]);
+    assert!(e.contains("run: cannot read '/nonexistent-plan.json'"), "{e}");
     let e = rejected(&["sim-robot", "--faults", "corrupt=2"]);
     assert!(e.contains("corrupt=2") && e.contains("probability"), "{e}");
     let e = rejected(&["sim-robot", "--duration", "0"]);
     assert!(e.contains("--duration"), "{e}");
 }
 
-/// A planned climb carried out on the simulated robot, whose body is the
-/// scenario's (a cup seals only where its face lies flush): one stride on the
+/// A planned climb (`leech climb --json`, then `leech drive run PLAN.json`)
+/// carried out on the simulated robot, whose body is the scenario's (a cup seals only where its face lies flush): one stride on the
 /// floor, each step confirmed by telemetry, ending with the rear cup holding
 /// and the tubes back at their shortest.
 #[test]
@@ -106,7 +108,12 @@ fn a_planned_climb_runs_on_the_simulated_robot() {
     let sim = SimRobot::start(&["--scenario", scenario]);
     assert!(sim.drive(&["pump", "rear", "on"]).status.success());
     std::thread::sleep(std::time::Duration::from_millis(1500));
-    let out = sim.drive(&["run", "--scenario", scenario, "--json"]);
+    // The plan as `leech climb --json` writes it, carried out from the file.
+    let plan = leech().args(["climb", "--scenario", scenario, "--json"]).output().unwrap();
+    assert!(plan.status.success());
+    let plan_file = dir.join("plan.json");
+    std::fs::write(&plan_file, &plan.stdout).unwrap();
+    let out = sim.drive(&["run", plan_file.to_str().unwrap(), "--json"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let v: Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["state"]["holding"]["rear"], true, "{v}");

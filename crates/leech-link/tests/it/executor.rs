@@ -58,7 +58,9 @@ fn a_planned_crawl_runs_end_to_end_on_the_simulated_body() {
     let mut executor = Executor::new(&link, robot.cup.min_safety_factor, Options::default()).expect("executor");
     let mut done = Vec::new();
     let started = Instant::now();
-    executor.run(plan, |step| done.push((step.index, step.phase))).unwrap_or_else(|e| panic!("{e}"));
+    executor
+        .run(&leech_link::executor::moves(plan), |step| done.push((step.index, step.phase)))
+        .unwrap_or_else(|e| panic!("{e}"));
     let expected: Vec<(usize, Phase)> = plan.steps.iter().map(|s| s.phase).enumerate().collect();
     assert_eq!(done, expected, "every step completed, in order");
     assert!(started.elapsed() < Duration::from_secs(60), "took {:?}", started.elapsed());
@@ -83,7 +85,8 @@ fn a_plan_releasing_the_last_holding_cup_is_refused_before_anything_is_sent() {
     let (device, link, _) = robot_at_start(plan, Box::new(leech_link::sim::AlwaysSealed));
     let before = device.state();
     let mut executor = Executor::new(&link, 1.5, Options::default()).expect("executor");
-    let error = executor.run(&edited, |step| panic!("no step may run: {step:?}")).unwrap_err();
+    let error =
+        executor.run(&leech_link::executor::moves(&edited), |step| panic!("no step may run: {step:?}")).unwrap_err();
     assert!(
         matches!(
             error,
@@ -111,7 +114,7 @@ fn a_link_cut_mid_push_stops_and_names_the_step() {
     let error = std::thread::scope(|scope| {
         let running = scope.spawn(|| {
             let mut executor = Executor::new(&link, 1.5, Options::default()).expect("executor");
-            executor.run(plan, |_| {})
+            executor.run(&leech_link::executor::moves(plan), |_| {})
         });
         let moving = wait_until(Duration::from_secs(10), || {
             let l1 = device.state().lengths_um[0];

@@ -129,6 +129,21 @@ impl Phase {
         }
     }
 
+    /// The phase of a name as [`Phase::name`] writes it.
+    pub fn from_name(name: &str) -> Option<Phase> {
+        [
+            Phase::Start,
+            Phase::Push,
+            Phase::AttachFront,
+            Phase::ReleaseRear,
+            Phase::Pull,
+            Phase::AttachRear,
+            Phase::ReleaseFront,
+        ]
+        .into_iter()
+        .find(|p| p.name() == name)
+    }
+
     /// The command of this phase, with its evidence.
     pub fn command(self, evidence: Evidence) -> Command {
         match self {
