@@ -63,8 +63,11 @@ pub struct SimRobotArgs {
     pub robot: RobotChoice,
     /// Simulate the body in a climb scenario's scene from its start (`leech scenario list`): a cup
     /// seals only where leech's statics put its face flush on a surface. Without it every cup seals.
-    #[arg(long, value_name = "NAME|FILE")]
+    #[arg(long, value_name = "NAME|FILE", conflicts_with = "scene")]
     pub scenario: Option<PathBuf>,
+    /// Instead: the body in a scene (`leech scene list`) from the scene's `[start]`.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub scene: Option<PathBuf>,
     /// Faults to inject, comma-separated: drop=P, corrupt=P (per byte, each way), delay=S, cut,
     /// vacuum-loss=rear|front, stall=1|2|3, seed=N.
     #[arg(long, value_name = "SPEC")]
@@ -97,7 +100,7 @@ pub struct DriveArgs {
 /// The `leech drive` actions.
 #[derive(Debug, Subcommand)]
 pub enum DriveAction {
-    /// The controller's state: lengths, duties, pumps, cups, faults, link health.
+    /// The controller's state: lengths, duties, pumps, cups, faults (and with --json the link's health).
     Status,
     /// Move the tubes to L1,L2,L3 (m; planar use sets L2 = L3) and wait until they are there.
     Lengths {

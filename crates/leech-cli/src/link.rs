@@ -27,9 +27,7 @@ use crate::failure::Failure;
 /// until `duration` (or until the process is stopped).
 pub fn sim_robot(a: SimRobot) -> Result<(), Failure> {
     let sim = match a.body {
-        Some((robot, scenario)) => {
-            Sim::with_cups(a.config, Box::new(BodyCups::new(robot, scenario.scene, scenario.start)))
-        }
+        Some((robot, scene, start)) => Sim::with_cups(a.config, Box::new(BodyCups::new(robot, scene, start))),
         None => Sim::new(a.config),
     };
     let device = PtyDevice::spawn(sim).map_err(|e| Failure::Other(e.into()))?;

@@ -5,8 +5,9 @@ use std::path::PathBuf;
 use std::time::Duration;
 
 use leech::prelude::Robot;
+use leech::scene::Scene;
 use leech::stride::Phase;
-use leech::stride::Scenario;
+use leech::stride::{Foothold, Scenario};
 use leech_link::executor::Move;
 use leech_link::sim::{Faults, SimConfig};
 use leech_protocol::message::{Cup, Tube, TubeConfig};
@@ -18,8 +19,9 @@ use crate::flags::{CupArg, DriveAction, DriveArgs, OnOff, SimRobotArgs};
 /// `leech sim-robot`: the device to simulate, its faults and how long to run.
 pub struct SimRobot {
     pub config: SimConfig,
-    /// The robot and the scenario whose body is simulated (None: every cup seals).
-    pub body: Option<(Robot, Scenario)>,
+    /// The robot, the scene and the rear cup's start of the simulated body
+    /// (None: every cup seals).
+    pub body: Option<(Robot, Scene, Foothold)>,
     pub faults: Faults,
     /// How often to print the state (None: never).
     pub status_every: Option<Duration>,
@@ -78,13 +80,23 @@ pub(super) fn sim_robot(a: SimRobotArgs) -> Result<SimRobot, Failure> {
     let faults = a.faults.as_deref().map(faults).transpose()?.unwrap_or_default();
     let status_every = if a.status_every == 0.0 { None } else { Some(seconds("--status-every", a.status_every)?) };
     let duration = a.duration.map(|s| seconds("--duration", s)).transpose()?;
-    let body = match &a.scenario {
-        Some(path) => {
+    let body = match (&a.scenario, &a.scene) {
+        (Some(path), _) => {
             let (scenario, _) = super::climb::load_scenario(path, "--scenario")?;
             scenario.check_start(&robot)?;
-            Some((robot, scenario))
+            Some((robot, scenario.scene, scenario.start))
         }
-        None => None,
+        (None, Some(path)) => {
+            let (scene, _) = super::holds::load_scene(path, "--scene")?;
+            let Some(start) = scene.start else {
+                return Err(Failure::Input(format!(
+                    "--scene: '{}' has no [start] table, expected a scene with one (or a --scenario)",
+                    path.display()
+                )));
+            };
+            Some((robot, scene, Foothold { centre_m: start.rear_cup_m, direction_rad: start.direction_rad }))
+        }
+        (None, None) => None,
     };
     Ok(SimRobot { config, body, faults, status_every, duration })
 }

@@ -88,6 +88,13 @@ fn bad_drives_exit_2_with_one_line() {
     assert!(e.contains("run: cannot read '/nonexistent-plan.json'"), "{e}");
     let e = rejected(&["sim-robot", "--faults", "corrupt=2"]);
     assert!(e.contains("corrupt=2") && e.contains("probability"), "{e}");
+    let dir = std::env::temp_dir().join(format!("leech-cli-bare-scene-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bare = dir.join("bare.toml");
+    std::fs::write(&bare, "name = \"bare\"\n[[half_plane]]\npoint_m = [0.0, 0.0]\nnormal = [0.0, 1.0]\n").unwrap();
+    let e = rejected(&["sim-robot", "--scene", bare.to_str().unwrap()]);
+    assert!(e.contains("--scene") && e.contains("[start]"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
     let e = rejected(&["sim-robot", "--duration", "0"]);
     assert!(e.contains("--duration"), "{e}");
 }
