@@ -125,6 +125,19 @@ pub enum DriveAction {
     },
     /// Stop the motors (the pumps stay as they are).
     Stop,
+    /// One stride phase by hand, behind the stride interlock, confirmed by telemetry: push or pull
+    /// to --lengths, attach_front or attach_rear, release_rear or release_front (with the holding
+    /// cup's safety factor after the release, e.g. from `leech shape --hold`).
+    Stride {
+        /// The phase: push, attach_front, release_rear, pull, attach_rear or release_front.
+        phase: String,
+        /// For push and pull: the tube lengths LA,LB in m (L1 = LA, L2 = L3 = LB).
+        #[arg(long, value_name = "LA,LB", value_parser = parse_pair)]
+        lengths: Option<[f64; 2]>,
+        /// For a release: the safety factor of the cup that will hold alone after it.
+        #[arg(long, value_name = "SF")]
+        safety_factor: Option<f64>,
+    },
     /// Carry out a climb step by step, each confirmed by telemetry, behind the stride interlock: a
     /// plan from `leech climb --json`, or a scenario planned first; a cup must hold to begin.
     Run {

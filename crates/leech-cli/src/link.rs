@@ -143,6 +143,7 @@ const ARRIVED_UM: i32 = 500;
 pub fn drive(out: &mut String, a: Drive) -> Result<(), Failure> {
     // A scenario is planned before the port is opened: the controller waits on nothing.
     let moves = match &a.action {
+        Action::Run(Run::Phase(one)) => Some(vec![*one]),
         Action::Run(Run::Moves(moves)) => Some(moves.clone()),
         Action::Run(Run::Scenario(robot, s)) => {
             let options = leech::stride::PlanOptions::default();
@@ -184,18 +185,19 @@ pub fn drive(out: &mut String, a: Drive) -> Result<(), Failure> {
             let acked = link.stop().map_err(failure)?;
             ("stop", Some(acked), wait::next_telemetry(&events, Duration::from_secs(2)).map_err(waited)?)
         }
-        Action::Run(_) => {
+        Action::Run(run) => {
+            let name = if matches!(run, Run::Phase(_)) { "stride" } else { "run" };
             let moves = moves.unwrap_or_default();
             let mut executor = Executor::new(&link, a.min_safety_factor, executor::Options::default())
                 .map_err(|e| Failure::Unsolved(format!("run: {e}")))?;
             let bar = crate::render::progress(moves.len() as u64, "steps");
             executor
                 .run(&moves, |done| bar.set_position(done.index as u64 + 1))
-                .map_err(|e| Failure::Unsolved(format!("run: {e}")))?;
+                .map_err(|e| Failure::Unsolved(format!("{name}: {e}")))?;
             bar.finish_and_clear();
             // The reports queued during the run are stale: the state now.
             let now = link.subscribe();
-            ("run", None, wait::next_telemetry(&now, Duration::from_secs(2)).map_err(waited)?)
+            (name, None, wait::next_telemetry(&now, Duration::from_secs(2)).map_err(waited)?)
         }
     };
     let health = link.health();

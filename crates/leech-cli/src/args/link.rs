@@ -52,6 +52,8 @@ pub enum Action {
 
 /// What `leech drive run` carries out.
 pub enum Run {
+    /// One phase by hand (`leech drive stride`).
+    Phase(Move),
     /// A plan read from `leech climb --json`.
     Moves(Vec<Move>),
     /// A scenario to plan first, for the robot.
@@ -180,6 +182,32 @@ pub(super) fn drive(a: DriveArgs) -> Result<Drive, Failure> {
             state == OnOff::On,
         ),
         DriveAction::Stop => Action::Stop,
+        DriveAction::Stride { phase, lengths, safety_factor } => {
+            let phase = Phase::from_name(&phase).filter(|p| *p != Phase::Start).ok_or_else(|| {
+                Failure::Input(format!(
+                    "stride: got '{phase}', expected push, attach_front, release_rear, pull, attach_rear or release_front"
+                ))
+            })?;
+            let moves = matches!(phase, Phase::Push | Phase::Pull);
+            let lengths_m = match (moves, lengths) {
+                (true, Some(l)) if l.iter().all(|x| (lo..=hi).contains(x)) => l,
+                (true, Some(l)) => {
+                    return Err(Failure::Input(format!(
+                        "--lengths: got {}, {}, expected lengths within the robot's limits [{lo}, {hi}] m",
+                        l[0], l[1]
+                    )))
+                }
+                (true, None) => return Err(Failure::Input(format!("stride {}: give --lengths LA,LB", phase.name()))),
+                (false, Some(_)) => return Err(Failure::Input(format!("--lengths: {} moves no tube", phase.name()))),
+                (false, None) => [f64::NAN; 2],
+            };
+            let (rear_safety_factor, front_safety_factor) = match phase {
+                Phase::ReleaseRear => (None, Some(evidence(safety_factor)?)),
+                Phase::ReleaseFront => (Some(evidence(safety_factor)?), None),
+                _ => (None, None),
+            };
+            Action::Run(Run::Phase(Move { phase, lengths_m, rear_safety_factor, front_safety_factor }))
+        }
         DriveAction::Run { scenario: Some(scenario), .. } => {
             let (scenario, _) = super::climb::load_scenario(&scenario, "--scenario")?;
             scenario.check_start(&robot)?;
@@ -247,4 +275,15 @@ fn plan_moves(path: &std::path::Path, [lo, hi]: [f64; 2]) -> Result<Vec<Move>, F
             })
         })
         .collect()
+}
+
+/// A release's evidence: the holding cup's safety factor after it.
+fn evidence(given: Option<f64>) -> Result<f64, Failure> {
+    match given {
+        Some(f) if f.is_finite() && f > 0.0 => Ok(f),
+        Some(f) => Err(Failure::Input(format!("--safety-factor: got {f}, expected a positive number"))),
+        None => Err(Failure::Input(
+            "stride release: give --safety-factor SF, the holding cup's after the release (leech shape --hold)".into(),
+        )),
+    }
 }

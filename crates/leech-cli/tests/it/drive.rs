@@ -74,6 +74,18 @@ fn the_simulated_robot_is_driven_over_its_port() {
     assert!(err.contains("refused Pump") && err.contains("last one holding"), "{err}");
     let v: Value = serde_json::from_slice(&sim.drive(&["stop", "--json"]).stdout).unwrap();
     assert_eq!(v["state"]["pumps_on"]["rear"], true, "the pump stays on: {v}");
+    // Phases by hand, behind the interlock: a release below the minimum safety factor is refused.
+    assert!(sim.drive(&["stride", "attach_front"]).status.success());
+    let out = sim.drive(&["stride", "release_rear", "--safety-factor", "1.2"]);
+    assert_eq!(out.status.code(), Some(3));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("release rear: refused") && err.contains("1.200"), "{err}");
+    let v: Value =
+        serde_json::from_slice(&sim.drive(&["stride", "release_rear", "--safety-factor", "3", "--json"]).stdout)
+            .unwrap();
+    assert_eq!(v["action"], "stride");
+    assert_eq!(v["state"]["pumps_on"]["rear"], false, "{v}");
+    assert_eq!(v["state"]["holding"]["front"], true, "{v}");
 }
 
 #[test]
@@ -86,6 +98,12 @@ fn bad_drives_exit_2_with_one_line() {
     assert!(e.contains("tube 4"), "{e}");
     let e = rejected(&["drive", "--port", "/nonexistent-leech-port", "run", "/nonexistent-plan.json"]);
     assert!(e.contains("run: cannot read '/nonexistent-plan.json'"), "{e}");
+    let e = rejected(&["drive", "--port", "/nonexistent-leech-port", "stride", "push"]);
+    assert!(e.contains("--lengths"), "{e}");
+    let e = rejected(&["drive", "--port", "/nonexistent-leech-port", "stride", "release_front"]);
+    assert!(e.contains("--safety-factor"), "{e}");
+    let e = rejected(&["drive", "--port", "/nonexistent-leech-port", "stride", "hop"]);
+    assert!(e.contains("'hop'") && e.contains("attach_front"), "{e}");
     let e = rejected(&["sim-robot", "--faults", "corrupt=2"]);
     assert!(e.contains("corrupt=2") && e.contains("probability"), "{e}");
     let dir = std::env::temp_dir().join(format!("leech-cli-bare-scene-{}", std::process::id()));
