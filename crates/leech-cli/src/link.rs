@@ -135,6 +135,9 @@ fn waited(e: WaitError) -> Failure {
 /// Telemetry period while a command waits on it (ms).
 const TELEMETRY_MS: u16 = 20;
 
+/// How long a command waits for a telemetry report.
+const TELEMETRY_WAIT: Duration = Duration::from_secs(2);
+
 /// How close the tubes must come to their targets (um).
 const ARRIVED_UM: i32 = 500;
 
@@ -162,7 +165,9 @@ pub fn drive(out: &mut String, a: Drive) -> Result<(), Failure> {
     }
     let events = link.subscribe();
     link.set_telemetry(TELEMETRY_MS).map_err(failure)?;
-    let first = wait::next_telemetry(&events, Duration::from_secs(2)).map_err(waited)?;
+    // The next report, which shows what the last command did.
+    let report = || wait::next_telemetry(&events, TELEMETRY_WAIT).map_err(waited);
+    let first = report()?;
     let (name, acked, state): (&str, Option<Acked>, Telemetry) = match a.action {
         Action::Status => ("status", None, first),
         Action::Lengths(targets) => {
@@ -175,15 +180,15 @@ pub fn drive(out: &mut String, a: Drive) -> Result<(), Failure> {
         }
         Action::Jog(tube, delta_um) => {
             let acked = link.jog(tube, delta_um).map_err(failure)?;
-            ("jog", Some(acked), wait::next_telemetry(&events, Duration::from_secs(2)).map_err(waited)?)
+            ("jog", Some(acked), report()?)
         }
         Action::Pump(cup, on) => {
             let acked = link.pump(cup, on).map_err(failure)?;
-            ("pump", Some(acked), wait::next_telemetry(&events, Duration::from_secs(2)).map_err(waited)?)
+            ("pump", Some(acked), report()?)
         }
         Action::Stop => {
             let acked = link.stop().map_err(failure)?;
-            ("stop", Some(acked), wait::next_telemetry(&events, Duration::from_secs(2)).map_err(waited)?)
+            ("stop", Some(acked), report()?)
         }
         Action::Run(run) => {
             let name = if matches!(run, Run::Phase(_)) { "stride" } else { "run" };
@@ -197,7 +202,7 @@ pub fn drive(out: &mut String, a: Drive) -> Result<(), Failure> {
             bar.finish_and_clear();
             // The reports queued during the run are stale: the state now.
             let now = link.subscribe();
-            (name, None, wait::next_telemetry(&now, Duration::from_secs(2)).map_err(waited)?)
+            (name, None, wait::next_telemetry(&now, TELEMETRY_WAIT).map_err(waited)?)
         }
     };
     let health = link.health();

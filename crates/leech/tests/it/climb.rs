@@ -104,6 +104,17 @@ fn the_robot_crawls_along_the_floor() {
     replay(&robot, &floor, &plan, goal);
 }
 
+/// The built-in robot's plan in the scene `toml` from the rear cup at the
+/// origin heading along +x to a goal on y = 0 at `goal_x` (m): impossible.
+fn impossible_on_a_floor(toml: &str, goal_x: f64) -> stride::Plan {
+    let scene = Scene::from_toml_str(toml, "test scene").unwrap();
+    let start = Foothold { centre_m: [0.0, 0.0], direction_rad: 0.0 };
+    let goal = Goal { point_m: [goal_x, 0.0], tolerance_m: 0.03 };
+    let plan = stride::plan(&Robot::builtin(), &scene, start, goal, &PlanOptions::default()).unwrap();
+    assert_eq!(plan.status, Status::Impossible);
+    plan
+}
+
 /// Two floors with a 0.5 m gap between them, wider than the tubes reach:
 /// the robot crawls to the edge and no stride crosses.
 #[test]
@@ -116,11 +127,7 @@ points_m = [[-1.0, -0.2], [0.12, -0.2], [0.12, 0.0], [-1.0, 0.0]]
 [[polygon]]
 points_m = [[0.62, -0.2], [2.0, -0.2], [2.0, 0.0], [0.62, 0.0]]
 "#;
-    let scene = Scene::from_toml_str(toml, "gap").unwrap();
-    let start = Foothold { centre_m: [0.0, 0.0], direction_rad: 0.0 };
-    let goal = Goal { point_m: [0.8, 0.0], tolerance_m: 0.03 };
-    let plan = stride::plan(&robot, &scene, start, goal, &PlanOptions::default()).unwrap();
-    assert_eq!(plan.status, Status::Impossible);
+    let plan = impossible_on_a_floor(toml, 0.8);
     let reason = plan.reason.expect("a reason");
     assert_eq!(reason.blocking, stride::Blocking::Reach, "{reason:?}");
     // The farthest stance stays on the near floor.
@@ -318,11 +325,7 @@ normal = [0.0, 1.0]
 [[polygon]]
 points_m = [[0.20, -0.05], [0.22, -0.05], [0.22, 0.6], [0.20, 0.6]]
 "#;
-    let scene = Scene::from_toml_str(toml, "tall wall").unwrap();
-    let start = Foothold { centre_m: [0.0, 0.0], direction_rad: 0.0 };
-    let goal = Goal { point_m: [0.45, 0.0], tolerance_m: 0.03 };
-    let plan = stride::plan(&robot, &scene, start, goal, &PlanOptions::default()).unwrap();
-    assert_eq!(plan.status, Status::Impossible);
+    let plan = impossible_on_a_floor(toml, 0.45);
     let reason = plan.reason.expect("a reason");
     assert!(
         matches!(reason.blocking, stride::Blocking::Reach | stride::Blocking::CupForce | stride::Blocking::Collision),
