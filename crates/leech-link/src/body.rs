@@ -32,12 +32,12 @@
 
 use std::sync::{Arc, Mutex, MutexGuard};
 
-use leech::geom::{add_scaled, right_normal, Vec2};
+use leech::geom::Vec2;
 use leech::robot::Robot;
 use leech::scene::Scene;
 use leech::stance::{self, FreeCups, Held, Hold, Pose, StanceError};
 use leech::statics::Solver;
-use leech::stride::Foothold;
+use leech::stride::{plan, Foothold};
 use leech_protocol::message::Cup;
 
 use crate::sim::Cups;
@@ -145,17 +145,13 @@ impl Inner {
     /// the equilibrium puts it, pressed into the surface below it.
     fn hold_pose(&mut self, cup: Cup) -> Option<Pose> {
         let held = self.held().ok()?;
-        let (pose, centre) = match cup {
-            Cup::Rear => (held.unit, held.rear_cup_m(&self.robot)),
-            Cup::Front => {
-                (Pose { point_m: held.endpoint_m, angle_rad: held.plate_angle() }, held.front_cup_m(&self.robot))
-            }
+        let pose = match cup {
+            Cup::Rear => held.unit,
+            Cup::Front => Pose { point_m: held.endpoint_m, angle_rad: held.plate_angle() },
         };
+        let (centre, _) = plan::cup_face(&self.robot, &held, stride_cup(cup));
         let (_, direction) = self.scene.surface_frame(centre)?;
-        Some(Pose {
-            point_m: add_scaled(pose.point_m, self.robot.cup.preload_m, right_normal(direction)),
-            angle_rad: pose.angle_rad,
-        })
+        Some(plan::pressed(&self.robot, pose, direction))
     }
 
     /// The holds after the device's cups went from `self.holding` to `holding`.
@@ -186,18 +182,16 @@ impl Inner {
     /// Whether the free `cup`'s face lies flush on a surface now.
     fn flush(&mut self, cup: Cup) -> bool {
         let Ok(held) = self.held() else { return false };
-        let (centre, angle) = match cup {
-            Cup::Rear => (held.rear_cup_m(&self.robot), held.unit.angle_rad),
-            Cup::Front => (held.front_cup_m(&self.robot), held.plate_angle()),
-        };
-        let c = &self.robot.cup;
-        self.scene.flat_on_one_edge(
-            centre,
-            angle,
-            0.5 * c.diameter_m,
-            c.attach_distance_tolerance_m,
-            c.attach_angle_tolerance_deg.to_radians(),
-        )
+        let (centre, angle) = plan::cup_face(&self.robot, &held, stride_cup(cup));
+        plan::flush_on(&self.robot, &self.scene, centre, angle)
+    }
+}
+
+/// The planner's name of a cup on the wire.
+fn stride_cup(cup: Cup) -> leech::stride::Cup {
+    match cup {
+        Cup::Rear => leech::stride::Cup::Rear,
+        Cup::Front => leech::stride::Cup::Front,
     }
 }
 

@@ -532,8 +532,11 @@ impl Planner<'_> {
             let push = self.touch_down(Phase::Push, stride, [stance.lengths, lengths], Hold::Rear(rear), Cup::Front)?;
             // The cup seals where the face came to rest (its lip takes up what
             // is left of the tolerances), pressed on by the preload.
-            let front_pose =
-                pressed(robot, Pose { point_m: push.held.endpoint_m, angle_rad: push.held.plate_angle() }, front);
+            let front_pose = pressed(
+                robot,
+                Pose { point_m: push.held.endpoint_m, angle_rad: push.held.plate_angle() },
+                front.direction_rad,
+            );
             steps.push(push);
             let both = Hold::Both { rear, front: front_pose };
             steps.extend(self.hand_over(&mut machine, stride, lengths, Cup::Front, both, Hold::Front(front_pose))?);
@@ -576,7 +579,7 @@ impl Planner<'_> {
                 let attempt = (|| {
                     let pull =
                         self.touch_down(Phase::Pull, stride, [lengths, pulled], Hold::Front(front_pose), Cup::Rear)?;
-                    let unit = pressed(robot, pull.held.unit, new_rear);
+                    let unit = pressed(robot, pull.held.unit, new_rear.direction_rad);
                     let both = Hold::Both { rear: unit, front: front_pose };
                     let [attach, settled] =
                         self.hand_over(&mut machine.clone(), stride, pulled, Cup::Rear, both, Hold::Rear(unit))?;
@@ -826,14 +829,7 @@ impl Planner<'_> {
     }
 
     fn flush(&self, centre: Vec2, angle: f64) -> bool {
-        let cup = &self.robot.cup;
-        self.scene.flat_on_one_edge(
-            centre,
-            angle,
-            0.5 * cup.diameter_m,
-            cup.attach_distance_tolerance_m,
-            cup.attach_angle_tolerance_deg.to_radians(),
-        )
+        flush_on(self.robot, self.scene, centre, angle)
     }
 
     /// The touchdowns of `moving` with the other cup held by `holding`: tube
@@ -1049,10 +1045,23 @@ fn input_rejection(e: InputError) -> Rejection {
     Rejection { blocking: Blocking::Reach, phase: Phase::Pull, detail: e.to_string(), at: None }
 }
 
-/// A hold's pose where a cup came to rest on `foothold`, pressed into the
-/// surface by the robot file's preload.
-fn pressed(robot: &Robot, pose: Pose, foothold: Foothold) -> Pose {
-    let into = crate::geom::right_normal(foothold.direction_rad);
+/// Whether a cup's face (centre, angle in rad) lies flush on one edge of
+/// `scene` within `robot`'s attach tolerances: where the cup may attach.
+pub fn flush_on(robot: &Robot, scene: &Scene, centre: Vec2, angle: f64) -> bool {
+    let cup = &robot.cup;
+    scene.flat_on_one_edge(
+        centre,
+        angle,
+        0.5 * cup.diameter_m,
+        cup.attach_distance_tolerance_m,
+        cup.attach_angle_tolerance_deg.to_radians(),
+    )
+}
+
+/// A hold's pose where a cup came to rest on a surface along `direction`
+/// (rad), pressed into it by the robot file's preload.
+pub fn pressed(robot: &Robot, pose: Pose, direction: f64) -> Pose {
+    let into = crate::geom::right_normal(direction);
     Pose { point_m: crate::geom::add_scaled(pose.point_m, robot.cup.preload_m, into), angle_rad: pose.angle_rad }
 }
 
