@@ -21,16 +21,22 @@
 //!   `cup.attach_distance_tolerance_m` and `cup.attach_angle_tolerance_deg`
 //!   ([`Scene::flat_on_one_edge`]); with its pump off the question does
 //!   not arise and nothing is solved.
-//! * **Cost.** The control loop asks every millisecond; a solve takes
-//!   milliseconds to tens of them. The last equilibrium is kept and solved
-//!   again only when a length changed by more than [`RESOLVE_M`] or the
-//!   holds changed, and only when a free cup's pump runs, a hold starts, or
+//! * **Cost.** The control loop observes every millisecond; a solve takes
+//!   milliseconds to tens of them, so none runs on the device's thread:
+//!   [`Cups::observe`] only hands the latest lengths, pumps and holds to the
+//!   body's own solver thread, and [`Cups::sealed`] reads what that thread
+//!   last found (a seal is known a solve later, well within the vacuum's
+//!   build-up time). The solver keeps the last equilibrium and solves again
+//!   only when a length changed by more than [`RESOLVE_M`] or the holds
+//!   changed, and only when a free cup's pump runs, a hold starts, or
 //!   [`BodyCups::pose`] asks.
 //!
 //! The model is shared: [`BodyCups`] is a handle, its clones see the same
-//! body (one goes into the [`crate::sim::Sim`], a test keeps another).
+//! body (one goes into the [`crate::sim::Sim`], a test keeps another); the
+//! solver thread ends when the last clone is dropped.
 
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Arc, Condvar, Mutex, MutexGuard, PoisonError};
+use std::thread::JoinHandle;
 
 use leech::geom::Vec2;
 use leech::robot::Robot;
@@ -65,7 +71,56 @@ pub struct BodyPose {
 /// The simulated body as a [`Cups`] model (module doc); clones share it.
 #[derive(Clone)]
 pub struct BodyCups {
-    inner: Arc<Mutex<Inner>>,
+    shared: Arc<Shared>,
+    /// Stops and joins the solver thread when the last clone goes.
+    _solver: Arc<SolverThread>,
+}
+
+/// What the device's thread and the solver's thread share.
+struct Shared {
+    /// The model and its last equilibrium: the solver's (and `pose`'s).
+    model: Mutex<Inner>,
+    /// The latest observation, for the solver to take.
+    latest: Mutex<Latest>,
+    /// Signals a new observation, or the end.
+    wake: Condvar,
+    /// Whether each cup is sealed, as of the last observation solved.
+    sealed: Mutex<[bool; 2]>,
+}
+
+/// An observation waiting for the solver.
+#[derive(Clone, Copy)]
+struct Latest {
+    /// LA and LB (m), the pumps running and the cups holding.
+    lengths: [f64; 2],
+    pumps: [bool; 2],
+    holding: [bool; 2],
+    /// Whether the solver has not seen it yet.
+    fresh: bool,
+    /// Whether the solver thread must end.
+    stop: bool,
+}
+
+/// The solver thread's handle.
+struct SolverThread {
+    shared: Arc<Shared>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl Drop for SolverThread {
+    fn drop(&mut self) {
+        lock(&self.shared.latest).stop = true;
+        self.shared.wake.notify_all();
+        if let Some(thread) = self.thread.take() {
+            // A panic in a solve is over too; the device goes on without seals.
+            let _ = thread.join();
+        }
+    }
+}
+
+/// Locks `mutex`; a panic while it was held leaves usable data behind.
+fn lock<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
+    mutex.lock().unwrap_or_else(PoisonError::into_inner)
 }
 
 struct Inner {
@@ -80,8 +135,6 @@ struct Inner {
     lengths: [f64; 2],
     /// The last equilibrium: lengths, holds, result.
     solved: Option<([f64; 2], Hold, Result<Held, StanceError>)>,
-    /// Whether each cup is sealed, as of the last observation.
-    sealed: [bool; 2],
 }
 
 impl BodyCups {
@@ -98,15 +151,29 @@ impl BodyCups {
             holding: [false; 2],
             lengths: [short; 2],
             solved: None,
-            sealed: [false; 2],
         };
-        BodyCups { inner: Arc::new(Mutex::new(inner)) }
+        let latest = Latest { lengths: [short; 2], pumps: [false; 2], holding: [false; 2], fresh: false, stop: false };
+        let shared = Arc::new(Shared {
+            model: Mutex::new(inner),
+            latest: Mutex::new(latest),
+            wake: Condvar::new(),
+            sealed: Mutex::new([false; 2]),
+        });
+        let thread = std::thread::Builder::new()
+            .name("leech-sim-body".into())
+            .spawn({
+                let shared = Arc::clone(&shared);
+                move || solve_observations(&shared)
+            })
+            .expect("the body's solver thread starts");
+        let solver = SolverThread { shared: Arc::clone(&shared), thread: Some(thread) };
+        BodyCups { shared, _solver: Arc::new(solver) }
     }
 
     /// The body's equilibrium at the last lengths observed, under its holds
     /// (solved now if the last one is stale).
     pub fn pose(&self) -> Result<BodyPose, StanceError> {
-        let mut inner = self.lock();
+        let mut inner = lock(&self.shared.model);
         let lengths = inner.lengths;
         let held = inner.held()?;
         let robot = &inner.robot;
@@ -118,11 +185,6 @@ impl BodyCups {
             front_cup_m: held.front_cup_m(robot),
             hold: held.hold,
         })
-    }
-
-    fn lock(&self) -> MutexGuard<'_, Inner> {
-        // A panic while solving leaves a usable model behind.
-        self.inner.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
     }
 }
 
@@ -195,20 +257,48 @@ fn stride_cup(cup: Cup) -> leech::stride::Cup {
     }
 }
 
+/// The solver thread: each new observation updates the holds and the seals.
+fn solve_observations(shared: &Shared) {
+    loop {
+        let seen = {
+            let mut latest = lock(&shared.latest);
+            while !latest.fresh && !latest.stop {
+                latest = shared.wake.wait(latest).unwrap_or_else(PoisonError::into_inner);
+            }
+            if latest.stop {
+                return;
+            }
+            latest.fresh = false;
+            *latest
+        };
+        let mut inner = lock(&shared.model);
+        inner.lengths = seen.lengths;
+        if seen.holding != inner.holding {
+            inner.update_holds(seen.holding);
+        }
+        let mut sealed = [false; 2];
+        for cup in Cup::BOTH {
+            let i = cup.index();
+            sealed[i] = seen.holding[i] || (seen.pumps[i] && inner.flush(cup));
+        }
+        drop(inner);
+        *lock(&shared.sealed) = sealed;
+    }
+}
+
 impl Cups for BodyCups {
     fn sealed(&self, cup: Cup, _lengths_m: [f64; 3]) -> bool {
-        self.lock().sealed[cup.index()]
+        lock(&self.shared.sealed)[cup.index()]
     }
 
     fn observe(&mut self, lengths_m: [f64; 3], pumps: [bool; 2], holding: [bool; 2]) {
-        let mut inner = self.lock();
-        inner.lengths = [lengths_m[0], 0.5 * (lengths_m[1] + lengths_m[2])];
-        if holding != inner.holding {
-            inner.update_holds(holding);
-        }
-        for cup in Cup::BOTH {
-            let i = cup.index();
-            inner.sealed[i] = holding[i] || (pumps[i] && inner.flush(cup));
+        let lengths = [lengths_m[0], 0.5 * (lengths_m[1] + lengths_m[2])];
+        let mut latest = lock(&self.shared.latest);
+        let changed = latest.lengths != lengths || latest.pumps != pumps || latest.holding != holding;
+        if changed {
+            (latest.lengths, latest.pumps, latest.holding, latest.fresh) = (lengths, pumps, holding, true);
+            drop(latest);
+            self.shared.wake.notify_one();
         }
     }
 }
