@@ -221,6 +221,9 @@ impl<'a> Executor<'a> {
     pub fn new(link: &'a Link, min_safety_factor: f64, options: Options) -> Result<Executor<'a>, ExecError> {
         let events = link.subscribe();
         link.set_telemetry(options.telemetry_period_ms).map_err(ExecError::Telemetry)?;
+        // Reports sent before the device took the command came in before its
+        // answer: drop them, so that the state starts from a fresh report.
+        while events.try_recv().is_ok() {}
         let waited = options.silence.max(Duration::from_millis(u64::from(options.telemetry_period_ms) * 5));
         let end = Instant::now() + waited;
         let last = loop {
@@ -361,8 +364,9 @@ impl<'a> Executor<'a> {
                 }
                 Ok(Event::Disconnected) => return Err(ExecError::LinkLost { index, phase, why: "the port failed" }),
                 Ok(Event::DeviceReset(_)) => return Err(ExecError::LinkLost { index, phase, why: "the device reset" }),
-                // A reconnection follows a disconnection, already an error.
-                Ok(Event::Reconnected(_)) | Err(RecvTimeoutError::Timeout) => {}
+                // A reconnection follows a disconnection, a restore a
+                // disconnection or a reset: each already an error.
+                Ok(Event::Reconnected(_) | Event::Restored(_)) | Err(RecvTimeoutError::Timeout) => {}
                 Err(RecvTimeoutError::Disconnected) => {
                     return Err(ExecError::LinkLost { index, phase, why: "the driver closed" })
                 }

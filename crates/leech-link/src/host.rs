@@ -31,8 +31,23 @@
 //!   command in flight and every new one fail with
 //!   [`LinkError::Disconnected`]; every [`Options::reconnect_interval`] the
 //!   driver opens the path again and repeats the handshake, then reports
-//!   [`Event::Reconnected`]. A Mega that reset has lost its configuration
-//!   and its pumps are off: the caller configures it again.
+//!   [`Event::Reconnected`].
+//! * **Restoring the session**: the driver remembers the configuration the
+//!   device accepted (cups, each tube, the telemetry period) and each
+//!   configured tube's last measured length. After a reconnection, or an
+//!   unsolicited `Hello` in mid-session ([`Event::DeviceReset`]: a Mega
+//!   that reset has lost its configuration, its encoder counts and its
+//!   pumps), it configures the device again before anything else is sent,
+//!   then reports [`Event::Restored`]. A tube the device still has
+//!   configured is left alone. A tube it lost is configured again with its
+//!   origin re-zeroed, so that its length reads as the last length measured
+//!   before the loss (`origin = last length - counts x 1000000 /
+//!   counts_per_mm_x1000`): right when the tubes did not move meanwhile
+//!   (the motors were stopped), and said in the event so that the caller
+//!   can re-calibrate if they might have. A tube whose length was never
+//!   measured stays unconfigured (motion is refused `NotConfigured`).
+//!   Pumps and motion are never restored: a reset lets go, and what to do
+//!   about it is the caller's decision.
 
 use std::collections::VecDeque;
 use std::io::{ErrorKind, Read, Write};
@@ -49,7 +64,7 @@ use leech_protocol::link::{
 };
 use leech_protocol::message::{
     types, AckStatus, Command, Cup, CupConfig, DecodeError, Faults, Hello, Refusal, Report, Seq, Telemetry, Tube,
-    TubeConfig,
+    TubeConfig, TubeSet,
 };
 use serialport::SerialPort;
 
@@ -194,8 +209,24 @@ pub enum Event {
     /// The port was reopened and the handshake done again.
     Reconnected(Hello),
     /// An unsolicited `Hello` in the middle of a session: the device reset
-    /// (its configuration is lost, its pumps are off).
+    /// (its configuration is lost, its pumps are off). [`Event::Restored`]
+    /// follows.
     DeviceReset(Hello),
+    /// The session's configuration was sent again after a reconnection or a
+    /// reset (module rules).
+    Restored(Restored),
+}
+
+/// What restoring the session did, per tube.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Restored {
+    /// Tubes the device still had configured.
+    pub kept: TubeSet,
+    /// Tubes configured again, their length taken as the last measured.
+    pub rezeroed: TubeSet,
+    /// Tubes configured before but left unconfigured: their length was never
+    /// measured, or the device refused the configuration.
+    pub lost: TubeSet,
 }
 
 /// The link's health, for display and tests.
@@ -228,6 +259,8 @@ pub struct Health {
     pub device: Option<LinkCounters>,
     /// Times the port was reopened.
     pub reconnects: u64,
+    /// Times the session's configuration was sent again.
+    pub restores: u64,
 }
 
 impl Health {
@@ -391,6 +424,41 @@ impl Drop for Link {
     }
 }
 
+/// What the device accepted in this session, to restore it (module rules).
+#[derive(Clone, Copy, Debug, Default)]
+struct Session {
+    cups: Option<CupConfig>,
+    tubes: [Option<TubeConfig>; 3],
+    telemetry_ms: Option<u16>,
+    /// Each configured tube's last measured length, um.
+    lengths_um: [Option<i32>; 3],
+}
+
+impl Session {
+    /// Remembers `command`, which the device accepted.
+    fn accepted(&mut self, command: Command) {
+        match command {
+            Command::ConfigureCups(config) => self.cups = Some(config),
+            Command::ConfigureTube(config) => self.tubes[config.tube.index()] = Some(config),
+            Command::SetTelemetry { period_ms } => self.telemetry_ms = Some(period_ms),
+            _ => {}
+        }
+    }
+
+    /// `tube`'s configuration again, its origin re-zeroed so that `counts`
+    /// read as its last measured length; `None` without one of the two.
+    fn rezeroed(&self, tube: Tube, counts: i32) -> Option<TubeConfig> {
+        let (config, length) = (self.tubes[tube.index()]?, self.lengths_um[tube.index()]?);
+        let travel = i64::from(counts) * 1_000_000 / i64::from(config.counts_per_mm_x1000.max(1));
+        let origin = (i64::from(length) - travel).clamp(i64::from(i32::MIN), i64::from(i32::MAX));
+        // The clamp keeps it in range.
+        Some(TubeConfig { origin_um: origin as i32, ..config })
+    }
+}
+
+/// How long a restore waits for the first telemetry report.
+const RESTORE_TELEMETRY_WAIT: Duration = Duration::from_secs(1);
+
 /// The I/O side: owns the port.
 struct Io {
     path: PathBuf,
@@ -404,6 +472,11 @@ struct Io {
     last_send: Instant,
     start: Instant,
     reports: Vec<Report>,
+    session: Session,
+    /// The session must be restored before the next command.
+    restore: bool,
+    /// The last telemetry report.
+    latest: Option<Telemetry>,
 }
 
 impl Io {
@@ -422,6 +495,9 @@ impl Io {
             last_send: now,
             start: now,
             reports: Vec::new(),
+            session: Session::default(),
+            restore: false,
+            latest: None,
         })
     }
 
@@ -549,6 +625,10 @@ impl Io {
 
     /// One turn of a connected link: send, read, route, retry.
     fn turn(&mut self) -> Result<(), LinkError> {
+        if self.restore && self.in_flight.is_none() {
+            self.restore = false;
+            self.restore_session()?;
+        }
         if self.in_flight.is_none() {
             if let Some(request) = self.queue.pop_front() {
                 self.start(request.command, Some(request.reply))?;
@@ -561,6 +641,11 @@ impl Io {
         for report in reports {
             self.route(report);
         }
+        self.retry()
+    }
+
+    /// Resends the command in flight, or gives it up, when its time came.
+    fn retry(&mut self) -> Result<(), LinkError> {
         let now = self.now_ms();
         let Some(flight) = self.in_flight.as_mut() else { return Ok(()) };
         match flight.pending.poll(now) {
@@ -621,6 +706,9 @@ impl Io {
                     health.round_trips.push_back(round_trip);
                 }
                 let command = name(&flight.command);
+                if status == AckStatus::Ok {
+                    self.session.accepted(flight.command);
+                }
                 let outcome = match status {
                     AckStatus::Ok => Ok(Acked { seq, round_trip, sends: flight.pending.sends() }),
                     AckStatus::Refused(reason) => Err(LinkError::Refused { command, reason }),
@@ -634,10 +722,19 @@ impl Io {
                     health.telemetry += 1;
                     health.device = Some(telemetry.counters);
                 }
+                for tube in Tube::ALL {
+                    if telemetry.configured.contains(tube) {
+                        self.session.lengths_um[tube.index()] = Some(telemetry.lengths_um[tube.index()]);
+                    }
+                }
+                self.latest = Some(telemetry);
                 self.shared.publish(&Event::Telemetry(telemetry));
             }
             Report::Fault { time_ms, code, detail } => self.shared.publish(&Event::Fault { time_ms, code, detail }),
-            Report::Hello { reply_to: None, hello } => self.shared.publish(&Event::DeviceReset(hello)),
+            Report::Hello { reply_to: None, hello } => {
+                self.restore = true;
+                self.shared.publish(&Event::DeviceReset(hello));
+            }
             // An answer to a Hello of an earlier handshake.
             Report::Hello { reply_to: Some(_), .. } => lock(&self.shared.health).unexpected_seq += 1,
         }
@@ -674,8 +771,77 @@ impl Io {
                 drop(health);
                 self.last_send = Instant::now();
                 self.shared.publish(&Event::Reconnected(hello));
+                self.restore = true;
             }
             Err(_) => self.port = None,
+        }
+    }
+
+    /// Sends the session's configuration again (module rules), one command
+    /// at a time, before any caller's command.
+    fn restore_session(&mut self) -> Result<(), LinkError> {
+        let session = self.session;
+        if let Some(config) = session.cups {
+            self.exchange(Command::ConfigureCups(config))?;
+        }
+        let mut restored = Restored::default();
+        if session.tubes.iter().any(Option::is_some) {
+            // Which tubes the device still has, and their counts, from a
+            // telemetry report asked for now.
+            self.latest = None;
+            self.exchange(Command::SetTelemetry { period_ms: 10 })?;
+            let end = Instant::now() + RESTORE_TELEMETRY_WAIT;
+            while self.latest.is_none() && Instant::now() < end {
+                self.read()?;
+                for report in std::mem::take(&mut self.reports) {
+                    self.route(report);
+                }
+            }
+            for tube in Tube::ALL.into_iter().filter(|t| session.tubes[t.index()].is_some()) {
+                let Some(latest) = self.latest else {
+                    restored.lost = restored.lost.with(tube, true);
+                    continue;
+                };
+                if latest.configured.contains(tube) {
+                    restored.kept = restored.kept.with(tube, true);
+                    continue;
+                }
+                let config = session.rezeroed(tube, latest.counts[tube.index()]);
+                let accepted = match config {
+                    Some(config) => self.exchange(Command::ConfigureTube(config))? == AckStatus::Ok,
+                    None => false,
+                };
+                if accepted {
+                    restored.rezeroed = restored.rezeroed.with(tube, true);
+                } else {
+                    restored.lost = restored.lost.with(tube, true);
+                }
+            }
+        }
+        self.exchange(Command::SetTelemetry { period_ms: session.telemetry_ms.unwrap_or(0) })?;
+        lock(&self.shared.health).restores += 1;
+        self.shared.publish(&Event::Restored(restored));
+        Ok(())
+    }
+
+    /// Sends the driver's own `command` and waits for its answer (with the
+    /// protocol's retries), routing everything else that arrives meanwhile.
+    fn exchange(&mut self, command: Command) -> Result<AckStatus, LinkError> {
+        let (tx, rx) = mpsc::channel();
+        self.start(command, Some(tx))?;
+        while self.in_flight.is_some() {
+            self.read()?;
+            for report in std::mem::take(&mut self.reports) {
+                self.route(report);
+            }
+            self.retry()?;
+        }
+        match rx.try_recv() {
+            Ok(Ok(_)) => Ok(AckStatus::Ok),
+            Ok(Err(LinkError::Refused { reason, .. })) => Ok(AckStatus::Refused(reason)),
+            Ok(Err(LinkError::Rejected { status, .. })) => Ok(status),
+            Ok(Err(error)) => Err(error),
+            Err(_) => Err(LinkError::Disconnected),
         }
     }
 }

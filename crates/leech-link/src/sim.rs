@@ -359,6 +359,24 @@ impl Sim {
         sim
     }
 
+    /// The controller resets (a watchdog, a glitch, a port opened with
+    /// auto-reset), the robot stays where it is: the device starts over as
+    /// at power-up (nothing configured, pumps off, telemetry off, counts 0,
+    /// clock 0, its `Hello` sent) with the tubes at their lengths now, which
+    /// become the configuration's power-up lengths. Bytes on the line are
+    /// lost; the injected faults and the cups model stay.
+    pub fn reset(&mut self) {
+        let mut config = self.config;
+        for (i, length) in config.initial_lengths_um.iter_mut().enumerate() {
+            // Within half a micrometre, far below one count (22 um).
+            *length = self.physical_length_um(i).round().clamp(f64::from(i32::MIN), f64::from(i32::MAX)) as i32;
+        }
+        let cups = std::mem::replace(&mut self.cups_model, Box::new(AlwaysSealed));
+        let (faults, rng) = (self.faults, self.rng);
+        *self = Sim::with_cups(config, cups);
+        (self.faults, self.rng) = (faults, rng);
+    }
+
     /// Its configuration.
     pub fn config(&self) -> &SimConfig {
         &self.config
