@@ -44,7 +44,8 @@ use std::collections::VecDeque;
 
 use leech_protocol::frame::{self, Decoder, MAX_FRAME};
 use leech_protocol::link::{
-    holds, last_cup_allows, CupState, LinkCounters, LinkWatch, Responder, LIMIT_MARGIN_UM, MIN_TELEMETRY_PERIOD_MS,
+    from_a_host, holds, last_cup_allows, CupState, LinkCounters, LinkWatch, Responder, LIMIT_MARGIN_UM,
+    MIN_TELEMETRY_PERIOD_MS,
 };
 use leech_protocol::message::{
     AckStatus, Capabilities, Command, Cup, CupConfig, CupSet, DeviceKind, Faults as FaultBits, FirmwareVersion, Hello,
@@ -528,7 +529,9 @@ impl Sim {
     }
 
     fn handle_frame(&mut self, message: &[u8]) {
-        self.watch.frame(self.clock_ms());
+        if from_a_host(message) {
+            self.watch.frame(self.clock_ms());
+        }
         let mut responder = self.responder;
         let answer = responder.handle(message, |command| self.execute(command));
         self.responder = responder;
@@ -648,11 +651,9 @@ impl Sim {
         self.cups.map(|c| CupState { pump_on: c.pump_on, holding: c.holding })
     }
 
-    /// Latches `fault` and reports it if it was not latched already.
+    /// Latches `fault` and reports it: every detection is reported, latched
+    /// already or not (a second link loss is news too).
     fn raise(&mut self, fault: FaultBits, detail: u8) {
-        if self.latched.contains(fault) {
-            return;
-        }
         self.latched = self.latched.union(fault);
         // A fault's code is its bit number.
         let code = fault.0.trailing_zeros() as u8;
@@ -683,6 +684,7 @@ impl Sim {
         let now_ms = self.clock_ms();
         if self.watch.expired(now_ms) {
             self.stop_motors();
+            self.responder.forget();
             self.raise(FaultBits::LINK_LOST, 0);
         }
         for i in 0..3 {

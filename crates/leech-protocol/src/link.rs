@@ -17,16 +17,18 @@
 //! * **Duplicates.** The device remembers the seq of the last command it
 //!   answered and its `Ack` status. A command with that same seq is a retry:
 //!   it is not executed again, the remembered `Ack` is sent again, and it is
-//!   counted as a duplicate. A `Hello` command (the start of a session)
-//!   makes the device forget, so a new host may start again from seq 1
-//!   ([`Responder`]).
-//! * **Link loss.** After the first valid frame (any frame whose CRC
-//!   matches), the device expects another within [`LINK_TIMEOUT_MS`]; the
-//!   host sends a `Heartbeat` whenever it has sent nothing for
-//!   [`HEARTBEAT_MS`]. When the time passes ([`LinkWatch`]) the device stops
-//!   the motors and keeps the pumps as they are (a robot on a wall must not
-//!   let go), latches `LINK_LOST` and stays stopped until a new motion
-//!   command arrives.
+//!   counted as a duplicate. A `Hello` command (the start of a session), a
+//!   link loss and a reset make the device forget, so that the next command
+//!   is always carried out ([`Responder`]).
+//! * **Link loss.** After the first frame from a host (a valid frame of a
+//!   host-to-device type with a seq: [`from_a_host`]), the device expects
+//!   another within [`LINK_TIMEOUT_MS`]; the host sends a `Heartbeat`
+//!   whenever it has sent nothing for [`HEARTBEAT_MS`]. Frames with seq 0
+//!   and report types (an echo of the device's own) do not count. When the
+//!   time passes ([`LinkWatch`]) the device stops the motors and keeps the
+//!   pumps as they are (a robot on a wall must not let go), latches
+//!   `LINK_LOST`, reports it, forgets the remembered seq and stays stopped
+//!   until a new motion command arrives.
 //! * **Last cup.** The device refuses to switch off the pump of a cup that
 //!   holds while the other cup does not hold ([`last_cup_allows`]): defence in
 //!   depth behind the host's own interlock. `Stop` is always allowed;
@@ -223,6 +225,12 @@ impl Responder {
         Some(Report::Ack { seq, status })
     }
 
+    /// Forgets the last command (at a link loss): the next one is new
+    /// whatever its seq.
+    pub fn forget(&mut self) {
+        self.last = None;
+    }
+
     /// Retries answered from memory (wraps at `u32::MAX`).
     pub const fn duplicates(&self) -> u32 {
         self.duplicates
@@ -234,11 +242,19 @@ impl Responder {
     }
 }
 
+/// Whether a valid frame's `message` comes from a host and so restarts the
+/// link timer: a host-to-device type (below `0x80`, known or not) with a
+/// seq other than 0. A report type, as a line that echoes would send back,
+/// does not.
+pub fn from_a_host(message: &[u8]) -> bool {
+    matches!(message, [kind, seq, ..] if *kind < 0x80 && *seq != 0)
+}
+
 /// The device's link-loss timer.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct LinkWatch {
-    /// When the last valid frame arrived; `None` before the first one and
-    /// after a loss (the timer is disarmed).
+    /// When the last frame from a host arrived; `None` before the first one
+    /// and after a loss (the timer is disarmed).
     last_ms: Option<u32>,
 }
 
@@ -248,13 +264,14 @@ impl LinkWatch {
         LinkWatch { last_ms: None }
     }
 
-    /// A valid frame arrived at `now_ms`: arm or restart the timer.
+    /// A frame from a host ([`from_a_host`]) arrived at `now_ms`: arm or
+    /// restart the timer.
     pub fn frame(&mut self, now_ms: u32) {
         self.last_ms = Some(now_ms);
     }
 
     /// Whether the link is lost at `now_ms`: true once, when
-    /// [`LINK_TIMEOUT_MS`] have passed since the last valid frame; the timer
+    /// [`LINK_TIMEOUT_MS`] have passed since the last frame from a host; the timer
     /// is then disarmed until the next one.
     pub fn expired(&mut self, now_ms: u32) -> bool {
         match self.last_ms {
