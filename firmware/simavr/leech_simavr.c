@@ -170,7 +170,7 @@ static struct {
 
 	uint64_t ticks;
 	unsigned state_every_ticks;
-	bool service_due, throttled;
+	bool service_due, throttled, chip_reset;
 
 	/* Real-time bookkeeping (CLOCK_MONOTONIC ns, simulated ns). */
 	int64_t wall_origin;
@@ -218,6 +218,18 @@ static void no_sleep(avr_t *avr, avr_cycle_count_t how_long)
 {
 	(void)avr;
 	(void)how_long;
+}
+
+/* simavr's reset (the watchdog's) drops every cycle timer, the tick among them,
+ * and re-arms the peripherals' defaults; the main loop connects the chip again
+ * once the reset is complete (this hook runs in the middle of it). */
+static void (*core_reset)(avr_t *avr);
+
+static void on_reset(avr_t *avr)
+{
+	if (core_reset)
+		core_reset(avr);
+	S.chip_reset = true;
 }
 
 /* ---- Ring buffers ---- */
@@ -282,6 +294,7 @@ static void encoder_step(int i, int dir)
 	static const uint8_t A[4] = { 0, 1, 1, 0 }, B[4] = { 0, 0, 1, 1 };
 	const struct motor_pins *p = &MOTOR_PINS[i];
 	struct motor *m = &S.motor[i];
+	unsigned was = (unsigned)(m->count & 3);
 	m->count += dir;
 	unsigned q = (unsigned)(m->count & 3);
 	uint8_t bits = (uint8_t)(A[q] << p->enc_a_bit | B[q] << p->enc_b_bit);
@@ -289,8 +302,10 @@ static void encoder_step(int i, int dir)
 	uint8_t *level = p->enc_port == 'D' ? &S.enc_level_d : &S.enc_level_e;
 	*level = (uint8_t)((*level & ~mask) | bits);
 	set_external(p->enc_port, p->enc_port == 'D' ? S.enc_mask_d : S.enc_mask_e, *level);
-	avr_raise_irq(m->irq_a, A[q]);
-	avr_raise_irq(m->irq_b, B[q]);
+	if (A[q] != A[was])
+		avr_raise_irq(m->irq_a, A[q]);
+	else
+		avr_raise_irq(m->irq_b, B[q]);
 }
 
 static void step_motor(int i, double dt)
@@ -573,6 +588,29 @@ static int usage(void)
 	return 2;
 }
 
+/* What the chip's reset (power-up, watchdog) undoes. The robot keeps its state. */
+static void connect_chip(void)
+{
+	/* UART0: no console echo of the firmware's bytes (simavr prints them to
+	 * stdout), no usleep when the firmware polls the status register. */
+	uint32_t flags = 0;
+	avr_ioctl(S.avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
+	S.uart_xoff = false;
+	/* simavr (1.6) starts a poll every cycle, for as long as the pin stays low,
+	 * whenever an INT pin in level mode (the reset default) is written low, and
+	 * keeps raising the interrupt from it even after the firmware switched the
+	 * pin to any-edge mode: the ISR would run without end while an encoder
+	 * output is low. The firmware uses edge modes only, so the level polling is
+	 * turned off (level mode then acts as falling edge). */
+	for (uint8_t n = 0; n < 8; n++)
+		avr_extint_set_strict_lvl_trig(S.avr, n, 0);
+	for (int j = 0; j < N_CUPS; j++)
+		avr_raise_irq(S.cup[j].adc_irq, S.cup[j].adc_mv);
+	if (S.to_chip.len)
+		avr_cycle_timer_register(S.avr, UART_BYTE_CYCLES, on_uart_byte, NULL);
+	avr_cycle_timer_register(S.avr, TICK_CYCLES, on_tick, NULL);
+}
+
 static void connect_robot(void)
 {
 	for (int i = 0; i < N_MOTORS; i++) {
@@ -587,27 +625,13 @@ static void connect_robot(void)
 		else
 			S.enc_mask_e |= mask;
 	}
-	/* simavr (1.6) starts a poll every cycle, for as long as the pin stays low,
-	 * whenever an INT pin in level mode (the reset default) is written low, and
-	 * keeps raising the interrupt from it even after the firmware switched the
-	 * pin to any-edge mode: the ISR would run without end while an encoder
-	 * output is low. The firmware uses edge modes only, so the level polling is
-	 * turned off (level mode then acts as falling edge). */
-	for (uint8_t n = 0; n < 8; n++)
-		avr_extint_set_strict_lvl_trig(S.avr, n, 0);
 	set_external('D', S.enc_mask_d, S.enc_level_d);
 	set_external('E', S.enc_mask_e, S.enc_level_e);
 	for (int j = 0; j < N_CUPS; j++) {
 		S.cup[j].sealed = true;
 		S.cup[j].adc_irq = avr_io_getirq(S.avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + j);
-		S.cup[j].adc_mv = 200;
-		avr_raise_irq(S.cup[j].adc_irq, 200);
+		S.cup[j].adc_mv = 200; /* 0 kPa */
 	}
-
-	/* UART0: no console echo of the firmware's bytes (simavr prints them to
-	 * stdout), no usleep when the firmware polls the status register. */
-	uint32_t flags = 0;
-	avr_ioctl(S.avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
 	S.uart_in = avr_io_getirq(S.avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
 	avr_irq_register_notify(avr_io_getirq(S.avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT),
 				on_uart_out, NULL);
@@ -615,8 +639,7 @@ static void connect_robot(void)
 				on_uart_xon, NULL);
 	avr_irq_register_notify(avr_io_getirq(S.avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF),
 				on_uart_xoff, NULL);
-
-	avr_cycle_timer_register(S.avr, TICK_CYCLES, on_tick, NULL);
+	connect_chip();
 }
 
 int main(int argc, char **argv)
@@ -661,6 +684,8 @@ int main(int argc, char **argv)
 	avr_load_firmware(S.avr, &fw);
 	S.avr->frequency = F_CPU;
 	S.avr->sleep = no_sleep;
+	core_reset = S.avr->reset;
+	S.avr->reset = on_reset;
 
 	struct sigaction sa;
 	memset(&sa, 0, sizeof sa);
@@ -684,6 +709,11 @@ int main(int argc, char **argv)
 				S.avr->pc, sim_ns() * 1e-9);
 			status = 3;
 			break;
+		}
+		if (S.chip_reset) {
+			S.chip_reset = false;
+			fprintf(stderr, "leech-simavr: chip reset at %.3f s\n", sim_ns() * 1e-9);
+			connect_chip();
 		}
 		if (S.service_due) {
 			S.service_due = false;
