@@ -41,7 +41,8 @@
  * The UART bridge is our own rather than simavr's uart_pty part: uart_pty prints
  * to stdout (which is our protocol channel), creates a symlink in /tmp, runs its own
  * thread, and feeds the chip as fast as simavr's UART fifo accepts. Here bytes go
- * to the chip one per byte time of 115200 8N1, like a real line.
+ * to the chip one per byte time of 115200 8N1, like a real line, and wait (in the
+ * pty, so the host's writes block) while the chip does not read them.
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -67,6 +68,9 @@
 #include <sim_avr.h>
 #include <sim_elf.h>
 #include <sim_irq.h>
+
+/* The accessors of the UART's receive fifo (avr_uart.h declares its type). */
+DEFINE_FIFO(uint16_t, uart_fifo);
 
 #define F_CPU 16000000UL
 #define TICK_US 100
@@ -165,7 +169,7 @@ static struct {
 
 	int pty_master, pty_slave;
 	struct ring to_chip, to_host;
-	bool uart_xoff;
+	avr_uart_t *uart;
 	avr_irq_t *uart_in;
 
 	uint64_t ticks;
@@ -406,23 +410,10 @@ static void on_uart_out(avr_irq_t *irq, uint32_t value, void *param)
 		ring_push(&S.to_host, &b, 1);
 }
 
-static void on_uart_xoff(avr_irq_t *irq, uint32_t value, void *param)
-{
-	(void)irq;
-	(void)param;
-	if (value)
-		S.uart_xoff = true;
-}
-
-static void on_uart_xon(avr_irq_t *irq, uint32_t value, void *param)
-{
-	(void)irq;
-	(void)param;
-	if (value)
-		S.uart_xoff = false;
-}
-
-/* One byte to the chip per byte time while there are any. Bytes wait for the
+/* One byte to the chip per byte time while there are any, and while its UART's
+ * receive fifo has room: that fifo's XON signal is only raised when the firmware
+ * polls the status register with the fifo empty, which an interrupt-driven
+ * receiver may never do, so the fifo itself is looked at. Bytes wait for the
  * firmware to enable the receiver (simavr drops them otherwise), so a host may
  * talk as soon as it has the port name. */
 static avr_cycle_count_t on_uart_byte(avr_t *avr, avr_cycle_count_t when, void *param)
@@ -430,7 +421,7 @@ static avr_cycle_count_t on_uart_byte(avr_t *avr, avr_cycle_count_t when, void *
 	(void)param;
 	if (S.to_chip.len == 0)
 		return 0;
-	if (!S.uart_xoff && ((avr->data[REG_UCSR0B] >> BIT_RXEN0) & 1)) {
+	if (!uart_fifo_isfull(&S.uart->input) && ((avr->data[REG_UCSR0B] >> BIT_RXEN0) & 1)) {
 		const uint8_t *p;
 		ring_peek(&S.to_chip, &p);
 		uint8_t b = *p;
@@ -595,7 +586,6 @@ static void connect_chip(void)
 	 * stdout), no usleep when the firmware polls the status register. */
 	uint32_t flags = 0;
 	avr_ioctl(S.avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
-	S.uart_xoff = false;
 	/* simavr (1.6) starts a poll every cycle, for as long as the pin stays low,
 	 * whenever an INT pin in level mode (the reset default) is written low, and
 	 * keeps raising the interrupt from it even after the firmware switched the
@@ -635,10 +625,11 @@ static void connect_robot(void)
 	S.uart_in = avr_io_getirq(S.avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
 	avr_irq_register_notify(avr_io_getirq(S.avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT),
 				on_uart_out, NULL);
-	avr_irq_register_notify(avr_io_getirq(S.avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON),
-				on_uart_xon, NULL);
-	avr_irq_register_notify(avr_io_getirq(S.avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF),
-				on_uart_xoff, NULL);
+	/* The UART module itself, for its receive fifo (see on_uart_byte); avr_io_t
+	 * is its first member. */
+	for (avr_io_t *io = S.avr->io_port; io; io = io->next)
+		if (io->irq_ioctl_get == AVR_IOCTL_UART_GETIRQ('0'))
+			S.uart = (avr_uart_t *)io;
 	connect_chip();
 }
 
