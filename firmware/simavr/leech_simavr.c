@@ -39,10 +39,10 @@
  * timers, so they also bound how far simavr fast-forwards a sleeping chip.
  *
  * The UART bridge is our own rather than simavr's uart_pty part: uart_pty prints
- * to stdout (which is our protocol channel), creates a symlink in /tmp, runs its own
- * thread, and feeds the chip as fast as simavr's UART fifo accepts. Here bytes go
- * to the chip one per byte time of 115200 8N1, like a real line, and wait (in the
- * pty, so the host's writes block) while the chip does not read them.
+ * to stdout (which is our protocol channel), creates a fixed-name symlink in the
+ * temporary directory, runs its own thread, and feeds the chip as fast as simavr's
+ * UART fifo accepts. Here bytes go to the chip one per byte time of 115200 8N1,
+ * like a real line, and wait while the chip does not read them (none is lost).
  */
 #define _GNU_SOURCE
 #include <errno.h>
