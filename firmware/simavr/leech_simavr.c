@@ -601,7 +601,7 @@ static void connect_chip(void)
 	avr_cycle_timer_register(S.avr, TICK_CYCLES, on_tick, NULL);
 }
 
-static void connect_robot(void)
+static int connect_robot(void)
 {
 	for (int i = 0; i < N_MOTORS; i++) {
 		const struct motor_pins *p = &MOTOR_PINS[i];
@@ -630,7 +630,12 @@ static void connect_robot(void)
 	for (avr_io_t *io = S.avr->io_port; io; io = io->next)
 		if (io->irq_ioctl_get == AVR_IOCTL_UART_GETIRQ('0'))
 			S.uart = (avr_uart_t *)io;
+	if (!S.uart) {
+		fprintf(stderr, "leech-simavr: simavr's atmega2560 has no UART0\n");
+		return -1;
+	}
 	connect_chip();
+	return 0;
 }
 
 int main(int argc, char **argv)
@@ -685,9 +690,8 @@ int main(int argc, char **argv)
 	sigaction(SIGINT, &sa, NULL);
 	signal(SIGPIPE, SIG_IGN);
 
-	if (open_pty() != 0)
+	if (connect_robot() != 0 || open_pty() != 0)
 		return 1;
-	connect_robot();
 	S.stdin_open = true;
 	S.wall_origin = S.rate_wall = wall_ns();
 
