@@ -57,6 +57,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <termios.h>
 #include <time.h>
 #include <unistd.h>
@@ -364,7 +365,9 @@ static void print_state(void)
 		int s = m[i].drive == FORWARD ? 1 : m[i].drive == BACKWARD ? -1 : 0;
 		d[i] = s * (int)lround(m[i].duty * 1000);
 	}
-	printf("{\"t_ms\":%llu,\"duty_permille\":[%d,%d,%d],\"brake\":[%d,%d,%d],"
+	char line[512];
+	int len = snprintf(line, sizeof line,
+	       "{\"t_ms\":%llu,\"duty_permille\":[%d,%d,%d],\"brake\":[%d,%d,%d],"
 	       "\"pumps\":[%d,%d],\"lengths_um\":[%ld,%ld,%ld],\"counts\":[%lld,%lld,%lld],"
 	       "\"vacuum_kpa_x10\":[%ld,%ld],\"sim_rate\":%.3f}\n",
 	       (unsigned long long)(S.ticks * TICK_US / 1000), d[0], d[1], d[2],
@@ -374,7 +377,10 @@ static void print_state(void)
 	       lround(m[2].length_mm * 1000),
 	       (long long)m[0].count, (long long)m[1].count, (long long)m[2].count,
 	       lround(S.cup[0].vacuum_kpa * 10), lround(S.cup[1].vacuum_kpa * 10), S.sim_rate);
-	if (fflush(stdout) != 0) {
+	/* One write per line (shorter than PIPE_BUF, so whole or not at all). On a
+	 * pipe stdout is non-blocking: a reader that stops reading loses lines
+	 * instead of freezing the chip. */
+	if (write(STDOUT_FILENO, line, (size_t)len) < 0 && errno != EAGAIN && errno != EINTR) {
 		/* The reader is gone: nobody is left to drive the robot. */
 		g_stop_signal = SIGPIPE;
 	}
@@ -451,6 +457,10 @@ static int open_pty(void)
 	fcntl(S.pty_slave, F_SETFD, FD_CLOEXEC);
 	printf("port %s\n", name);
 	fflush(stdout);
+	/* Only a pipe: a terminal's open file is shared with the shell. */
+	struct stat st;
+	if (fstat(STDOUT_FILENO, &st) == 0 && S_ISFIFO(st.st_mode))
+		fcntl(STDOUT_FILENO, F_SETFL, fcntl(STDOUT_FILENO, F_GETFL) | O_NONBLOCK);
 	return 0;
 }
 
