@@ -1,0 +1,70 @@
+// One tube's measurement and position loop, as pure arithmetic (no hardware access).
+//
+// Units: um micrometres, counts encoder counts (direction flag applied), permille of full duty,
+// Q16 = value * 65536, one tick = 1/TICK_HZ s = 1/1024 s (0.977 ms).
+//
+// * Length (protocol 6): length_um = origin_um + trunc(counts * 1000000 / counts_per_mm_x1000),
+//   saturated to int32. A 64-bit division per tick is too slow on the AVR (about 1600 cycles
+//   each), so the quotient is kept exactly and updated as the count moves:
+//   counts * 1000000 = quot * cpm + rem with 0 <= rem < cpm (floor division), and one count
+//   adds 1000000 = q1 * cpm + r1 to both sides. trunc = quot + 1 when counts < 0 and rem != 0.
+// * Setpoint: held in Q10 um (1/1024 um) so that max_speed_um_s / TICK_HZ um per tick is
+//   exactly max_speed_um_s Q10 units: the setpoint moves toward the target by at most that.
+// * PID: e = setpoint - length (um), I = sum of e over ticks (um * tick = um s * 1024),
+//   de = e - e_previous (um per tick = um/s / 1024). The protocol's
+//   duty = (kp_q16 e + ki_q16 I_um_s + kd_q16 D_um_s) / 65536 becomes, in Q26 permille,
+//   kp e * 2^10 + ki I + kd de * 2^20, then >> 26 (rounded): the tick rate being a power of two
+//   makes every scale a shift. Each term is saturated at +-2^46 (over 10^9 permille) first so
+//   that no product overflows 64 bits; the output is clamped to +-max_duty_permille.
+// * Anti-windup: the integral grows only while the output is not pushing further into
+//   saturation, and |ki I| stays within max_duty_permille (integral bound precomputed per
+//   configuration).
+#pragma once
+
+#include <stdint.h>
+
+const uint16_t TICK_HZ = 1024;
+const uint8_t TICK_SHIFT = 10;  // log2(TICK_HZ)
+
+// ConfigureTube's fields (protocol 4.3).
+struct TubeConfig {
+    bool reverse_motor;
+    bool reverse_encoder;
+    uint32_t counts_per_mm_x1000;
+    int32_t origin_um;
+    int32_t min_um;
+    int32_t max_um;
+    uint32_t max_speed_um_s;
+    uint16_t max_duty_permille;
+    int32_t kp_q16;
+    int32_t ki_q16;
+    int32_t kd_q16;
+};
+
+struct Tube {
+    bool configured;
+    bool active;  // under position control
+    TubeConfig config;
+    // counts * 1000000 = quot * cpm + rem, for the count `at` (see the header).
+    int32_t at;
+    int64_t quot;
+    uint32_t rem;
+    uint32_t q1, r1;
+    int64_t integral_max;
+    int32_t target_um;
+    int64_t setpoint_q10;
+    int64_t integral;
+    int32_t last_error_um;
+    int32_t length_um;
+    int16_t duty_permille;
+
+    // Takes a new configuration (checked by the caller) with the tube's count now.
+    void configure(const TubeConfig &c, int32_t counts);
+    // The measured length at `counts` (also kept in length_um).
+    int32_t measure(int32_t counts);
+    // Enters position control toward target_um (the setpoint starts at the measured length
+    // when it was not under control), or takes a new target.
+    void start(int32_t target);
+    // One position-loop tick (after measure); sets duty_permille.
+    void control();
+};
