@@ -92,6 +92,7 @@ ISR(TIMER5_COMPA_vect) { ticks_pending++; }
 // ---- vacuum sensors ----
 uint16_t vacuum_kpa_x10[2] = {NO_SENSOR, NO_SENSOR};
 uint8_t adc_cup;  // the cup whose conversion is running
+uint16_t adc_last[2];  // the readings vacuum_kpa_x10 was computed from
 
 static bool has_sensor(uint8_t cup) {
 #ifdef LEECH_REAR_VACUUM_SENSOR
@@ -110,18 +111,27 @@ static void adc_start(uint8_t cup) {
     ADCSRA |= (1 << ADSC);
 }
 
-// Takes the finished conversion, if any, and starts the next sensor's.
+// Takes the finished conversion, if any, and starts the next sensor's. The conversion to
+// 0.1 kPa (two 32-bit divisions, about 1100 cycles) runs only when the reading changed.
 static void adc_poll() {
     if (!has_sensor(0) && !has_sensor(1)) return;
     if (ADCSRA & (1 << ADSC)) return;
-    int32_t mv = (int32_t)ADC * 5000 / 1023 - 200;
-    vacuum_kpa_x10[adc_cup] = (uint16_t)((mv < 0 ? 0 : mv) * 1150 / 4500);
+    uint16_t adc = ADC;
+    if (adc != adc_last[adc_cup]) {
+        adc_last[adc_cup] = adc;
+        int32_t mv = (int32_t)adc * 5000 / 1023 - 200;
+        vacuum_kpa_x10[adc_cup] = (uint16_t)((mv < 0 ? 0 : mv) * 1150 / 4500);
+    }
     uint8_t next = adc_cup ^ 1;
     adc_start(has_sensor(next) ? next : adc_cup);
 }
 
 // ---- outputs ----
+int16_t motor_duty[3];  // last duty applied, permille
+
 static void drive_motor(uint8_t i, int16_t duty) {
+    if (duty == motor_duty[i]) return;
+    motor_duty[i] = duty;
     uint8_t in1 = 1 << (2 * i), in2 = 1 << (2 * i + 1);
     uint16_t magnitude = duty < 0 ? -duty : duty;
     uint8_t pwm = (uint8_t)(((uint32_t)magnitude * 255 + 500) / 1000);
@@ -163,7 +173,7 @@ void setup() {
     TCCR3B = (1 << CS30);
     TCCR4A = (1 << COM4A1) | (1 << COM4B1) | (1 << WGM40);
     TCCR4B = (1 << CS40);
-    for (uint8_t i = 0; i < 3; i++) drive_motor(i, 0);  // brake
+    MOTOR_DIR_PORT |= 0x3F;  // brake (duty 0)
 
     uint16_t faults = 0;
     if (reset_cause & (1 << WDRF)) faults |= 1 << WATCHDOG_RESET;
@@ -196,7 +206,12 @@ void setup() {
 
 void loop() {
     wdt_reset();
-    while (Serial.available() > 0) device_receive((uint8_t)Serial.read(), millis());
+    // Outputs follow the device's state after a frame or a tick, the only things that change it.
+    bool changed = false;
+    while (Serial.available() > 0) {
+        device_receive((uint8_t)Serial.read(), millis());
+        changed = true;
+    }
     if (ticks_pending) {
         // Ticks missed while a previous one ran are dropped: the loop's dt stays one tick.
         ticks_pending = 0;
@@ -208,8 +223,9 @@ void loop() {
         }
         adc_poll();
         device_tick(counts, vacuum_kpa_x10, millis());
+        changed = true;
     }
-    apply_outputs();
+    if (changed) apply_outputs();
     flush_reports();
 
     // Sleep until an interrupt unless work is waiting. `sei` delays interrupts by one
