@@ -2,14 +2,37 @@
 #include "control.h"
 
 static const int32_t UM_PER_MM_X1000 = 1000000;
-static const int64_t TERM_LIMIT = (int64_t)1 << 46;
+static const int32_t I32_MAX = 0x7FFFFFFF;
+static const int32_t I32_MIN = -I32_MAX - 1;
+// Where the P and D terms saturate, Q16 permille (8192 permille).
+static const int32_t TERM_LIMIT_Q16 = (int32_t)1 << 29;
 
-static int64_t clamp64(int64_t v, int64_t limit) {
+static int32_t saturate32(int64_t v) {
+    return v > I32_MAX ? I32_MAX : (v < I32_MIN ? I32_MIN : (int32_t)v);
+}
+
+static int32_t clamp32(int32_t v, int32_t limit) {
     return v > limit ? limit : (v < -limit ? -limit : v);
 }
 
-static int32_t saturate32(int64_t v) {
-    return v > INT32_MAX ? INT32_MAX : (v < INT32_MIN ? INT32_MIN : (int32_t)v);
+// a - b saturated to the int32 range.
+static int32_t difference(int32_t a, int32_t b) {
+    int32_t d;
+    if (__builtin_sub_overflow(a, b, &d)) return a < 0 ? I32_MIN : I32_MAX;
+    return d;
+}
+
+// a + b saturated to the int32 range.
+static int32_t sum(int32_t a, int32_t b) {
+    int32_t s;
+    if (__builtin_add_overflow(a, b, &s)) return a < 0 ? I32_MIN : I32_MAX;
+    return s;
+}
+
+// The integral term (ki I) / 1024 in Q16 permille; |ki I| <= max_duty * 2^26 by the bound on I,
+// so the result fits 32 bits.
+static int32_t integral_term(int32_t ki_q16, int32_t integral) {
+    return (int32_t)(((int64_t)ki_q16 * integral) >> TICK_SHIFT);
 }
 
 void Tube::configure(const TubeConfig &c, int32_t counts) {
@@ -18,7 +41,6 @@ void Tube::configure(const TubeConfig &c, int32_t counts) {
     uint32_t cpm = c.counts_per_mm_x1000;
     q1 = UM_PER_MM_X1000 / cpm;
     r1 = UM_PER_MM_X1000 % cpm;
-    // Forces a full recomputation at the next measure.
     at = counts;
     int64_t x = (int64_t)counts * UM_PER_MM_X1000;
     quot = x / (int64_t)cpm;
@@ -28,9 +50,15 @@ void Tube::configure(const TubeConfig &c, int32_t counts) {
         quot -= 1;
     }
     rem = (uint32_t)r;
-    // |ki I| / 2^26 <= max_duty  <=>  |I| <= max_duty * 2^26 / ki.
-    integral_max = c.ki_q16 > 0 ? (((int64_t)c.max_duty_permille << 26) / c.ki_q16) : 0;
-    measure(counts);
+    step_um = (int32_t)(c.max_speed_um_s >> TICK_SHIFT);
+    step_frac = (uint16_t)(c.max_speed_um_s & (TICK_HZ - 1));
+    p_error_max = c.kp_q16 > 0 ? TERM_LIMIT_Q16 / c.kp_q16 : I32_MAX;
+    d_error_max = c.kd_q16 > 0 ? (TERM_LIMIT_Q16 >> TICK_SHIFT) / c.kd_q16 : I32_MAX;
+    // |ki I| / 1024 <= max_duty * 65536  <=>  |I| <= max_duty * 2^26 / ki.
+    integral_max = c.ki_q16 > 0 ? saturate32(((int64_t)c.max_duty_permille << 26) / c.ki_q16) : 0;
+    low_um = saturate32((int64_t)c.min_um - LIMIT_MARGIN_UM);
+    high_um = saturate32((int64_t)c.max_um + LIMIT_MARGIN_UM);
+    length_um = saturate32((int64_t)c.origin_um + quot + ((counts < 0 && rem != 0) ? 1 : 0));
 }
 
 int32_t Tube::measure(int32_t counts) {
@@ -39,6 +67,7 @@ int32_t Tube::measure(int32_t counts) {
         return 0;
     }
     int32_t delta = counts - at;
+    if (delta == 0) return length_um;
     // A jump larger than the encoder can make in a tick (power-up, reconfiguration) is
     // recomputed by division; small steps walk.
     if (delta > 64 || delta < -64) {
@@ -65,14 +94,14 @@ int32_t Tube::measure(int32_t counts) {
         }
     }
     at = counts;
-    int64_t travel = quot + ((counts < 0 && rem != 0) ? 1 : 0);
-    length_um = saturate32((int64_t)config.origin_um + travel);
+    length_um = saturate32((int64_t)config.origin_um + quot + ((counts < 0 && rem != 0) ? 1 : 0));
     return length_um;
 }
 
 void Tube::start(int32_t target) {
     if (!active) {
-        setpoint_q10 = (int64_t)length_um << TICK_SHIFT;
+        setpoint_um = length_um;
+        setpoint_frac = 0;
         integral = 0;
         last_error_um = 0;
         active = true;
@@ -85,26 +114,38 @@ void Tube::control() {
         duty_permille = 0;
         return;
     }
-    int64_t step = (int64_t)config.max_speed_um_s;
-    int64_t to_go = ((int64_t)target_um << TICK_SHIFT) - setpoint_q10;
-    setpoint_q10 += clamp64(to_go, step);
+    // Setpoint ramp: a whole step, plus one um each time the fractions add up to one.
+    int32_t to_go = difference(target_um, setpoint_um);
+    int32_t step = step_um;
+    setpoint_frac += step_frac;
+    if (setpoint_frac >= TICK_HZ) {
+        setpoint_frac -= TICK_HZ;
+        step += 1;
+    }
+    if (to_go > step)
+        setpoint_um += step;
+    else if (to_go < -step)
+        setpoint_um -= step;
+    else {
+        setpoint_um = target_um;
+        setpoint_frac = 0;
+    }
 
-    int64_t setpoint_um = (setpoint_q10 + (1 << (TICK_SHIFT - 1))) >> TICK_SHIFT;
-    int32_t error = saturate32(setpoint_um - length_um);
-    int32_t de = saturate32((int64_t)error - last_error_um);
+    int32_t error = difference(setpoint_um, length_um);
+    int32_t de = difference(error, last_error_um);
     last_error_um = error;
 
-    int64_t p = clamp64((int64_t)config.kp_q16 * error, TERM_LIMIT >> 10) << 10;
-    int64_t d = clamp64((int64_t)config.kd_q16 * de, TERM_LIMIT >> 20) << 20;
-    int64_t pd = p + d;
-    int64_t limit = (int64_t)config.max_duty_permille << 26;
-    int64_t unclamped = pd + (int64_t)config.ki_q16 * integral;
+    int32_t p = config.kp_q16 * clamp32(error, p_error_max);
+    int32_t d = (config.kd_q16 * clamp32(de, d_error_max)) << TICK_SHIFT;
+    int32_t pd = p + d;
+    int32_t limit = (int32_t)config.max_duty_permille << 16;
+    int32_t unclamped = pd + integral_term(config.ki_q16, integral);
     bool saturated = unclamped >= limit || unclamped <= -limit;
     bool same_sign = (unclamped > 0) == (error > 0);
     if (!saturated || !same_sign) {
-        integral = clamp64(integral + error, integral_max);
-        unclamped = pd + (int64_t)config.ki_q16 * integral;
+        integral = clamp32(sum(integral, error), integral_max);
+        unclamped = pd + integral_term(config.ki_q16, integral);
     }
-    int64_t duty = clamp64(unclamped, limit);
-    duty_permille = (int16_t)((duty + ((int64_t)1 << 25)) >> 26);
+    int32_t duty = clamp32(unclamped, limit);
+    duty_permille = (int16_t)((duty + 0x8000) >> 16);
 }

@@ -40,7 +40,6 @@ static const uint8_t DEVICE_KIND_MEGA = 1;
 
 static const uint32_t LINK_TIMEOUT_MS = 500;
 static const uint16_t MIN_TELEMETRY_PERIOD_MS = 10;
-static const int32_t LIMIT_MARGIN_UM = 2000;
 static const uint16_t STALL_DUTY_PERMILLE = 300;
 static const uint8_t STALL_WINDOWS = 5;
 static const uint32_t STALL_WINDOW_MS = 100;
@@ -355,9 +354,7 @@ static void check_tube(uint8_t i, int32_t counts, bool window_end, uint32_t now_
     Tube &t = dev.tubes[i];
     bool limit_hit = false;
     if (t.configured) {
-        int64_t low = (int64_t)t.config.min_um - LIMIT_MARGIN_UM;
-        int64_t high = (int64_t)t.config.max_um + LIMIT_MARGIN_UM;
-        bool out = t.length_um < low || t.length_um > high;
+        bool out = t.length_um < t.low_um || t.length_um > t.high_um;
         limit_hit = out && !dev.out_of_limits[i];
         dev.out_of_limits[i] = out;
     }

@@ -1,12 +1,16 @@
 // Framing of the LEeCH protocol: CRC-16/CCITT-FALSE, COBS, and the receiver (rules in frame.h).
 #include "frame.h"
 
+// Byte-wise form of the bit-by-bit definition (protocol 3.2): the same result, in about a
+// fifth of the cycles, which matters at 100 telemetry frames a second.
 uint16_t crc16(const uint8_t *p, uint8_t n) {
     uint16_t crc = 0xFFFF;
     while (n--) {
-        crc ^= (uint16_t)(*p++) << 8;
-        for (uint8_t i = 0; i < 8; i++)
-            crc = (crc & 0x8000) ? (uint16_t)((crc << 1) ^ 0x1021) : (uint16_t)(crc << 1);
+        crc = (uint16_t)((crc >> 8) | (crc << 8));
+        crc ^= *p++;
+        crc ^= (uint8_t)(crc & 0xFF) >> 4;
+        crc ^= (uint16_t)(crc << 12);
+        crc ^= (uint16_t)((crc & 0xFF) << 5);
     }
     return crc;
 }

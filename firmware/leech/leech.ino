@@ -134,7 +134,9 @@ static void drive_motor(uint8_t i, int16_t duty) {
     motor_duty[i] = duty;
     uint8_t in1 = 1 << (2 * i), in2 = 1 << (2 * i + 1);
     uint16_t magnitude = duty < 0 ? -duty : duty;
-    uint8_t pwm = (uint8_t)(((uint32_t)magnitude * 255 + 500) / 1000);
+    // round(magnitude * 255 / 1000) for 0..1000, without a 32-bit division (checked for every
+    // value: 16712 / 65536 = 0.2550049).
+    uint8_t pwm = (uint8_t)(((uint32_t)magnitude * 16712 + 32768) >> 16);
     uint8_t dir = duty > 0 ? in1 : (duty < 0 ? in2 : in1 | in2);
     MOTOR_DIR_PORT = (MOTOR_DIR_PORT & ~(in1 | in2)) | dir;
     switch (i) {
