@@ -61,18 +61,18 @@ void Tube::configure(const TubeConfig &c, int32_t counts) {
     length_um = saturate32((int64_t)c.origin_um + quot + ((counts < 0 && rem != 0) ? 1 : 0));
 }
 
-int32_t Tube::measure(int32_t counts) {
+void Tube::measure(int32_t counts) {
     if (!configured) {
         length_um = 0;
-        return 0;
+        return;
     }
     int32_t delta = counts - at;
-    if (delta == 0) return length_um;
+    if (delta == 0) return;
     // A jump larger than the encoder can make in a tick (power-up, reconfiguration) is
     // recomputed by division; small steps walk.
     if (delta > 64 || delta < -64) {
         configure(config, counts);
-        return length_um;
+        return;
     }
     uint32_t cpm = config.counts_per_mm_x1000;
     for (; delta > 0; delta--) {
@@ -95,7 +95,6 @@ int32_t Tube::measure(int32_t counts) {
     }
     at = counts;
     length_um = saturate32((int64_t)config.origin_um + quot + ((counts < 0 && rem != 0) ? 1 : 0));
-    return length_um;
 }
 
 void Tube::start(int32_t target) {

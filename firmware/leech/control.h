@@ -73,8 +73,8 @@ struct Tube {
 
     // Takes a new configuration (checked by the caller) with the tube's count now.
     void configure(const TubeConfig &c, int32_t counts);
-    // The measured length at `counts` (also kept in length_um).
-    int32_t measure(int32_t counts);
+    // Measures the length at `counts` into length_um.
+    void measure(int32_t counts);
     // Enters position control toward target_um (the setpoint starts at the measured length
     // when it was not under control), or takes a new target.
     void start(int32_t target);

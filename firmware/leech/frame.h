@@ -16,7 +16,6 @@
 #include <stdint.h>
 
 const uint8_t MAX_PAYLOAD = 64;
-const uint8_t MAX_MESSAGE = MAX_PAYLOAD - 2;
 const uint8_t MAX_ENCODED = MAX_PAYLOAD + 1;
 const uint8_t MAX_FRAME = MAX_ENCODED + 1;
 
