@@ -757,7 +757,7 @@ pub enum Report {
     },
     /// The periodic state report (seq 0).
     Telemetry(Telemetry),
-    /// A fault was raised (seq 0; sent once, when its bit becomes set).
+    /// A fault was raised (seq 0; sent at each detection, latched already or not).
     Fault {
         /// The device's clock, ms.
         time_ms: u32,

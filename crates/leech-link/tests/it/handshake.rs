@@ -1,22 +1,11 @@
-//! The handshake over a real pseudo-terminal.
+//! The handshake over a real pseudo-terminal, beyond the suite's: a device
+//! of another version, no device, a device already running.
 
 use leech_link::host::{Link, LinkError};
 use leech_link::sim::SimConfig;
-use leech_protocol::message::{DeviceKind, Version, PROTOCOL_VERSION};
+use leech_protocol::message::Version;
 
 use super::{device, options};
-
-#[test]
-fn the_driver_meets_the_simulated_device() {
-    let device = device(SimConfig::default());
-    let link = Link::open(device.path(), options()).expect("handshake");
-    let hello = link.hello().expect("a hello");
-    assert_eq!(hello.protocol, PROTOCOL_VERSION);
-    assert_eq!(hello.kind, DeviceKind::SIMULATOR);
-    assert!(link.health().connected);
-    link.stop().expect("a stop is acked");
-    assert!(device.state().counters.rx_frames >= 2, "hello and stop reached the device");
-}
 
 #[test]
 fn another_major_version_is_refused_naming_both() {

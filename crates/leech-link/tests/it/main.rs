@@ -1,13 +1,17 @@
 //! Integration tests of leech-link: the simulated device alone, behind a
-//! pseudo-terminal, and driven by the host driver. Every wait is bounded.
+//! pseudo-terminal, and driven by the host driver; and the protocol suite,
+//! which runs the same tests against the simulated device and (feature
+//! `firmware`) the Arduino firmware on a simulated chip. Every wait is
+//! bounded.
 
 mod executor;
 mod faults;
 mod fuzz;
-mod golden;
 mod handshake;
 mod motion;
 mod reconnect;
+mod suite;
+mod target;
 
 use std::time::{Duration, Instant};
 
