@@ -100,11 +100,10 @@ static void send_hello(uint8_t seq) {
     dev.out.put(m, sizeof m, 0);
 }
 
-// Latches a fault and reports it if its bit was clear.
+// Latches a fault and reports it. Every detection is reported, latched already or not, so that a
+// second link loss or stall is news to the host before anyone cleared the first (protocol 9.4).
 static void raise(uint8_t code, uint8_t detail, uint32_t now_ms) {
-    uint16_t bit = (uint16_t)1 << code;
-    if (dev.faults & bit) return;
-    dev.faults |= bit;
+    dev.faults |= (uint16_t)1 << code;
     uint8_t m[8] = {T_FAULT, 0};
     put_u32(m + 2, now_ms);
     m[6] = code;
@@ -240,6 +239,9 @@ static uint8_t execute(uint8_t type, const uint8_t *b, uint32_t now_ms) {
             return R_OUT_OF_RANGE;
         int32_t raw = dev.raw_counts[i];
         dev.tubes[i].configure(c, c.reverse_encoder ? -raw : raw);
+        // A tube configured out of its new limits crosses out at the next tick (protocol 9.3),
+        // even if it was already out under the old configuration.
+        dev.out_of_limits[i] = false;
         return 0;
     }
     case T_CONFIGURE_CUPS: {
@@ -283,9 +285,13 @@ static uint8_t decode_and_execute(const uint8_t *m, uint8_t len, uint8_t *detail
 
 // One message whose CRC matched (protocol 5, "Device processing of one valid frame").
 static void handle(const uint8_t *m, uint8_t len, uint32_t now_ms) {
-    dev.link_armed = true;
-    dev.link_last_ms = now_ms;
     uint8_t seq = m[1];
+    // Only a frame from a host restarts the link timer (protocol 9.1): report types (0x80..0xFF)
+    // and seq 0 never do, so a line echoing the device's own reports cannot keep a dead link alive.
+    if (m[0] < 0x80 && seq != 0) {
+        dev.link_armed = true;
+        dev.link_last_ms = now_ms;
+    }
     if (seq == 0) {
         dev.rx.bad_frames++;
         return;
@@ -385,6 +391,9 @@ void device_tick(const int32_t raw_counts[3], const uint16_t vacuum[2], uint32_t
     if (dev.link_armed && now_ms - dev.link_last_ms >= LINK_TIMEOUT_MS) {
         dev.link_armed = false;
         stop_motors();
+        // Forget the remembered seq, so the first command after the loss is carried out even if
+        // the host's seq has wrapped round to it meanwhile (protocol 5).
+        dev.last_seq = 0;
         raise(LINK_LOST, 0, now_ms);
     }
     bool window_end = now_ms - dev.window_start_ms >= STALL_WINDOW_MS;

@@ -4,8 +4,9 @@
 // drives the motors and pumps from what it decides.
 //
 // Times are millis() (ms, u32, compared by wrapping differences). Rules, besides control.h's:
-// * A valid frame (CRC matched) arms or restarts the link timer; 500 ms without one stops the
-//   motors (pumps kept), latches LINK_LOST and disarms the timer until the next valid frame.
+// * A frame from a host (CRC matched, type below 0x80, seq not 0) arms or restarts the link
+//   timer; 500 ms without one stops the motors (pumps kept), latches LINK_LOST, forgets the
+//   remembered seq and disarms the timer until the next frame from a host.
 // * A command with seq 0 is dropped and counted as a bad frame; Hello forgets the remembered
 //   seq and is answered by DeviceHello; a command with the remembered seq gets the remembered
 //   Ack again (a duplicate, not executed); any other is decoded (UnknownType, BadLength,
@@ -14,7 +15,9 @@
 //   has not fallen below detach_kpa_x10 since; without one, its pump has run attach_ms.
 // * MOTOR_STALL: |duty| >= 300 permille through five 100 ms windows with the count unchanged;
 //   VACUUM_LOST: a holding cup stops holding with its pump on; LIMIT_HIT: a configured tube's
-//   length crosses out of min_um - 2000 ..= max_um + 2000. Each stops the motors.
+//   length crosses out of min_um - 2000 ..= max_um + 2000 (a tube configured while out crosses
+//   out at the next tick). Each stops the motors. Every detection latches its bit and sends a
+//   Fault report, whether the bit was latched already or not.
 // * Reports go into an outbox that leech.ino drains into the serial port without blocking;
 //   telemetry is skipped when it would leave no room for acks and faults.
 #pragma once
