@@ -292,7 +292,9 @@ static void handle(const uint8_t *m, uint8_t len, uint32_t now_ms) {
         dev.link_armed = true;
         dev.link_last_ms = now_ms;
     }
-    if (seq == 0) {
+    // Unanswerable (seq 0), or a report type: never answered, so that a line echoing the
+    // device's own answers back cannot make it answer them for ever (protocol 4.6).
+    if (seq == 0 || m[0] >= 0x80) {
         dev.rx.bad_frames++;
         return;
     }

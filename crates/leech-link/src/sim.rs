@@ -598,6 +598,9 @@ impl Sim {
                 }
                 config.check().map_err(|_| Refusal::OutOfRange)?;
                 tube.config = Some(config);
+                // Judged afresh against the new limits: a tube configured
+                // while out crosses out at the next tick (spec 9.3).
+                tube.out_of_limits = false;
             }
             Command::ConfigureCups(config) => {
                 config.check().map_err(|_| Refusal::OutOfRange)?;

@@ -188,9 +188,15 @@ impl Responder {
     /// to `execute`, whose status is sent back and remembered; a retry of
     /// the last command gets the remembered `Ack` without executing it; a
     /// command that does not decode is answered with why (without calling
-    /// `execute`) when it has a seq, and dropped and counted when not.
-    /// Returns the report to send, if any.
+    /// `execute`) when it has a seq, and dropped and counted when not. A
+    /// report type is never answered (an echo of the device's own answers
+    /// must not ping-pong): dropped and counted. Returns the report to send,
+    /// if any.
     pub fn handle(&mut self, message: &[u8], execute: impl FnOnce(Command) -> AckStatus) -> Option<Report> {
+        if message.first().is_some_and(|&kind| kind >= 0x80) {
+            self.dropped = self.dropped.wrapping_add(1);
+            return None;
+        }
         let (seq, status) = match Command::decode(message) {
             Ok((seq, Command::Hello)) => {
                 self.last = None;
@@ -236,7 +242,8 @@ impl Responder {
         self.duplicates
     }
 
-    /// Valid frames dropped unanswered: commands with seq 0 (wraps at `u32::MAX`).
+    /// Valid frames dropped unanswered: commands with seq 0 and report types
+    /// (wraps at `u32::MAX`).
     pub const fn dropped(&self) -> u32 {
         self.dropped
     }

@@ -173,8 +173,8 @@ fn expected(name: &str, message: &[u8], hello: Hello) -> Option<Report> {
             ack(AckStatus::Refused(Refusal::NotConfigured))
         }
         "max_payload_unknown_type" => ack(AckStatus::UnknownType),
-        // Reports sent to a device: unknown commands, or unanswerable with seq 0.
-        _ if message[0] >= 0x80 => seq.and_then(|_| ack(AckStatus::UnknownType)),
+        // Reports sent to a device are never answered.
+        _ if message[0] >= 0x80 => None,
         _ => ack(AckStatus::Ok),
     }
 }

@@ -265,3 +265,17 @@ fn timing_constants() {
     assert_eq!((ACK_TIMEOUT_MS, MAX_RETRIES, LINK_TIMEOUT_MS, HEARTBEAT_MS), (50, 5, 500, 100));
     assert_eq!((MIN_TELEMETRY_PERIOD_MS, BOOT_TIMEOUT_MS, BAUD_RATE, LIMIT_MARGIN_UM), (10, 3000, 115_200, 2000));
 }
+
+#[test]
+fn a_report_type_sent_to_the_device_is_never_answered() {
+    let mut device = Device::new();
+    let mut out = [0u8; 66];
+    // An echo of the device's own Ack for seq 5: answering it would be
+    // echoed again, for ever.
+    let len = leech_protocol::frame::encode(&[0x80, 5, 0, 0], &mut out).unwrap();
+    assert_eq!(device.receive(&out[..len]), []);
+    assert_eq!(device.receive(&out[..len]), []);
+    assert!(device.executed.is_empty());
+    assert_eq!(device.responder.dropped(), 2);
+    assert_eq!(device.responder.duplicates(), 0);
+}
