@@ -13,6 +13,9 @@
 //!   telemetry.
 //! * [`body`]: the simulated robot's body from leech's statics, as the
 //!   [`sim::Cups`] model that says where a cup's face seals.
+//! * [`chip`]: the robot's Arduino firmware (`firmware/`) on a simulated
+//!   ATmega2560 behind a pseudo-terminal, to test a host against the
+//!   firmware itself.
 //!
 //! ```
 //! use leech_link::host::{Event, Link, Options};
@@ -41,6 +44,7 @@
 #![warn(missing_docs)]
 
 pub mod body;
+pub mod chip;
 pub mod executor;
 pub mod host;
 pub mod pty;

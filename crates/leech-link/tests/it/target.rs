@@ -71,109 +71,46 @@ pub use firmware::firmware;
 
 #[cfg(feature = "firmware")]
 mod firmware {
-    //! The firmware on `leech-simavr`. The firmware and the harness are
-    //! built once per test run by `firmware/build.sh` into this test
-    //! binary's scratch directory. One chip runs at a time: the simulator
-    //! keeps real time only with a core to itself on a 2-core machine.
+    //! The firmware on `leech-simavr` ([`leech_link::chip`]), built once per
+    //! test run into this test binary's scratch directory. One chip runs at
+    //! a time: the simulator keeps real time only with a core to itself on
+    //! a 2-core machine.
 
-    use std::io::{BufRead, BufReader};
-    use std::path::{Path, PathBuf};
-    use std::process::{Child, ChildStdin, Command, Stdio};
-    use std::sync::{Arc, Mutex, MutexGuard, OnceLock};
-    use std::time::{Duration, Instant};
+    use std::path::Path;
+    use std::sync::{Mutex, MutexGuard, OnceLock};
+    use std::time::Duration;
 
+    use leech_link::chip::{self, Built, Chip};
     use leech_protocol::message::DeviceKind;
-    use serde_json::Value;
 
     use super::{Observed, Target};
-
-    /// Where the build put the firmware and the harness.
-    struct Built {
-        elf: PathBuf,
-        harness: PathBuf,
-    }
 
     fn built() -> &'static Built {
         static BUILT: OnceLock<Built> = OnceLock::new();
         BUILT.get_or_init(|| {
             let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
             let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("firmware");
-            let status = Command::new("bash")
-                .arg(root.join("firmware/build.sh"))
-                .arg(&out)
-                .stdout(Stdio::null())
-                .status()
-                .expect("bash runs firmware/build.sh");
-            assert!(
-                status.success(),
-                "firmware/build.sh failed ({status}); firmware/install-deps.sh installs what it needs"
-            );
-            Built { elf: out.join("leech.elf"), harness: out.join("leech-simavr") }
+            chip::build(&root, &out).unwrap_or_else(|e| panic!("{e}"))
         })
     }
 
-    /// One chip at a time (module doc).
-    fn one_at_a_time() -> MutexGuard<'static, ()> {
-        static CHIP: Mutex<()> = Mutex::new(());
-        CHIP.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
-    }
-
-    /// The firmware running on a simulated chip in a simulated robot.
+    /// The firmware on its chip, one at a time (module doc).
     pub struct Firmware {
-        child: Child,
-        stdin: Option<ChildStdin>,
-        path: PathBuf,
-        latest: Arc<Mutex<Option<Observed>>>,
-        _chip: MutexGuard<'static, ()>,
+        chip: Chip,
+        _one_at_a_time: MutexGuard<'static, ()>,
     }
 
     /// The firmware, just started.
     pub fn firmware() -> Firmware {
+        static CHIP: Mutex<()> = Mutex::new(());
         let built = built();
-        let chip = one_at_a_time();
-        let mut child = Command::new(&built.harness)
-            .arg(&built.elf)
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .expect("leech-simavr starts");
-        let stdin = child.stdin.take();
-        let mut lines = BufReader::new(child.stdout.take().expect("its stdout"));
-        let mut first = String::new();
-        lines.read_line(&mut first).expect("leech-simavr's first line");
-        let path = PathBuf::from(first.trim().strip_prefix("port ").expect("`port PATH` first"));
-        let latest = Arc::new(Mutex::new(None));
-        // The reader ends when the harness closes its stdout (it exited).
-        std::thread::spawn({
-            let latest = Arc::clone(&latest);
-            move || {
-                for line in lines.lines().map_while(Result::ok) {
-                    if let Some(observed) = parse(&line) {
-                        *latest.lock().unwrap_or_else(|p| p.into_inner()) = Some(observed);
-                    }
-                }
-            }
-        });
-        Firmware { child, stdin, path, latest, _chip: chip }
-    }
-
-    /// One of the harness's state lines.
-    fn parse(line: &str) -> Option<Observed> {
-        let v: Value = serde_json::from_str(line).ok()?;
-        let array = |key: &str, i: usize| v[key][i].as_f64();
-        Some(Observed {
-            t_ms: v["t_ms"].as_f64()?,
-            duty_permille: [array("duty_permille", 0)?, array("duty_permille", 1)?, array("duty_permille", 2)?]
-                .map(|d| d as i32),
-            pumps: [array("pumps", 0)? != 0.0, array("pumps", 1)? != 0.0],
-            lengths_um: [array("lengths_um", 0)?, array("lengths_um", 1)?, array("lengths_um", 2)?],
-        })
+        let guard = CHIP.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+        Firmware { chip: Chip::spawn(built).unwrap_or_else(|e| panic!("{e}")), _one_at_a_time: guard }
     }
 
     impl Target for Firmware {
         fn path(&self) -> &Path {
-            &self.path
+            self.chip.path()
         }
 
         fn kind(&self) -> DeviceKind {
@@ -181,30 +118,13 @@ mod firmware {
         }
 
         fn observe(&self) -> Observed {
-            let end = Instant::now() + Duration::from_secs(5);
-            loop {
-                if let Some(observed) = *self.latest.lock().unwrap_or_else(|p| p.into_inner()) {
-                    return observed;
-                }
-                assert!(Instant::now() < end, "leech-simavr sent no state line");
-                std::thread::sleep(Duration::from_millis(5));
+            let state = self.chip.observe(Duration::from_secs(5)).expect("leech-simavr reports its state");
+            Observed {
+                t_ms: state.t_ms,
+                duty_permille: state.duty_permille,
+                pumps: state.pumps.map(|p| p != 0),
+                lengths_um: state.lengths_um,
             }
-        }
-    }
-
-    impl Drop for Firmware {
-        fn drop(&mut self) {
-            // Closing its stdin ends the harness; a kill if it does not.
-            drop(self.stdin.take());
-            let end = Instant::now() + Duration::from_secs(2);
-            while Instant::now() < end {
-                if let Ok(Some(_)) = self.child.try_wait() {
-                    return;
-                }
-                std::thread::sleep(Duration::from_millis(10));
-            }
-            let _ = self.child.kill();
-            let _ = self.child.wait();
         }
     }
 }
