@@ -109,14 +109,20 @@ fn measured_right(link: &Link, device: &leech_link::pty::PtyDevice) {
     }
 }
 
-#[test]
-fn a_reconnection_restores_the_configuration_with_the_lengths_measured() {
+/// A simulated robot behind a port name, linked and configured.
+fn configured_through_a_name() -> (PortName, SimConfig, leech_link::pty::PtyDevice, Link) {
     let name = PortName::new();
     let config = SimConfig::default();
     let first = device(config);
     name.point_to(first.path());
     let link = Link::open(&name.0, options()).expect("handshake");
     configure(&link, &config, 20);
+    (name, config, first, link)
+}
+
+#[test]
+fn a_reconnection_restores_the_configuration_with_the_lengths_measured() {
+    let (name, config, first, link) = configured_through_a_name();
     move_l1(&link, &first);
     let events = link.subscribe();
 
@@ -155,12 +161,7 @@ fn a_reset_in_mid_session_is_reported_and_the_configuration_restored() {
 
 #[test]
 fn a_reconnection_to_a_device_that_kept_its_configuration_keeps_it() {
-    let name = PortName::new();
-    let config = SimConfig::default();
-    let first = device(config);
-    name.point_to(first.path());
-    let link = Link::open(&name.0, options()).expect("handshake");
-    configure(&link, &config, 20);
+    let (name, config, first, link) = configured_through_a_name();
     let events = link.subscribe();
     first.stop();
     // A controller that kept running (auto-reset disabled) and has its
