@@ -2,7 +2,7 @@
  * leech-simavr: runs the leech controller firmware (an ATmega2560 ELF) on simavr's
  * core with a simulated LEeCH robot around it, in real time.
  *
- *   leech-simavr FIRMWARE.elf [--state-every-ms N] [--unthrottled]
+ *   leech-simavr FIRMWARE.elf [--state-every-ms N] [--unthrottled] [--profile]
  *
  * The chip's UART0 is bridged to a pseudo-terminal whose name is the first stdout
  * line; then one JSON state line per N ms of simulated time. Commands on stdin.
@@ -186,7 +186,17 @@ static struct {
 	char cmd[256];
 	size_t cmd_len;
 	bool stdin_open;
+
+	/* --profile, over the window since the last state line (cycles): a control
+	 * tick runs from the entry of the firmware's Timer5 compare interrupt to the
+	 * chip's next sleep; the rest of the time not asleep is also busy. */
+	bool profile, in_tick;
+	avr_cycle_count_t tick_start, tick_sum, tick_max, asleep, window_start;
+	unsigned long tick_count;
 } S;
+
+/* The firmware's control tick (Timer5 compare A, leech.ino). */
+#define TICK_VECTOR 47
 
 static volatile sig_atomic_t g_stop_signal;
 
@@ -221,8 +231,30 @@ static void logger(avr_t *avr, const int level, const char *fmt, va_list ap)
  * would wait a second time for what ppoll already waits for. */
 static void no_sleep(avr_t *avr, avr_cycle_count_t how_long)
 {
-	(void)avr;
-	(void)how_long;
+	if (!S.profile)
+		return;
+	/* simavr advances a sleeping chip by how_long + 1 cycles per call. */
+	S.asleep += how_long + 1;
+	if (S.in_tick) {
+		avr_cycle_count_t took = avr->cycle - S.tick_start;
+		S.tick_sum += took;
+		if (took > S.tick_max)
+			S.tick_max = took;
+		S.tick_count++;
+		S.in_tick = false;
+	}
+}
+
+static void on_tick_interrupt(avr_irq_t *irq, uint32_t value, void *param)
+{
+	(void)irq;
+	(void)param;
+	/* A tick that starts while the previous one still runs (an overrun) is
+	 * counted as part of it. */
+	if (value && !S.in_tick) {
+		S.in_tick = true;
+		S.tick_start = S.avr->cycle;
+	}
 }
 
 /* simavr's reset (the watchdog's) drops every cycle timer, the tick among them,
@@ -377,6 +409,19 @@ static void print_state(void)
 	       lround(m[2].length_mm * 1000),
 	       (long long)m[0].count, (long long)m[1].count, (long long)m[2].count,
 	       lround(S.cup[0].vacuum_kpa * 10), lround(S.cup[1].vacuum_kpa * 10), S.sim_rate);
+	if (S.profile && len > 2 && (size_t)len < sizeof line) {
+		/* Cycles at 16 MHz: 16 per us. */
+		avr_cycle_count_t window = S.avr->cycle - S.window_start;
+		double mean_us = S.tick_count ? (double)S.tick_sum / S.tick_count / 16.0 : 0.0;
+		len -= 2; /* over the closing brace and newline */
+		len += snprintf(line + len, sizeof line - (size_t)len,
+		       ",\"ticks\":%lu,\"tick_us_mean\":%.1f,\"tick_us_max\":%.1f,\"busy\":%.3f}\n",
+		       S.tick_count, mean_us, (double)S.tick_max / 16.0,
+		       window ? 1.0 - (double)S.asleep / (double)window : 0.0);
+		S.window_start = S.avr->cycle;
+		S.tick_sum = S.tick_max = S.asleep = 0;
+		S.tick_count = 0;
+	}
 	/* One write per line (shorter than PIPE_BUF, so whole or not at all). On a
 	 * pipe stdout is non-blocking: a reader that stops reading loses lines
 	 * instead of freezing the chip. */
@@ -585,7 +630,7 @@ static void service(void)
 
 static int usage(void)
 {
-	fprintf(stderr, "usage: leech-simavr FIRMWARE.elf [--state-every-ms N] [--unthrottled]\n");
+	fprintf(stderr, "usage: leech-simavr FIRMWARE.elf [--state-every-ms N] [--unthrottled] [--profile]\n");
 	return 2;
 }
 
@@ -662,6 +707,8 @@ int main(int argc, char **argv)
 			every_ms = (unsigned)v;
 		} else if (strcmp(argv[k], "--unthrottled") == 0) {
 			S.throttled = false;
+		} else if (strcmp(argv[k], "--profile") == 0) {
+			S.profile = true;
 		} else if (argv[k][0] == '-' || elf) {
 			return usage();
 		} else {
@@ -690,6 +737,8 @@ int main(int argc, char **argv)
 	avr_load_firmware(S.avr, &fw);
 	S.avr->frequency = F_CPU;
 	S.avr->sleep = no_sleep;
+	avr_irq_register_notify(avr_get_interrupt_irq(S.avr, TICK_VECTOR) + AVR_INT_IRQ_RUNNING,
+				on_tick_interrupt, NULL);
 	core_reset = S.avr->reset;
 	S.avr->reset = on_reset;
 

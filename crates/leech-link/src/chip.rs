@@ -14,9 +14,11 @@
 //!   it toggles into the chip's interrupt pins, and two pumps with vacuum
 //!   sensors on the ADC. The chip's UART0 is a pseudo-terminal:
 //!   [`Chip::path`].
-//! * The harness prints the robot's state every 10 ms of simulated time;
-//!   [`Chip::observe`] gives the latest ([`ChipState`]): what the hardware
-//!   does, measured outside the protocol.
+//! * The harness prints the robot's state every 10 ms of simulated time
+//!   ([`Chip::spawn_with`] sets another period, down to 1 ms for a step
+//!   response); [`Chip::observe`] gives the latest ([`ChipState`]): what the
+//!   hardware does, measured outside the protocol. [`Chip::states`] gives
+//!   every one from then on, for a record.
 //! * Dropping the [`Chip`] closes the harness's stdin, which ends it (and
 //!   kills it if it has not ended within 2 s); the pseudo-terminal goes with
 //!   it.
@@ -24,6 +26,7 @@
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, Command, Stdio};
+use std::sync::mpsc::{self, Receiver, Sender};
 use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
@@ -98,6 +101,20 @@ pub struct ChipState {
     pub vacuum_kpa_x10: [f64; 2],
     /// Simulated seconds per wall second over the last second.
     pub sim_rate: f64,
+    /// With [`Chip::spawn_profiled`], since the previous state: the control
+    /// ticks that ended (the Timer5 interrupt's entry to the chip's next
+    /// sleep).
+    #[serde(default)]
+    pub ticks: u32,
+    /// Their mean length, us of simulated time (cycle-exact).
+    #[serde(default)]
+    pub tick_us_mean: f64,
+    /// The longest, us.
+    #[serde(default)]
+    pub tick_us_max: f64,
+    /// The fraction of the time the chip was not asleep.
+    #[serde(default)]
+    pub busy: f64,
 }
 
 /// The firmware running on a simulated chip (module rules).
@@ -106,14 +123,36 @@ pub struct Chip {
     stdin: Option<ChildStdin>,
     path: PathBuf,
     latest: Arc<Mutex<Option<ChipState>>>,
+    records: Arc<Mutex<Vec<Sender<ChipState>>>>,
 }
 
 impl Chip {
-    /// Starts `built`'s harness on its firmware.
+    /// Starts `built`'s harness on its firmware, reporting the robot's
+    /// state every 10 ms.
     pub fn spawn(built: &Built) -> Result<Chip, ChipError> {
+        Chip::spawn_with(built, 10)
+    }
+
+    /// Starts `built`'s harness on its firmware, reporting the robot's
+    /// state every `state_every_ms` ms of simulated time (at least 1).
+    pub fn spawn_with(built: &Built, state_every_ms: u32) -> Result<Chip, ChipError> {
+        Chip::start(built, state_every_ms, false)
+    }
+
+    /// As [`Chip::spawn_with`], the harness also measuring the firmware's
+    /// control ticks and how busy the chip is ([`ChipState::tick_us_mean`]
+    /// and the fields after it; harness option `--profile`).
+    pub fn spawn_profiled(built: &Built, state_every_ms: u32) -> Result<Chip, ChipError> {
+        Chip::start(built, state_every_ms, true)
+    }
+
+    fn start(built: &Built, state_every_ms: u32, profile: bool) -> Result<Chip, ChipError> {
         let spawn_error = |source| ChipError::Spawn { harness: built.harness.clone(), source };
         let mut child = Command::new(&built.harness)
             .arg(&built.elf)
+            .arg("--state-every-ms")
+            .arg(state_every_ms.max(1).to_string())
+            .args(profile.then_some("--profile"))
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .stderr(Stdio::inherit())
@@ -133,23 +172,35 @@ impl Chip {
             return Err(ChipError::NoPort { line: first });
         };
         let latest = Arc::new(Mutex::new(None));
+        let records: Arc<Mutex<Vec<Sender<ChipState>>>> = Arc::default();
         // The reader ends when the harness closes its stdout (it exited).
         std::thread::spawn({
             let latest = Arc::clone(&latest);
+            let records = Arc::clone(&records);
             move || {
                 for line in lines.lines().map_while(Result::ok) {
                     if let Ok(state) = serde_json::from_str::<ChipState>(&line) {
                         *latest.lock().unwrap_or_else(PoisonError::into_inner) = Some(state);
+                        // A record whose receiver is gone is forgotten.
+                        records.lock().unwrap_or_else(PoisonError::into_inner).retain(|r| r.send(state).is_ok());
                     }
                 }
             }
         });
-        Ok(Chip { child, stdin, path, latest })
+        Ok(Chip { child, stdin, path, latest, records })
     }
 
     /// The pseudo-terminal a host opens as the Mega's serial port.
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    /// Every state the harness reports from now on, in order (until the
+    /// receiver is dropped or the harness ends).
+    pub fn states(&self) -> Receiver<ChipState> {
+        let (sender, receiver) = mpsc::channel();
+        self.records.lock().unwrap_or_else(PoisonError::into_inner).push(sender);
+        receiver
     }
 
     /// The latest state the harness reported, waiting up to `limit` for the
