@@ -19,11 +19,13 @@
 //!   response); [`Chip::observe`] gives the latest ([`ChipState`]): what the
 //!   hardware does, measured outside the protocol. [`Chip::states`] gives
 //!   every one from then on, for a record.
+//! * [`Chip::harness`] injects the robot's faults (a stalled motor, a cup that
+//!   leaks) through the harness's stdin.
 //! * Dropping the [`Chip`] closes the harness's stdin, which ends it (and
 //!   kills it if it has not ended within 2 s); the pseudo-terminal goes with
 //!   it.
 
-use std::io::{BufRead, BufReader};
+use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, Command, Stdio};
 use std::sync::mpsc::{self, Receiver, Sender};
@@ -120,7 +122,8 @@ pub struct ChipState {
 /// The firmware running on a simulated chip (module rules).
 pub struct Chip {
     child: Child,
-    stdin: Option<ChildStdin>,
+    /// The harness's command input; `None` once closed.
+    stdin: Mutex<Option<ChildStdin>>,
     path: PathBuf,
     latest: Arc<Mutex<Option<ChipState>>>,
     records: Arc<Mutex<Vec<Sender<ChipState>>>>,
@@ -187,7 +190,17 @@ impl Chip {
                 }
             }
         });
-        Ok(Chip { child, stdin, path, latest, records })
+        Ok(Chip { child, stdin: Mutex::new(stdin), path, latest, records })
+    }
+
+    /// Sends the harness one command line (its README: `stall M`,
+    /// `free M` for motor M = 0..=2; `vacuum-loss C`, `seal C` for cup C =
+    /// 0 rear, 1 front): a fault of the robot, outside the chip.
+    pub fn harness(&self, command: &str) -> std::io::Result<()> {
+        let mut stdin = self.stdin.lock().unwrap_or_else(PoisonError::into_inner);
+        let stdin = stdin.as_mut().ok_or_else(|| std::io::Error::from(std::io::ErrorKind::BrokenPipe))?;
+        writeln!(stdin, "{command}")?;
+        stdin.flush()
     }
 
     /// The pseudo-terminal a host opens as the Mega's serial port.
@@ -222,7 +235,7 @@ impl Chip {
 impl Drop for Chip {
     fn drop(&mut self) {
         // Closing its stdin ends the harness; a kill if it does not.
-        drop(self.stdin.take());
+        drop(self.stdin.lock().unwrap_or_else(PoisonError::into_inner).take());
         let end = Instant::now() + Duration::from_secs(2);
         while Instant::now() < end {
             if let Ok(Some(_)) = self.child.try_wait() {

@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 use leech_link::host::{Event, Link, LinkError};
 use leech_protocol::frame::{Decoder, MAX_FRAME};
 use leech_protocol::message::{
-    AckStatus, Command, Cup, CupConfig, Faults, Hello, Refusal, Report, Seq, Telemetry, PROTOCOL_VERSION,
+    AckStatus, Command, Cup, CupConfig, Faults, Hello, Refusal, Report, Seq, Telemetry, Tube, PROTOCOL_VERSION,
 };
 use serde_json::Value;
 use serialport::SerialPort;
@@ -123,6 +123,21 @@ impl Raw {
         }
     }
 
+    /// Sends `command` with `seq` and returns its answer's status (reports
+    /// in between are passed over).
+    fn command(&mut self, command: Command, seq: u8) -> AckStatus {
+        self.send(&frame(command, seq));
+        let end = Instant::now() + PATIENCE;
+        while Instant::now() < end {
+            if let Some((Report::Ack { seq: s, status }, _)) = self.next(Duration::from_millis(100)) {
+                if s.get() == seq {
+                    return status;
+                }
+            }
+        }
+        panic!("no answer to {command:?} (seq {seq})");
+    }
+
     /// Everything the device sends up to the answer to a `Heartbeat` with
     /// `seq`, sent now: so, in order, the answers to what was sent before.
     fn answers_before(&mut self, seq: u8) -> Vec<(Report, Vec<u8>)> {
@@ -145,6 +160,27 @@ fn encoded(report: &Report) -> Vec<u8> {
     let mut out = [0u8; MAX_FRAME];
     let len = report.encode_frame(&mut out).expect("a report fits");
     out[..len].to_vec()
+}
+
+/// Why the device refused a command the driver sent.
+fn refused<A: std::fmt::Debug>(result: Result<A, LinkError>) -> Refusal {
+    match result {
+        Err(LinkError::Refused { reason, .. }) => reason,
+        other => panic!("not refused: {other:?}"),
+    }
+}
+
+/// Waits for the fault `code` (its bit number) about tube or cup `detail`.
+fn fault(events: &Receiver<Event>, code: u8, detail: u8) {
+    let end = Instant::now() + PATIENCE;
+    while let Some(left) = end.checked_duration_since(Instant::now()) {
+        match events.recv_timeout(left) {
+            Ok(Event::Fault { code: c, detail: d, .. }) if (c, d) == (code, detail) => return,
+            Ok(_) => {}
+            Err(_) => break,
+        }
+    }
+    panic!("no fault {code} (detail {detail}) reported");
 }
 
 pub fn handshake<T: Target>(target: &T) {
@@ -257,7 +293,9 @@ pub fn telemetry_at_100_hz<T: Target>(target: &T) {
 
 pub fn pumps_and_the_last_cup<T: Target>(target: &T) {
     let link = Link::open(target.path(), options()).expect("handshake");
-    link.configure_cups(CupConfig::default()).expect("cups configured");
+    // 55 kPa to hold: about 750 ms of pumping (the vacuum tends to 60 kPa
+    // with tau 0.3 s), a wide window for the NotHolding refusal below.
+    link.configure_cups(CupConfig { attach_kpa_x10: 550, ..CupConfig::default() }).expect("cups configured");
     link.set_telemetry(10).expect("telemetry on");
     let events = link.subscribe();
     let holds = |cups: [bool; 2]| loop {
@@ -266,17 +304,12 @@ pub fn pumps_and_the_last_cup<T: Target>(target: &T) {
             break t;
         }
     };
-    let refused = |result: Result<_, LinkError>| match result {
-        Err(LinkError::Refused { reason, .. }) => reason,
-        other => panic!("not refused: {other:?}"),
-    };
-
     link.pump(Cup::Rear, true).expect("rear on");
     until(target, "the rear pump runs", |o| o.pumps == [true, false]);
     holds([true, false]);
     assert_eq!(refused(link.pump(Cup::Rear, false)), Refusal::LastCup);
     link.pump(Cup::Front, true).expect("front on");
-    // The front cup needs about 200 ms to hold.
+    // The front cup needs about 750 ms to hold.
     assert_eq!(refused(link.pump(Cup::Rear, false)), Refusal::NotHolding);
     holds([true, true]);
     link.pump(Cup::Rear, false).expect("the rear lets go: the front holds");
@@ -286,31 +319,148 @@ pub fn pumps_and_the_last_cup<T: Target>(target: &T) {
 }
 
 pub fn link_loss_stops_the_motors_and_keeps_the_pumps<T: Target>(target: &T) {
-    let link = Link::open(target.path(), options()).expect("handshake");
-    configure(&link, &hardware(), 10);
-    link.pump(Cup::Rear, true).expect("rear on");
-    let events = link.subscribe();
-    while !telemetry(&events).holding.contains(Cup::Rear) {}
-    link.set_lengths([300_000; 3]).expect("a long move");
-    until(target, "the motors run", |o| o.duty_permille.iter().all(|&d| d != 0));
-    // The host goes silent: no more heartbeats.
-    let cut = target.observe();
-    drop(link);
+    // A raw client: no driver sends heartbeats behind the test's back, so
+    // the last frame the device gets is known.
+    let (mut raw, _) = Raw::open(target.path());
+    let config = hardware();
+    let mut seq = 1;
+    let mut command = |raw: &mut Raw, command| {
+        seq += 1;
+        raw.command(command, seq)
+    };
+    for tube in Tube::ALL {
+        assert_eq!(command(&mut raw, Command::ConfigureTube(config.tube_config(tube))), AckStatus::Ok);
+    }
+    assert_eq!(command(&mut raw, Command::Pump { cup: Cup::Rear, on: true }), AckStatus::Ok);
+    assert_eq!(command(&mut raw, Command::SetLengths { lengths_um: [300_000; 3] }), AckStatus::Ok);
+    let end = Instant::now() + PATIENCE;
+    while target.observe().duty_permille.contains(&0) {
+        assert!(Instant::now() < end, "the motors never ran");
+        // Heartbeats meanwhile: a busy machine may take a while.
+        assert_eq!(command(&mut raw, Command::Heartbeat), AckStatus::Ok);
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    // The last frame: the device takes it between these two observations.
+    let before = target.observe().t_ms;
+    assert_eq!(command(&mut raw, Command::Heartbeat), AckStatus::Ok);
+    let after = target.observe().t_ms;
     let stopped = until(target, "the motors stop", |o| o.duty_permille == [0; 3]);
-    // The last frame left the host at most a heartbeat period before the
-    // cut; observations come every 10 ms of device time.
-    let after = stopped.t_ms - cut.t_ms;
-    assert!((380.0..=520.0).contains(&after), "stopped {after} ms (device time) after the host went silent");
+    // 500 ms after the last frame, within a control tick and the 10 ms
+    // between observations.
+    assert!(stopped.t_ms - before >= 490.0, "stopped {} ms after the last frame", stopped.t_ms - before);
+    assert!(stopped.t_ms - after <= 520.0, "stopped {} ms after the last frame", stopped.t_ms - after);
     assert!(stopped.lengths_um.iter().all(|&l| l < 290_000.0), "stopped on the way: {stopped:?}");
     let later = until(target, "half a second more", |o| o.t_ms >= stopped.t_ms + 500.0);
     assert_eq!(later.pumps, [true, false], "the pumps as they were");
     assert_eq!(later.duty_permille, [0; 3], "stopped until a new motion command");
 
+    drop(raw);
     let link = Link::open(target.path(), options()).expect("a new session");
     link.set_telemetry(10).expect("telemetry on");
     let t = telemetry(&link.subscribe());
     assert!(t.faults.contains(Faults::LINK_LOST), "{t:?}");
-    assert!(t.holding.contains(Cup::Rear) && t.active.0 == 0, "{t:?}");
+    assert!(t.pumps.contains(Cup::Rear) && t.active.0 == 0, "{t:?}");
+}
+
+/// Refusals in the spec's order (section 6); a refused command changes
+/// nothing.
+pub fn refusals<T: Target>(target: &T) {
+    let config = hardware();
+    let link = Link::open(target.path(), options()).expect("handshake");
+    assert_eq!(refused(link.jog(Tube::L1, 1_000)), Refusal::NotConfigured);
+    configure(&link, &config, 0);
+    assert_eq!(refused(link.set_telemetry(5)), Refusal::OutOfRange);
+    // Limits 50..=800 mm; the tubes are 200 mm long.
+    assert_eq!(refused(link.set_lengths([10_000; 3])), Refusal::OutOfRange);
+    assert_eq!(refused(link.jog(Tube::L2, 700_000)), Refusal::OutOfRange);
+    link.jog(Tube::L3, 2_000).expect("a jog within the limits");
+    assert_eq!(refused(link.configure_tube(config.tube_config(Tube::L3))), Refusal::BadState);
+    let moved = until(target, "L3 arrives", |o| (o.lengths_um[2] - 202_000.0).abs() <= TOLERANCE_UM);
+    for i in 0..2 {
+        assert!((moved.lengths_um[i] - 200_000.0).abs() <= TOLERANCE_UM, "only L3 moved: {moved:?}");
+    }
+    link.stop().expect("stop");
+    link.configure_tube(config.tube_config(Tube::L3)).expect("a stopped tube takes a configuration");
+}
+
+/// A command sent again with the same seq (a host's retry) is answered
+/// again, the same bytes, and carried out once.
+pub fn a_retried_command_runs_once<T: Target>(target: &T) {
+    let (mut raw, _) = Raw::open(target.path());
+    for (seq, tube) in (2..).zip(Tube::ALL) {
+        assert_eq!(raw.command(Command::ConfigureTube(hardware().tube_config(tube)), seq), AckStatus::Ok);
+    }
+    let jog = frame(Command::Jog { tube: Tube::L1, delta_um: 2_000 }, 11);
+    for _ in 0..3 {
+        raw.send(&jog);
+    }
+    let answers = raw.answers_before(12);
+    let ack = Report::Ack { seq: Seq::new(11).expect("seq"), status: AckStatus::Ok };
+    assert_eq!(answers.iter().map(|(r, _)| *r).collect::<Vec<_>>(), [ack; 3]);
+    assert!(answers.iter().all(|(_, bytes)| *bytes == encoded(&ack)));
+    // Heartbeats keep the link while the tube moves 2 mm (not 6).
+    let end = Instant::now() + PATIENCE;
+    let mut seq = 12;
+    let settled = loop {
+        assert!(Instant::now() < end, "L1 never settled");
+        seq += 1;
+        assert_eq!(raw.command(Command::Heartbeat, seq), AckStatus::Ok);
+        let o = target.observe();
+        if (o.lengths_um[0] - 202_000.0).abs() <= TOLERANCE_UM && o.duty_permille[0].abs() < 50 {
+            break o;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    std::thread::sleep(Duration::from_millis(300));
+    assert!((target.observe().lengths_um[0] - 202_000.0).abs() <= TOLERANCE_UM, "{settled:?}");
+    assert_eq!(raw.command(Command::SetTelemetry { period_ms: 10 }, seq + 1), AckStatus::Ok);
+    let end = Instant::now() + PATIENCE;
+    let t = loop {
+        assert!(Instant::now() < end, "no telemetry");
+        if let Some((Report::Telemetry(t), _)) = raw.next(Duration::from_millis(100)) {
+            break t;
+        }
+    };
+    assert_eq!(t.counters.duplicates, 2, "{:?}", t.counters);
+}
+
+pub fn a_stalled_motor_is_a_fault<T: Target>(target: &T) {
+    let link = Link::open(target.path(), options()).expect("handshake");
+    configure(&link, &hardware(), 10);
+    let events = link.subscribe();
+    link.set_lengths([230_000, 200_000, 200_000]).expect("a move");
+    until(target, "L1 runs", |o| o.duty_permille[0] != 0);
+    target.stall(0, true);
+    fault(&events, 1, 0);
+    until(target, "the motors stop", |o| o.duty_permille == [0; 3]);
+    assert_eq!(refused(link.jog(Tube::L1, 1_000)), Refusal::Faulted);
+    target.stall(0, false);
+    link.clear_faults(Faults::MOTOR_STALL).expect("cleared");
+    link.jog(Tube::L1, 1_000).expect("motion once the stall is cleared");
+}
+
+pub fn a_leaking_cup_is_a_fault<T: Target>(target: &T) {
+    let link = Link::open(target.path(), options()).expect("handshake");
+    link.configure_cups(CupConfig::default()).expect("cups configured");
+    link.set_telemetry(10).expect("telemetry on");
+    let events = link.subscribe();
+    link.pump(Cup::Rear, true).expect("rear on");
+    while !telemetry(&events).holding.contains(Cup::Rear) {}
+    target.leak(0, true);
+    fault(&events, 2, 0);
+    let t = telemetry(&events);
+    assert!(!t.holding.contains(Cup::Rear) && t.pumps.contains(Cup::Rear), "{t:?}");
+    assert_eq!(target.observe().pumps, [true, false], "the pump keeps running");
+}
+
+pub fn a_tube_out_of_its_limits_is_a_fault<T: Target>(target: &T) {
+    let link = Link::open(target.path(), options()).expect("handshake");
+    let events = link.subscribe();
+    // L2 is 200 mm long, 48 mm short of the new limits' 250 mm - 2 mm.
+    let config =
+        leech_protocol::message::TubeConfig { min_um: 250_000, max_um: 300_000, ..hardware().tube_config(Tube::L2) };
+    link.configure_tube(config).expect("configured");
+    fault(&events, 3, 1);
 }
 
 pub fn bad_frames_are_dropped_and_counted<T: Target>(target: &T) {
@@ -388,6 +538,31 @@ macro_rules! suite {
             #[test]
             fn bad_frames_are_dropped_and_counted() {
                 super::bad_frames_are_dropped_and_counted(&$start());
+            }
+
+            #[test]
+            fn refusals() {
+                super::refusals(&$start());
+            }
+
+            #[test]
+            fn a_retried_command_runs_once() {
+                super::a_retried_command_runs_once(&$start());
+            }
+
+            #[test]
+            fn a_stalled_motor_is_a_fault() {
+                super::a_stalled_motor_is_a_fault(&$start());
+            }
+
+            #[test]
+            fn a_leaking_cup_is_a_fault() {
+                super::a_leaking_cup_is_a_fault(&$start());
+            }
+
+            #[test]
+            fn a_tube_out_of_its_limits_is_a_fault() {
+                super::a_tube_out_of_its_limits_is_a_fault(&$start());
             }
         }
     };

@@ -33,6 +33,11 @@ pub trait Target {
     fn kind(&self) -> DeviceKind;
     /// Its hardware now.
     fn observe(&self) -> Observed;
+    /// Blocks (or frees) the motor of tube `tube` (0..=2).
+    fn stall(&self, tube: usize, stalled: bool);
+    /// Makes cup `cup` (0 rear, 1 front) leak, so it loses its vacuum (or
+    /// seals it again).
+    fn leak(&self, cup: usize, leaking: bool);
 }
 
 /// The hardware both targets simulate: 45 counts per mm, tubes 200 mm long
@@ -58,6 +63,18 @@ impl Target for PtyDevice {
             pumps: state.pumps,
             lengths_um: state.lengths_um,
         }
+    }
+
+    fn stall(&self, tube: usize, stalled: bool) {
+        let mut faults = self.with_sim(|sim| sim.faults());
+        faults.stalled[tube] = stalled;
+        self.set_faults(faults);
+    }
+
+    fn leak(&self, cup: usize, leaking: bool) {
+        let mut faults = self.with_sim(|sim| sim.faults());
+        faults.vacuum_loss[cup] = leaking;
+        self.set_faults(faults);
     }
 }
 
@@ -125,6 +142,16 @@ mod firmware {
                 pumps: state.pumps.map(|p| p != 0),
                 lengths_um: state.lengths_um,
             }
+        }
+
+        fn stall(&self, tube: usize, stalled: bool) {
+            let verb = if stalled { "stall" } else { "free" };
+            self.chip.harness(&format!("{verb} {tube}")).expect("the harness takes a command");
+        }
+
+        fn leak(&self, cup: usize, leaking: bool) {
+            let verb = if leaking { "vacuum-loss" } else { "seal" };
+            self.chip.harness(&format!("{verb} {cup}")).expect("the harness takes a command");
         }
     }
 }
