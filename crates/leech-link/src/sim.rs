@@ -102,6 +102,10 @@ pub struct Faults {
     pub stalled: [bool; 3],
     /// Seed of the byte faults' random numbers.
     pub seed: u64,
+    /// Every `Fault` report is lost on the line (the faults still latch and
+    /// show in `Telemetry.faults`): what a host must survive (spec 9.4).
+    #[serde(default)]
+    pub lose_fault_reports: bool,
 }
 
 impl Default for Faults {
@@ -114,6 +118,7 @@ impl Default for Faults {
             vacuum_loss: [false; 2],
             stalled: [false; 3],
             seed: 0x2545_f491_4f6c_dd1d,
+            lose_fault_reports: false,
         }
     }
 }
@@ -658,7 +663,9 @@ impl Sim {
         // A fault's code is its bit number.
         let code = fault.0.trailing_zeros() as u8;
         let time_ms = self.clock_ms();
-        self.send(&Report::Fault { time_ms, code, detail });
+        if !self.faults.lose_fault_reports {
+            self.send(&Report::Fault { time_ms, code, detail });
+        }
     }
 
     fn physical_length_um(&self, i: usize) -> f64 {
