@@ -239,6 +239,10 @@ pub struct SimState {
     pub counters: Counters,
     /// The faults injected now.
     pub injected: Faults,
+    /// Device time of the last frame from a host (the link timer's start,
+    /// spec 9.1), s; `None` before the first.
+    #[serde(default)]
+    pub last_host_frame_s: Option<f64>,
 }
 
 /// The device's receive counters (section 10 of the spec), unwrapped.
@@ -328,6 +332,8 @@ pub struct Sim {
     latched: FaultBits,
     telemetry_period_ms: u16,
     next_telemetry_ms: u64,
+    /// When the last frame from a host arrived, us.
+    last_host_frame_us: Option<u64>,
 }
 
 impl Sim {
@@ -360,6 +366,7 @@ impl Sim {
             latched: FaultBits::default(),
             telemetry_period_ms: 0,
             next_telemetry_ms: 0,
+            last_host_frame_us: None,
         };
         sim.send(&responder.boot_hello());
         sim
@@ -462,6 +469,7 @@ impl Sim {
             telemetry_period_ms: self.telemetry_period_ms,
             counters,
             injected: self.faults,
+            last_host_frame_s: self.last_host_frame_us.map(|us| us as f64 * 1e-6),
         }
     }
 
@@ -536,6 +544,7 @@ impl Sim {
     fn handle_frame(&mut self, message: &[u8]) {
         if from_a_host(message) {
             self.watch.frame(self.clock_ms());
+            self.last_host_frame_us = Some(self.now_us);
         }
         let mut responder = self.responder;
         let answer = responder.handle(message, |command| self.execute(command));

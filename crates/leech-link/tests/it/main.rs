@@ -8,6 +8,7 @@ mod golden;
 mod handshake;
 mod motion;
 mod reconnect;
+mod wait;
 
 use std::time::{Duration, Instant};
 
