@@ -476,7 +476,7 @@ fn load_robot_or_builtin(path: Option<&Path>) -> Result<Robot, Failure> {
 }
 
 fn load_robot(path: &Path) -> Result<Robot, Failure> {
-    let text = read(path, "--robot")?;
+    let text = read(path, "--robot", MAX_ROBOT_BYTES)?;
     Robot::from_toml_str(&text).map_err(|e| Failure::Input(format!("{}: {e}", path.display())))
 }
 
@@ -487,12 +487,19 @@ fn measured<T>(
     parse: impl FnOnce(&str, &str) -> Result<Vec<T>, InputError>,
 ) -> Result<Measured<T>, Failure> {
     let name = path.display().to_string();
-    let rows = parse(&read(path, flag)?, &name)?;
+    let rows = parse(&read(path, flag, MAX_MEASUREMENT_BYTES)?, &name)?;
     Ok(Measured { name, rows })
 }
 
-fn read(path: &Path, flag: &str) -> Result<String, Failure> {
-    std::fs::read_to_string(path).map_err(|e| Failure::Input(format!("{flag}: cannot read '{}': {e}", path.display())))
+/// Largest robot file read (bytes): far beyond any real one, and a device
+/// file (`--robot /dev/zero`) is refused rather than read forever.
+const MAX_ROBOT_BYTES: usize = 1 << 20;
+
+/// Largest measurement file read (bytes).
+const MAX_MEASUREMENT_BYTES: usize = 16 << 20;
+
+fn read(path: &Path, flag: &str, limit: usize) -> Result<String, Failure> {
+    holds::read_at_most(path, flag, limit).map_err(Failure::Input)
 }
 
 /// The models a `--model` choice evaluates, the two-chain model first.

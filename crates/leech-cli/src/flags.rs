@@ -69,7 +69,8 @@ pub struct SimRobotArgs {
     #[arg(long, value_name = "NAME|FILE")]
     pub scene: Option<PathBuf>,
     /// Faults to inject, comma-separated: drop=P, corrupt=P (per byte, each way), delay=S, cut,
-    /// vacuum-loss=rear|front, stall=1|2|3, seed=N.
+    /// vacuum-loss=rear|front, stall=1|2|3, lose-fault-reports (Fault reports lost, the faults
+    /// still latched), seed=N.
     #[arg(long, value_name = "SPEC")]
     pub faults: Option<String>,
     /// Print the simulated robot's state as one JSON line every S seconds (0: never).
@@ -125,6 +126,14 @@ pub enum DriveAction {
     },
     /// Stop the motors (the pumps stay as they are).
     Stop,
+    /// Clear latched faults (a motor stall blocks motion until cleared); a fault whose cause
+    /// persists latches again.
+    ClearFaults {
+        /// The faults, comma-separated: link-lost, motor-stall, vacuum-lost, limit-hit,
+        /// watchdog-reset, brownout-reset; or all.
+        #[arg(value_name = "NAMES|all", default_value = "all")]
+        faults: String,
+    },
     /// One stride phase by hand, behind the stride interlock, confirmed by telemetry: push or pull
     /// to --lengths, attach_front or attach_rear, release_rear or release_front (with the holding
     /// cup's safety factor after the release, e.g. from `leech shape --hold`).

@@ -15,8 +15,8 @@ use leech_link::executor::{self, Executor};
 use leech_link::host::{Acked, Link, LinkError, Options};
 use leech_link::pty::PtyDevice;
 use leech_link::sim::Sim;
-use leech_link::wait::{self, WaitError};
-use leech_protocol::message::{Cup, Telemetry, NO_SENSOR};
+use leech_link::wait::{WaitError, Watch};
+use leech_protocol::message::{Cup, Faults, Telemetry, NO_SENSOR};
 use serde::Serialize;
 
 use crate::args::{Action, Drive, Run, SimRobot};
@@ -74,6 +74,8 @@ struct State {
     lengths_m: [f64; 3],
     counts: [i32; 3],
     duty_permille: [i16; 3],
+    /// Tubes under position control (L1, L2, L3).
+    active: [bool; 3],
     pumps_on: Pair,
     holding: Pair,
     /// Vacuum per cup (kPa), `null` without a sensor.
@@ -108,6 +110,7 @@ impl State {
             lengths_m: t.lengths_um.map(|l| f64::from(l) / 1e6),
             counts: t.counts,
             duty_permille: t.duty_permille,
+            active: leech_protocol::message::Tube::ALL.map(|tube| t.active.contains(tube)),
             pumps_on: pair(t.pumps),
             holding: pair(t.holding),
             vacuum_kpa: t.vacuum_kpa_x10.map(|v| (v != NO_SENSOR).then(|| f64::from(v) / 10.0)),
@@ -127,7 +130,9 @@ fn failure(e: LinkError) -> Failure {
 
 fn waited(e: WaitError) -> Failure {
     match e {
-        WaitError::NotReached { .. } | WaitError::Fault { .. } => Failure::Unsolved(e.to_string()),
+        WaitError::NotReached { .. } | WaitError::Fault { .. } | WaitError::Stopped { .. } => {
+            Failure::Unsolved(e.to_string())
+        }
         other => Failure::Other(other.into()),
     }
 }
@@ -163,11 +168,17 @@ pub fn drive(out: &mut String, a: Drive) -> Result<(), Failure> {
     for tube in a.tubes {
         link.configure_tube(tube).map_err(failure)?;
     }
-    let events = link.subscribe();
+    // Every report judged is one the device sent after it took the last
+    // command (wait::Watch); the faults latched before this command are
+    // known from the first report, a fault latched since is news.
+    let mut watch = Watch::new(link.subscribe());
     link.set_telemetry(TELEMETRY_MS).map_err(failure)?;
-    // The next report, which shows what the last command did.
-    let report = || wait::next_telemetry(&events, TELEMETRY_WAIT).map_err(waited);
-    let first = report()?;
+    let first = watch.start(TELEMETRY_WAIT).map_err(waited)?;
+    // The next report sent after the command just acknowledged.
+    let after = |watch: &mut Watch| -> Result<Telemetry, Failure> {
+        watch.after_command().map_err(waited)?;
+        watch.next_telemetry(TELEMETRY_WAIT).map_err(waited)
+    };
     let (name, acked, state): (&str, Option<Acked>, Telemetry) = match a.action {
         Action::Status => ("status", None, first),
         Action::Lengths(targets) => {
@@ -175,20 +186,38 @@ pub fn drive(out: &mut String, a: Drive) -> Result<(), Failure> {
             let travel_um = (0..3).map(|i| (targets[i] - first.lengths_um[i]).unsigned_abs()).max().unwrap_or(0);
             let speed_um_s = f64::from(a.tubes[0].max_speed_um_s.max(1));
             let timeout = Duration::from_secs_f64(f64::from(travel_um) / speed_um_s * 1.5 + 3.0);
-            let t = wait::until_lengths(&events, targets, ARRIVED_UM, timeout).map_err(waited)?;
+            watch.after_command().map_err(waited)?;
+            let t = watch.until_lengths(targets, ARRIVED_UM, timeout).map_err(waited)?;
             ("lengths", Some(acked), t)
         }
         Action::Jog(tube, delta_um) => {
             let acked = link.jog(tube, delta_um).map_err(failure)?;
-            ("jog", Some(acked), report()?)
+            ("jog", Some(acked), after(&mut watch)?)
         }
         Action::Pump(cup, on) => {
+            if !on {
+                // The host's interlock first (the device's last-cup rule
+                // stays behind it): judged on the latest report.
+                executor::check_pump_off(cup, &first).map_err(|e| {
+                    Failure::Unsolved(format!(
+                        "pump {cup} off: refused on the host, the {} cup does not hold by the device's latest \
+                         telemetry ({e})",
+                        cup.other()
+                    ))
+                })?;
+            }
             let acked = link.pump(cup, on).map_err(failure)?;
-            ("pump", Some(acked), report()?)
+            ("pump", Some(acked), after(&mut watch)?)
         }
         Action::Stop => {
             let acked = link.stop().map_err(failure)?;
-            ("stop", Some(acked), report()?)
+            ("stop", Some(acked), after(&mut watch)?)
+        }
+        Action::ClearFaults(faults) => {
+            let acked = link.clear_faults(faults).map_err(failure)?;
+            // The faults left are shown, not judged: a fault whose cause
+            // persists latches again.
+            ("clear-faults", Some(acked), watch.start(TELEMETRY_WAIT).map_err(waited)?)
         }
         Action::Run(run) => {
             let name = if matches!(run, Run::Phase(_)) { "stride" } else { "run" };
@@ -201,8 +230,7 @@ pub fn drive(out: &mut String, a: Drive) -> Result<(), Failure> {
                 .map_err(|e| Failure::Unsolved(format!("{name}: {e}")))?;
             bar.finish_and_clear();
             // The reports queued during the run are stale: the state now.
-            let now = link.subscribe();
-            (name, None, wait::next_telemetry(&now, TELEMETRY_WAIT).map_err(waited)?)
+            (name, None, watch.start(TELEMETRY_WAIT).map_err(waited)?)
         }
     };
     let health = link.health();
@@ -246,22 +274,10 @@ pub fn drive(out: &mut String, a: Drive) -> Result<(), Failure> {
     Ok(())
 }
 
-/// The latched faults by name (docs/protocol.md), `none` without any.
+/// The latched faults by name (docs/protocol.md, as `clear-faults` takes
+/// them), `none` without any.
 fn fault_names(bits: u16) -> String {
-    use leech_protocol::message::Faults;
-    let names = [
-        (Faults::LINK_LOST, "link lost"),
-        (Faults::MOTOR_STALL, "motor stalled"),
-        (Faults::VACUUM_LOST, "vacuum lost"),
-        (Faults::LIMIT_HIT, "limit hit"),
-        (Faults::WATCHDOG_RESET, "watchdog reset"),
-    ];
-    let set: Vec<&str> = names.iter().filter(|(f, _)| bits & f.0 != 0).map(|(_, n)| *n).collect();
-    if set.is_empty() {
-        "none".into()
-    } else {
-        set.join(", ")
-    }
+    Faults(bits).to_string().replace('_', "-").replace('+', ", ")
 }
 
 fn on(b: bool) -> &'static str {

@@ -20,7 +20,16 @@
 //!   [`Options::cup_timeout`]).
 //! * **release_X**: the interlock, then pump X off, wait until the telemetry
 //!   says X no longer holds.
-//! * **Failure.** A fault report, a refused or unanswered command, a wait
+//! * **Fresh telemetry.** After each command the executor drops the
+//!   reports already received (module rules of [`crate::wait`]): they were
+//!   sent before the device took the command, so a step is judged only on
+//!   reports sent after it (they are still checked for faults).
+//! * **Faults.** A `Fault` report, or a fault bit newly set in
+//!   `Telemetry.faults` (the bits latched when the executor started, or in
+//!   the report before, are known; a report can be lost), fails the step,
+//!   naming the fault. So does a tube leaving position control
+//!   (`Telemetry.active`) during a move before it arrived.
+//! * **Failure.** A fault, a refused or unanswered command, a wait
 //!   that times out, telemetry silent for [`Options::silence`], or a lost
 //!   link: the executor sends `Stop` (the motors halt), leaves the pumps as
 //!   they are (a cup holding keeps holding), and returns the error naming
@@ -33,9 +42,10 @@ use leech::error::InputError;
 use leech::stride::{
     Command as StrideCommand, Cup as StrideCup, Holding, Phase, Plan, Step, StrideError, StrideMachine,
 };
-use leech_protocol::message::{Cup, Telemetry};
+use leech_protocol::message::{Cup, Fault, Faults, Telemetry, Tube};
 
 use crate::host::{Event, Link, LinkError};
+use crate::wait::newly_latched;
 
 /// How the executor waits.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -113,17 +123,25 @@ pub enum ExecError {
         /// The driver's error.
         source: LinkError,
     },
-    /// The device reported a fault.
-    #[error("step {index} ({}): the device reported fault {code} (detail {detail})", phase.name())]
+    /// The device reported a fault, or latched one the telemetry shows.
+    #[error("step {index} ({}): the device reported {fault}", phase.name())]
     Fault {
         /// The step's index.
         index: usize,
         /// Its phase.
         phase: Phase,
-        /// The fault's bit number.
-        code: u8,
-        /// The tube or cup it concerns.
-        detail: u8,
+        /// Which, and on what.
+        fault: Fault,
+    },
+    /// A tube left position control during a move, before it arrived.
+    #[error("step {index} ({}): the device stopped tube {tube}", phase.name())]
+    Stopped {
+        /// The step's index.
+        index: usize,
+        /// Its phase.
+        phase: Phase,
+        /// The tube.
+        tube: Tube,
     },
     /// The telemetry did not confirm the step in time.
     #[error("step {index} ({}): {what} not confirmed within {waited_ms} ms", phase.name())]
@@ -204,6 +222,8 @@ pub struct Executor<'a> {
     last: Telemetry,
     /// When it arrived.
     last_at: Instant,
+    /// The faults the last telemetry latched.
+    latched: Faults,
 }
 
 /// The step being carried out: its index and phase, for errors.
@@ -236,7 +256,8 @@ impl<'a> Executor<'a> {
         };
         let holding = Holding { rear: last.holding.contains(Cup::Rear), front: last.holding.contains(Cup::Front) };
         let machine = StrideMachine::with_holding(holding, min_safety_factor)?;
-        Ok(Executor { link, events, machine, options, last, last_at: Instant::now() })
+        let latched = last.faults;
+        Ok(Executor { link, events, machine, options, last, last_at: Instant::now(), latched })
     }
 
     /// The interlock's state: which cups hold.
@@ -303,22 +324,36 @@ impl<'a> Executor<'a> {
                 let travel_um = (0..3).map(|i| (target[i] - self.last.lengths_um[i]).abs()).max().unwrap_or(0);
                 let travel = Duration::from_secs_f64(f64::from(travel_um) / 1000.0 / self.options.speed_mm_s);
                 self.link.set_lengths(target).map_err(link_error)?;
+                self.after_command(at)?;
                 let tolerance = self.options.tolerance_um;
+                let (index, phase) = (at.index, at.phase);
                 self.wait(at, "the tube lengths", travel + self.options.margin, |t| {
-                    (0..3).all(|i| (t.lengths_um[i] - target[i]).abs() <= tolerance)
+                    if (0..3).all(|i| (t.lengths_um[i] - target[i]).abs() <= tolerance) {
+                        return Ok(true);
+                    }
+                    // Every tube stays under position control until it arrives.
+                    match Tube::ALL.into_iter().find(|&tube| !t.active.contains(tube)) {
+                        Some(tube) => Err(ExecError::Stopped { index, phase, tube }),
+                        None => Ok(false),
+                    }
                 })?;
             }
             StrideCommand::Attach { cup, .. } => {
                 self.link.pump(wire(cup), true).map_err(link_error)?;
-                self.wait(at, "the cup's hold", self.options.cup_timeout, |t| t.holding.contains(wire(cup)))?;
+                self.after_command(at)?;
+                self.wait(at, "the cup's hold", self.options.cup_timeout, |t| Ok(t.holding.contains(wire(cup))))?;
             }
             StrideCommand::Release { cup, .. } => {
-                let partner = cup.other();
-                if !self.last.holding.contains(wire(partner)) {
-                    return Err(ExecError::PartnerNotHolding { index: at.index, phase: at.phase, partner });
+                if check_pump_off(wire(cup), &self.last).is_err() {
+                    return Err(ExecError::PartnerNotHolding {
+                        index: at.index,
+                        phase: at.phase,
+                        partner: cup.other(),
+                    });
                 }
                 self.link.pump(wire(cup), false).map_err(link_error)?;
-                self.wait(at, "the cup's release", self.options.cup_timeout, |t| !t.holding.contains(wire(cup)))?;
+                self.after_command(at)?;
+                self.wait(at, "the cup's release", self.options.cup_timeout, |t| Ok(!t.holding.contains(wire(cup))))?;
             }
         }
         self.machine.apply(command).map_err(|source| ExecError::Interlock {
@@ -329,14 +364,54 @@ impl<'a> Executor<'a> {
         Ok(())
     }
 
-    /// Waits at most `limit` for a telemetry report that satisfies `done`;
-    /// a fault, a lost link or silent telemetry ends the wait in an error.
+    /// Right after a command was acknowledged: drops the events already
+    /// received (sent before the device took the command), failing on a
+    /// fault or a lost link among them.
+    fn after_command(&mut self, at: At) -> Result<(), ExecError> {
+        while let Ok(event) = self.events.try_recv() {
+            self.judge(at, event)?;
+        }
+        Ok(())
+    }
+
+    /// Takes in one event: telemetry becomes the last report (true); a
+    /// fault, news of a lost link, or a fault bit newly latched is an error.
+    fn judge(&mut self, at: At, event: Event) -> Result<bool, ExecError> {
+        let (index, phase) = (at.index, at.phase);
+        match event {
+            Event::Telemetry(t) => {
+                self.last = t;
+                self.last_at = Instant::now();
+                match newly_latched(&mut self.latched, t.faults) {
+                    Some(fault) => Err(ExecError::Fault { index, phase, fault }),
+                    None => Ok(true),
+                }
+            }
+            Event::Fault { code, detail, .. } => {
+                if let Some(bit) = Faults::from_code(code) {
+                    // Reported: the telemetry showing its bit is no news.
+                    self.latched = self.latched.union(bit);
+                }
+                Err(ExecError::Fault { index, phase, fault: Fault::reported(code, detail) })
+            }
+            Event::NoAnswer { .. } => Err(ExecError::LinkLost { index, phase, why: "a command got no answer" }),
+            Event::Disconnected => Err(ExecError::LinkLost { index, phase, why: "the port failed" }),
+            Event::DeviceReset(_) => Err(ExecError::LinkLost { index, phase, why: "the device reset" }),
+            // A reconnection follows a disconnection, a restore a
+            // disconnection or a reset: each already an error.
+            Event::Reconnected(_) | Event::Restored(_) => Ok(false),
+        }
+    }
+
+    /// Waits at most `limit` for a telemetry report that satisfies `done`
+    /// (or that `done` finds wrong: its error); a fault, a lost link or
+    /// silent telemetry ends the wait in an error.
     fn wait(
         &mut self,
         at: At,
         what: &'static str,
         limit: Duration,
-        done: impl Fn(&Telemetry) -> bool,
+        done: impl Fn(&Telemetry) -> Result<bool, ExecError>,
     ) -> Result<(), ExecError> {
         let (index, phase) = (at.index, at.phase);
         let started = Instant::now();
@@ -351,27 +426,37 @@ impl<'a> Executor<'a> {
                 return Err(ExecError::LinkLost { index, phase, why: "the telemetry went silent" });
             }
             match self.events.recv_timeout(end.min(silent_until) - now) {
-                Ok(Event::Telemetry(t)) => {
-                    self.last = t;
-                    self.last_at = Instant::now();
-                    if done(&self.last) {
+                Ok(event) => {
+                    if self.judge(at, event)? && done(&self.last)? {
                         return Ok(());
                     }
                 }
-                Ok(Event::Fault { code, detail, .. }) => return Err(ExecError::Fault { index, phase, code, detail }),
-                Ok(Event::NoAnswer { .. }) => {
-                    return Err(ExecError::LinkLost { index, phase, why: "a command got no answer" })
-                }
-                Ok(Event::Disconnected) => return Err(ExecError::LinkLost { index, phase, why: "the port failed" }),
-                Ok(Event::DeviceReset(_)) => return Err(ExecError::LinkLost { index, phase, why: "the device reset" }),
-                // A reconnection follows a disconnection, a restore a
-                // disconnection or a reset: each already an error.
-                Ok(Event::Reconnected(_) | Event::Restored(_)) | Err(RecvTimeoutError::Timeout) => {}
+                Err(RecvTimeoutError::Timeout) => {}
                 Err(RecvTimeoutError::Disconnected) => {
                     return Err(ExecError::LinkLost { index, phase, why: "the driver closed" })
                 }
             }
         }
+    }
+}
+
+/// Whether the stride's interlock lets `cup`'s pump be switched off, judged
+/// on the device's latest telemetry `latest`: a cup that holds may let go
+/// only while the other cup holds (`StrideError::LastHold` otherwise); a cup
+/// that does not hold may always be switched off. The host's own check,
+/// before the device's last-cup rule (docs/protocol.md, 9.2).
+pub fn check_pump_off(cup: Cup, latest: &Telemetry) -> Result<(), StrideError> {
+    let holding = Holding { rear: latest.holding.contains(Cup::Rear), front: latest.holding.contains(Cup::Front) };
+    let stride_cup = match cup {
+        Cup::Rear => StrideCup::Rear,
+        Cup::Front => StrideCup::Front,
+    };
+    // A cup that holds: the machine has a state. The safety factor is not
+    // this check's to judge (any passes the minimum of 1).
+    let Ok(machine) = StrideMachine::with_holding(holding, 1.0) else { return Ok(()) };
+    match machine.check(StrideCommand::Release { cup: stride_cup, partner_safety_factor: f64::INFINITY }) {
+        Ok(_) | Err(StrideError::AlreadyReleased { .. }) => Ok(()),
+        Err(e) => Err(e),
     }
 }
 

@@ -15,8 +15,9 @@
 //!   ([`Pending`]); the answer is the `Ack` (status Ok gives [`Acked`], a
 //!   refusal [`LinkError::Refused`], a decoding complaint
 //!   [`LinkError::Rejected`]) or [`LinkError::NoAck`] after 300 ms. `Stop`
-//!   overtakes the command in flight, which fails with
-//!   [`LinkError::Overtaken`].
+//!   overtakes the command in flight and every command queued before it
+//!   (but other `Stop`s): each fails with [`LinkError::Overtaken`], none is
+//!   sent after the `Stop`.
 //! * **Heartbeat**: when nothing was sent for [`HEARTBEAT_MS`] (100 ms,
 //!   well inside the device's 500 ms link timeout) a `Heartbeat` goes out.
 //! * **Reading**: a background thread owns the port; it decodes every
@@ -261,6 +262,11 @@ pub struct Health {
     pub reconnects: u64,
     /// Times the session's configuration was sent again.
     pub restores: u64,
+    /// The caller's command in flight (not the driver's own heartbeats or
+    /// restoring commands), by name.
+    pub in_flight: Option<&'static str>,
+    /// Callers' commands queued behind it.
+    pub queued: usize,
 }
 
 impl Health {
@@ -600,7 +606,10 @@ impl Io {
         while !self.shared.shutdown.load(Ordering::Relaxed) {
             loop {
                 match inbox.try_recv() {
-                    Ok(request) => self.enqueue(request),
+                    Ok(request) => {
+                        self.enqueue(request);
+                        self.show_queue();
+                    }
                     Err(mpsc::TryRecvError::Empty) => break,
                     Err(mpsc::TryRecvError::Disconnected) => return,
                 }
@@ -620,6 +629,7 @@ impl Io {
             if self.turn().is_err() {
                 self.disconnect();
             }
+            self.show_queue();
         }
     }
 
@@ -667,16 +677,32 @@ impl Io {
         }
     }
 
-    /// Queues a caller's command; a `Stop` overtakes the command in flight.
+    /// Queues a caller's command; a `Stop` overtakes the command in flight
+    /// and every command queued before it that is not a `Stop` (motion
+    /// asked for before an emergency stop must not run after it).
     fn enqueue(&mut self, request: Request) {
         if request.command != Command::Stop {
             self.queue.push_back(request);
             return;
         }
-        if let Some(flight) = self.in_flight.take() {
+        // A Stop already in flight goes on: it does what the new one would.
+        if let Some(flight) = self.in_flight.take_if(|f| f.command != Command::Stop) {
             finish(flight.reply, Err(LinkError::Overtaken { command: name(&flight.command) }));
         }
+        let (stops, overtaken): (VecDeque<Request>, VecDeque<Request>) =
+            std::mem::take(&mut self.queue).into_iter().partition(|r| r.command == Command::Stop);
+        for request in overtaken {
+            let _ = request.reply.send(Err(LinkError::Overtaken { command: name(&request.command) }));
+        }
+        self.queue = stops;
         self.queue.push_front(request);
+    }
+
+    /// What waits, for [`Health`].
+    fn show_queue(&self) {
+        let mut health = lock(&self.shared.health);
+        health.in_flight = self.in_flight.as_ref().filter(|f| f.reply.is_some()).map(|f| name(&f.command));
+        health.queued = self.queue.len();
     }
 
     /// Sends a new command with the next seq.
@@ -875,5 +901,62 @@ fn name(command: &Command) -> &'static str {
 fn finish(reply: Option<Sender<Result<Acked, LinkError>>>, outcome: Result<Acked, LinkError>) {
     if let Some(reply) = reply {
         let _ = reply.send(outcome);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pty::PtyDevice;
+    use crate::sim::{Sim, SimConfig};
+
+    /// A request and where its outcome arrives.
+    fn request(command: Command) -> (Request, Receiver<Result<Acked, LinkError>>) {
+        let (reply, outcome) = mpsc::channel();
+        (Request { command, reply }, outcome)
+    }
+
+    fn overtaken(outcome: &Receiver<Result<Acked, LinkError>>, what: &str) {
+        match outcome.try_recv() {
+            Ok(Err(LinkError::Overtaken { command })) => assert_eq!(command, what),
+            other => panic!("{what}: {other:?}"),
+        }
+    }
+
+    /// Without the I/O thread: the queue's order is the test's, not the
+    /// scheduler's.
+    #[test]
+    fn a_stop_fails_the_command_in_flight_and_every_queued_one_but_stops() {
+        let device = PtyDevice::spawn(Sim::new(SimConfig::default())).expect("a pseudo-terminal");
+        let mut io =
+            Io::connect(device.path().to_path_buf(), Options::default(), Arc::default()).expect("the port opens");
+        let (moving, moving_outcome) = request(Command::SetLengths { lengths_um: [200_000; 3] });
+        io.enqueue(moving);
+        let first = io.queue.pop_front().expect("queued");
+        io.start(first.command, Some(first.reply)).expect("sent");
+        let (jog, jog_outcome) = request(Command::Jog { tube: Tube::L1, delta_um: 1000 });
+        let (stop, stop_outcome) = request(Command::Stop);
+        let (pump, pump_outcome) = request(Command::Pump { cup: Cup::Rear, on: true });
+        io.enqueue(jog);
+        io.enqueue(stop);
+        io.enqueue(pump);
+        // An emergency stop: nothing asked for before it runs after it.
+        let (again, again_outcome) = request(Command::Stop);
+        io.enqueue(again);
+        overtaken(&moving_outcome, "SetLengths");
+        overtaken(&jog_outcome, "Jog");
+        overtaken(&pump_outcome, "Pump");
+        assert!(io.in_flight.is_none());
+        let queued: Vec<Command> = io.queue.iter().map(|r| r.command).collect();
+        assert_eq!(queued, [Command::Stop, Command::Stop]);
+        assert!(stop_outcome.try_recv().is_err() && again_outcome.try_recv().is_err(), "the Stops wait");
+        // A Stop in flight is not given up for another.
+        let first = io.queue.pop_front().expect("a Stop");
+        io.start(first.command, Some(first.reply)).expect("sent");
+        let (third, third_outcome) = request(Command::Stop);
+        io.enqueue(third);
+        assert!(io.in_flight.as_ref().is_some_and(|f| f.command == Command::Stop));
+        assert!(stop_outcome.try_recv().is_err() && third_outcome.try_recv().is_err());
+        assert_eq!(io.queue.len(), 2);
     }
 }

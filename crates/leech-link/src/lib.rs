@@ -18,9 +18,12 @@
 //!   firmware itself.
 //!
 //! ```
-//! use leech_link::host::{Event, Link, Options};
+//! use std::time::Duration;
+//!
+//! use leech_link::host::{Link, Options};
 //! use leech_link::pty::PtyDevice;
 //! use leech_link::sim::{Sim, SimConfig};
+//! use leech_link::wait::Watch;
 //! use leech_protocol::message::Tube;
 //!
 //! let config = SimConfig::default();
@@ -30,10 +33,12 @@
 //! for tube in Tube::ALL {
 //!     link.configure_tube(config.tube_config(tube))?;
 //! }
-//! let events = link.subscribe();
+//! let mut watch = Watch::new(link.subscribe());
 //! link.set_telemetry(10)?; // 100 Hz
+//! watch.start(Duration::from_secs(1))?; // the faults latched already
 //! link.jog(Tube::L1, 2_000)?; // 2 mm longer, at up to 20 mm/s
-//! let Event::Telemetry(first) = events.recv()? else { panic!("telemetry first") };
+//! watch.after_command()?; // drops the reports sent before the jog
+//! let first = watch.next_telemetry(Duration::from_secs(1))?;
 //! assert!(first.active.contains(Tube::L1));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```

@@ -102,6 +102,10 @@ pub struct Faults {
     pub stalled: [bool; 3],
     /// Seed of the byte faults' random numbers.
     pub seed: u64,
+    /// Every `Fault` report is lost on the line (the faults still latch and
+    /// show in `Telemetry.faults`): what a host must survive (spec 9.4).
+    #[serde(default)]
+    pub lose_fault_reports: bool,
 }
 
 impl Default for Faults {
@@ -114,6 +118,7 @@ impl Default for Faults {
             vacuum_loss: [false; 2],
             stalled: [false; 3],
             seed: 0x2545_f491_4f6c_dd1d,
+            lose_fault_reports: false,
         }
     }
 }
@@ -234,6 +239,10 @@ pub struct SimState {
     pub counters: Counters,
     /// The faults injected now.
     pub injected: Faults,
+    /// Device time of the last frame from a host (the link timer's start,
+    /// spec 9.1), s; `None` before the first.
+    #[serde(default)]
+    pub last_host_frame_s: Option<f64>,
 }
 
 /// The device's receive counters (section 10 of the spec), unwrapped.
@@ -323,6 +332,8 @@ pub struct Sim {
     latched: FaultBits,
     telemetry_period_ms: u16,
     next_telemetry_ms: u64,
+    /// When the last frame from a host arrived, us.
+    last_host_frame_us: Option<u64>,
 }
 
 impl Sim {
@@ -355,6 +366,7 @@ impl Sim {
             latched: FaultBits::default(),
             telemetry_period_ms: 0,
             next_telemetry_ms: 0,
+            last_host_frame_us: None,
         };
         sim.send(&responder.boot_hello());
         sim
@@ -457,6 +469,7 @@ impl Sim {
             telemetry_period_ms: self.telemetry_period_ms,
             counters,
             injected: self.faults,
+            last_host_frame_s: self.last_host_frame_us.map(|us| us as f64 * 1e-6),
         }
     }
 
@@ -531,6 +544,7 @@ impl Sim {
     fn handle_frame(&mut self, message: &[u8]) {
         if from_a_host(message) {
             self.watch.frame(self.clock_ms());
+            self.last_host_frame_us = Some(self.now_us);
         }
         let mut responder = self.responder;
         let answer = responder.handle(message, |command| self.execute(command));
@@ -661,7 +675,9 @@ impl Sim {
         // A fault's code is its bit number.
         let code = fault.0.trailing_zeros() as u8;
         let time_ms = self.clock_ms();
-        self.send(&Report::Fault { time_ms, code, detail });
+        if !self.faults.lose_fault_reports {
+            self.send(&Report::Fault { time_ms, code, detail });
+        }
     }
 
     fn physical_length_um(&self, i: usize) -> f64 {

@@ -355,6 +355,68 @@ impl fmt::Display for Faults {
     }
 }
 
+/// One fault as a person reads it (the Display): "a motor stall on tube
+/// L2", "link lost", "vacuum lost on the rear cup". From a `Fault` report
+/// ([`Fault::reported`]: code and detail) or from a bit newly set in
+/// `Telemetry.faults` ([`Fault::latched`]: the detail unknown).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Fault {
+    /// Its code: its bit number in [`Faults`].
+    pub code: u8,
+    /// The tube or cup it concerns, when known (a `Fault` report's detail).
+    pub detail: Option<u8>,
+}
+
+impl Fault {
+    /// The fault of a `Fault` report.
+    pub const fn reported(code: u8, detail: u8) -> Fault {
+        Fault { code, detail: Some(detail) }
+    }
+
+    /// The lowest fault of `faults` (a bit newly set in `Telemetry.faults`,
+    /// its detail unknown); `None` for no fault.
+    pub const fn latched(faults: Faults) -> Option<Fault> {
+        if faults.0 == 0 {
+            None
+        } else {
+            // At most 15.
+            Some(Fault { code: faults.0.trailing_zeros() as u8, detail: None })
+        }
+    }
+}
+
+impl fmt::Display for Fault {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        // What the detail names: a tube, a cup or nothing (section 9.4).
+        let on_tube = |f: &mut fmt::Formatter<'_>| match self.detail {
+            Some(d) => match Tube::from_index(d) {
+                Some(tube) => write!(f, " on tube {tube}"),
+                None => write!(f, " on tube index {d} (no such tube)"),
+            },
+            None => Ok(()),
+        };
+        let on_cup = |f: &mut fmt::Formatter<'_>| match self.detail {
+            Some(d) => match Cup::from_index(d) {
+                Some(cup) => write!(f, " on the {cup} cup"),
+                None => write!(f, " on cup index {d} (no such cup)"),
+            },
+            None => Ok(()),
+        };
+        match self.code {
+            0 => f.write_str("link lost"),
+            1 => f.write_str("a motor stall").and_then(|()| on_tube(f)),
+            2 => f.write_str("vacuum lost").and_then(|()| on_cup(f)),
+            3 => f.write_str("a tube past its length limits").and_then(|()| on_tube(f)),
+            4 => f.write_str("a watchdog reset"),
+            5 => f.write_str("a brown-out reset"),
+            code => match self.detail {
+                Some(d) => write!(f, "fault {code} (detail {d})"),
+                None => write!(f, "fault {code}"),
+            },
+        }
+    }
+}
+
 /// What the device can do, one bit each (bits 2..=15 reserved).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct Capabilities(pub u16);

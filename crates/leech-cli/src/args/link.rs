@@ -10,7 +10,7 @@ use leech::stride::Phase;
 use leech::stride::{Foothold, Scenario};
 use leech_link::executor::Move;
 use leech_link::sim::{Faults, SimConfig};
-use leech_protocol::message::{Cup, Tube, TubeConfig};
+use leech_protocol::message::{Cup, Faults as FaultBits, Tube, TubeConfig};
 
 use super::tuned;
 use crate::failure::Failure;
@@ -46,6 +46,8 @@ pub enum Action {
     Jog(Tube, i32),
     Pump(Cup, bool),
     Stop,
+    /// Clear these latched faults.
+    ClearFaults(FaultBits),
     /// Carry out a plan's moves.
     Run(Run),
 }
@@ -103,7 +105,7 @@ pub(super) fn sim_robot(a: SimRobotArgs) -> Result<SimRobot, Failure> {
     Ok(SimRobot { config, body, faults, status_every, duration })
 }
 
-/// The `--faults` spec: `drop=P,corrupt=P,delay=S,cut,vacuum-loss=rear|front,stall=1|2|3,seed=N`.
+/// The `--faults` spec: `drop=P,corrupt=P,delay=S,cut,vacuum-loss=rear|front,stall=1|2|3,lose-fault-reports,seed=N`.
 fn faults(spec: &str) -> Result<Faults, Failure> {
     let mut f = Faults::default();
     let bad = |item: &str, allowed: &str| Failure::Input(format!("--faults: got '{item}', expected {allowed}"));
@@ -123,6 +125,7 @@ fn faults(spec: &str) -> Result<Faults, Failure> {
                 }
             }
             "cut" if value.is_empty() => f.cut = true,
+            "lose-fault-reports" if value.is_empty() => f.lose_fault_reports = true,
             "vacuum-loss" => match value {
                 "rear" => f.vacuum_loss[0] = true,
                 "front" => f.vacuum_loss[1] = true,
@@ -133,12 +136,11 @@ fn faults(spec: &str) -> Result<Faults, Failure> {
                 _ => return Err(bad(item, "stall=1, 2 or 3")),
             },
             "seed" => f.seed = value.parse().map_err(|_| bad(item, "a whole number"))?,
-            _ => {
-                return Err(bad(
-                    item,
-                    "drop=P, corrupt=P, delay=S, cut, vacuum-loss=rear|front, stall=1|2|3 or seed=N, comma-separated",
-                ))
-            }
+            _ => return Err(bad(
+                item,
+                "drop=P, corrupt=P, delay=S, cut, vacuum-loss=rear|front, stall=1|2|3, lose-fault-reports or seed=N, \
+                     comma-separated",
+            )),
         }
     }
     Ok(f)
@@ -182,6 +184,7 @@ pub(super) fn drive(a: DriveArgs) -> Result<Drive, Failure> {
             state == OnOff::On,
         ),
         DriveAction::Stop => Action::Stop,
+        DriveAction::ClearFaults { faults } => Action::ClearFaults(fault_set(&faults)?),
         DriveAction::Stride { phase, lengths, safety_factor } => {
             let phase = Phase::from_name(&phase).filter(|p| *p != Phase::Start).ok_or_else(|| {
                 Failure::Input(format!(
@@ -251,6 +254,9 @@ fn plan_moves(path: &std::path::Path, [lo, hi]: [f64; 2]) -> Result<Vec<Move>, F
         return Err(bad(format!("status {}, expected a plan that reached its goal (\"reached\")", v["status"])));
     }
     let steps = v["steps"].as_array().ok_or_else(|| bad("no steps, expected a plan from leech climb --json".into()))?;
+    if steps.is_empty() {
+        return Err(bad("steps: got none, expected at least one step".into()));
+    }
     steps
         .iter()
         .enumerate()
@@ -258,6 +264,15 @@ fn plan_moves(path: &std::path::Path, [lo, hi]: [f64; 2]) -> Result<Vec<Move>, F
             let phase = step["phase"].as_str().and_then(Phase::from_name).ok_or_else(|| {
                 bad(format!("steps[{i}].phase: got {}, expected a phase name (push, attach_front, ...)", step["phase"]))
             })?;
+            match step["lengths_m"].as_array() {
+                Some(lengths) if lengths.len() == 2 => {}
+                _ => {
+                    return Err(bad(format!(
+                        "steps[{i}].lengths_m: got {}, expected [LA, LB]: two lengths (m) within the robot's limits [{lo}, {hi}] m",
+                        step["lengths_m"]
+                    )))
+                }
+            }
             let length = |k: usize| {
                 step["lengths_m"][k].as_f64().filter(|l| (lo..=hi).contains(l)).ok_or_else(|| {
                     bad(format!(
@@ -275,6 +290,33 @@ fn plan_moves(path: &std::path::Path, [lo, hi]: [f64; 2]) -> Result<Vec<Move>, F
             })
         })
         .collect()
+}
+
+/// The faults `clear-faults` names, comma-separated, or `all`.
+fn fault_set(spec: &str) -> Result<FaultBits, Failure> {
+    let names = [
+        ("link-lost", FaultBits::LINK_LOST),
+        ("motor-stall", FaultBits::MOTOR_STALL),
+        ("vacuum-lost", FaultBits::VACUUM_LOST),
+        ("limit-hit", FaultBits::LIMIT_HIT),
+        ("watchdog-reset", FaultBits::WATCHDOG_RESET),
+        ("brownout-reset", FaultBits::BROWNOUT_RESET),
+    ];
+    let allowed =
+        "link-lost, motor-stall, vacuum-lost, limit-hit, watchdog-reset, brownout-reset (comma-separated) or all";
+    if spec.trim() == "all" {
+        return Ok(names.iter().fold(FaultBits::default(), |set, (_, bit)| set.union(*bit)));
+    }
+    let mut set = FaultBits::default();
+    for item in spec.split(',').map(str::trim) {
+        // The protocol's own names (motor_stall) are accepted too.
+        let bit = names.iter().find(|(name, _)| *name == item.replace('_', "-")).map(|(_, bit)| *bit);
+        match bit {
+            Some(bit) => set = set.union(bit),
+            None => return Err(Failure::Input(format!("clear-faults: got '{item}', expected {allowed}"))),
+        }
+    }
+    Ok(set)
 }
 
 /// A release's evidence: the holding cup's safety factor after it.

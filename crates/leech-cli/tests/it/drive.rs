@@ -65,13 +65,20 @@ fn the_simulated_robot_is_driven_over_its_port() {
         assert!((g - want).abs() <= 5e-4, "{got:?}");
     }
     assert_eq!(v["sends"], 1);
-    // The controller refuses to let go of the last holding cup: exit 3, the rule named.
+    // The host refuses to let go of the last holding cup before sending
+    // anything (the controller would refuse too): exit 3, the rule named.
     assert!(sim.drive(&["pump", "rear", "on"]).status.success());
     std::thread::sleep(std::time::Duration::from_millis(1500));
     let out = sim.drive(&["pump", "rear", "off"]);
     assert_eq!(out.status.code(), Some(3));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("refused Pump") && err.contains("last one holding"), "{err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(
+        err.contains(
+            "pump rear off: refused on the host, the front cup does not hold by the device's latest telemetry"
+        ) && err.contains("one cup must always hold"),
+        "{err}"
+    );
     let v: Value = serde_json::from_slice(&sim.drive(&["stop", "--json"]).stdout).unwrap();
     assert_eq!(v["state"]["pumps_on"]["rear"], true, "the pump stays on: {v}");
     // Phases by hand, behind the interlock: a release below the minimum safety factor is refused.
@@ -115,6 +122,95 @@ fn bad_drives_exit_2_with_one_line() {
     std::fs::remove_dir_all(&dir).ok();
     let e = rejected(&["sim-robot", "--duration", "0"]);
     assert!(e.contains("--duration"), "{e}");
+    let e = rejected(&["drive", "--port", "/nonexistent-leech-port", "clear-faults", "motor-stall,jam"]);
+    assert!(e.contains("'jam'") && e.contains("motor-stall") && e.contains("all"), "{e}");
+}
+
+#[test]
+fn oversized_and_endless_input_files_exit_2_with_one_line() {
+    let dir = std::env::temp_dir().join(format!("leech-cli-big-robot-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let big = dir.join("big.toml");
+    // A comment past the limit: valid TOML, too long to be read.
+    std::fs::write(&big, format!("# {}\n", "x".repeat(2 << 20))).unwrap();
+    let e = rejected(&["sim-robot", "--robot", big.to_str().unwrap()]);
+    assert!(e.contains("--robot") && e.contains("more than 1048576 bytes"), "{e}");
+    // A device file is read only up to the limit.
+    let e = rejected(&["sim-robot", "--robot", "/dev/zero"]);
+    assert!(e.contains("--robot") && e.contains("/dev/zero"), "{e}");
+    let e = rejected(&["drive", "--port", "/nonexistent-leech-port", "--robot", "/dev/zero", "status"]);
+    assert!(e.contains("--robot"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn bad_plan_files_exit_2_with_one_line() {
+    let dir = std::env::temp_dir().join(format!("leech-cli-bad-plans-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let plan = |name: &str, steps: &str| {
+        let path = dir.join(name);
+        std::fs::write(&path, format!("{{\"status\": \"reached\", \"steps\": {steps}}}")).unwrap();
+        path.to_str().unwrap().to_string()
+    };
+    let three = plan("three.json", r#"[{"phase": "push", "lengths_m": [0.3, 0.3, 99]}]"#);
+    let e = rejected(&["drive", "--port", "/nonexistent-leech-port", "run", &three]);
+    assert!(e.contains("steps[0].lengths_m") && e.contains("[0.3,0.3,99]") && e.contains("[LA, LB]"), "{e}");
+    let one = plan("one.json", r#"[{"phase": "push", "lengths_m": [0.2]}]"#);
+    let e = rejected(&["drive", "--port", "/nonexistent-leech-port", "run", &one]);
+    assert!(e.contains("steps[0].lengths_m"), "{e}");
+    let empty = plan("empty.json", "[]");
+    let e = rejected(&["drive", "--port", "/nonexistent-leech-port", "run", &empty]);
+    assert!(e.contains("steps: got none") && e.contains("at least one step"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The report after a command comes from telemetry the device sent after
+/// it took the command: with 40 ms each way on the line, several older
+/// reports are waiting when the command's answer arrives.
+#[test]
+fn the_state_after_a_command_is_fresh() {
+    let sim = SimRobot::start(&["--faults", "delay=0.04"]);
+    let out = sim.drive(&["jog", "1", "5", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["state"]["active"][0], true, "the jog is under way: {v}");
+}
+
+/// A stalled motor: the move fails naming the stall and its tube, motion
+/// is refused until `clear-faults`, then allowed again.
+#[test]
+fn a_motor_stall_is_named_and_cleared() {
+    let sim = SimRobot::start(&["--faults", "stall=2"]);
+    let out = sim.drive(&["lengths", "0.23,0.23,0.23"]);
+    assert_eq!(out.status.code(), Some(3));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("the device reported a motor stall on tube L2"), "{err}");
+    let out = sim.drive(&["jog", "1", "1"]);
+    assert_eq!(out.status.code(), Some(3));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("refused Jog"), "{err}");
+    let out = sim.drive(&["status"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("faults: link-lost, motor-stall") || text.contains("faults: motor-stall"), "{text}");
+    let out = sim.drive(&["clear-faults", "motor-stall,link-lost", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["action"], "clear-faults");
+    assert_eq!(v["state"]["faults"], 0, "{v}");
+    let out = sim.drive(&["jog", "1", "1", "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(sim.drive(&["clear-faults"]).status.success(), "all by default");
+}
+
+/// The stall's Fault report lost on the line: the latched bit in the
+/// telemetry still ends the move.
+#[test]
+fn a_motor_stall_whose_report_is_lost_still_fails_the_move() {
+    let sim = SimRobot::start(&["--faults", "stall=2,lose-fault-reports"]);
+    let out = sim.drive(&["lengths", "0.23,0.23,0.23"]);
+    assert_eq!(out.status.code(), Some(3));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("the device reported a motor stall at"), "{err}");
 }
 
 /// A planned climb (`leech climb --json`, then `leech drive run PLAN.json`)

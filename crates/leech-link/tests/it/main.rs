@@ -12,6 +12,7 @@ mod motion;
 mod reconnect;
 mod suite;
 mod target;
+mod wait;
 
 use std::time::{Duration, Instant};
 

@@ -6,9 +6,9 @@ use std::time::{Duration, Instant};
 
 use leech_link::host::{Event, Link};
 use leech_link::sim::SimConfig;
-use leech_protocol::message::{Command, Tube};
+use leech_protocol::message::{Command, Telemetry, Tube};
 
-use super::{configure, device, exchange, frame, fresh_sim, options, wait_until};
+use super::{configure, device, exchange, frame, fresh_sim, options};
 
 /// Tolerance on a reached length, um.
 const TOLERANCE_UM: f64 = 200.0;
@@ -60,35 +60,56 @@ fn set_lengths_over_the_pty_and_telemetry_at_50_hz() {
     let link = Link::open(device.path(), options()).expect("handshake");
     let events = link.subscribe();
     configure(&link, &config, 20);
-    let targets = [220_000, 210_000, 210_000];
-    let start = Instant::now();
-    link.set_lengths(targets).expect("accepted");
-    let reached = || {
-        let state = device.state();
-        state.lengths_um.iter().zip(targets).all(|(l, t)| (l - f64::from(t)).abs() <= TOLERANCE_UM)
-    };
-    // 20 mm at 20 mm/s: 1 s, and settling.
-    assert!(wait_until(Duration::from_secs(3), reached), "{:?}", device.state());
-    let took = start.elapsed();
-    assert!(took >= Duration::from_millis(950) && took <= Duration::from_millis(1600), "{took:?}");
-
-    // Count the telemetry of one second.
-    while events.try_recv().is_ok() {}
-    let window = Instant::now();
-    let mut reports = 0;
-    let mut last_time = None;
-    while window.elapsed() < Duration::from_secs(1) {
-        match events.recv_timeout(Duration::from_millis(100)) {
-            Ok(Event::Telemetry(t)) => {
-                reports += 1;
-                last_time = Some(t);
-            }
-            Ok(_) | Err(RecvTimeoutError::Timeout) => {}
-            Err(RecvTimeoutError::Disconnected) => break,
+    // A report before the command, so that its start can be told.
+    let mut reports: Vec<Telemetry> = Vec::new();
+    while reports.is_empty() {
+        match events.recv_timeout(Duration::from_secs(5)) {
+            Ok(Event::Telemetry(t)) => reports.push(t),
+            Ok(_) => {}
+            Err(e) => panic!("no telemetry: {e}"),
         }
     }
-    assert!((45..=55).contains(&reports), "{reports} reports in 1 s");
-    let last = last_time.expect("telemetry");
+    let targets = [220_000, 210_000, 210_000];
+    link.set_lengths(targets).expect("accepted");
+    // Every report in wire order, until one second of device time after the
+    // tubes arrived: everything is judged on the device's clock, so that a
+    // loaded machine (a late host, a late simulation thread) changes nothing.
+    let near = |t: &Telemetry| {
+        t.lengths_um.iter().zip(targets).all(|(l, target)| f64::from((l - target).abs()) <= TOLERANCE_UM)
+    };
+    let end = Instant::now() + Duration::from_secs(20);
+    let mut arrived: Option<u32> = None;
+    while arrived.is_none_or(|at| reports.last().is_some_and(|t| t.time_ms < at + 1000)) {
+        let left = end.saturating_duration_since(Instant::now());
+        match events.recv_timeout(left) {
+            Ok(Event::Telemetry(t)) => {
+                let moving = t.active.contains(Tube::L1);
+                if arrived.is_none() && moving && near(&t) {
+                    arrived = Some(t.time_ms);
+                }
+                reports.push(t);
+            }
+            Ok(other) => panic!("{other:?}"),
+            Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => panic!("{} reports", reports.len()),
+        }
+    }
+    let arrived = arrived.expect("arrived");
+    // The device took the command between the last report without the move
+    // and the first with it (20 ms apart).
+    let first = reports.iter().position(|t| t.active.contains(Tube::L1)).expect("the move started");
+    assert!(first > 0, "a report before the command");
+    let (before, after) = (reports[first - 1].time_ms, reports[first].time_ms);
+    assert_eq!(after - before, 20);
+    // 20 mm at 20 mm/s: 1 s, and settling.
+    let (at_least, at_most) = (arrived - after, arrived - before);
+    assert!(at_least >= 950 && at_most <= 1600, "arrived {at_least}..{at_most} ms after the command");
+
+    // The telemetry of one second of device time, from the arrival: 50 Hz,
+    // none lost.
+    let window: Vec<&Telemetry> = reports.iter().filter(|t| (arrived..arrived + 1000).contains(&t.time_ms)).collect();
+    assert_eq!(window.len(), 50, "{} reports in 1 s", window.len());
+    assert!(reports.windows(2).all(|w| w[1].time_ms - w[0].time_ms == 20), "one report every 20 ms");
+    let last = reports.last().expect("telemetry");
     for (measured, target) in last.lengths_um.iter().zip(targets) {
         assert!((measured - target).abs() <= TOLERANCE_UM as i32, "{measured} um for {target} um");
     }

@@ -357,3 +357,21 @@ fn bit_sets_and_names() {
         "refused: the other cup's pump is off: this cup is the last one holding"
     );
 }
+
+#[test]
+fn faults_are_named_for_people() {
+    assert_eq!(Fault::reported(1, 1).to_string(), "a motor stall on tube L2");
+    assert_eq!(Fault::reported(0, 0).to_string(), "link lost");
+    assert_eq!(Fault::reported(2, 0).to_string(), "vacuum lost on the rear cup");
+    assert_eq!(Fault::reported(2, 1).to_string(), "vacuum lost on the front cup");
+    assert_eq!(Fault::reported(3, 2).to_string(), "a tube past its length limits on tube L3");
+    assert_eq!(Fault::reported(4, 0).to_string(), "a watchdog reset");
+    assert_eq!(Fault::reported(5, 0).to_string(), "a brown-out reset");
+    assert_eq!(Fault::reported(1, 7).to_string(), "a motor stall on tube index 7 (no such tube)");
+    assert_eq!(Fault::reported(9, 3).to_string(), "fault 9 (detail 3)");
+    // Known from the latched bits only: no detail.
+    let latched = Fault::latched(Faults::MOTOR_STALL.union(Faults::LIMIT_HIT)).unwrap();
+    assert_eq!(latched, Fault { code: 1, detail: None });
+    assert_eq!(latched.to_string(), "a motor stall");
+    assert_eq!(Fault::latched(Faults::default()), None);
+}
