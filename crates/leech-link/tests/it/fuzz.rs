@@ -164,7 +164,7 @@ proptest! {
         let mut sent: Vec<Vec<u8>> = Vec::new();
         // The last answered command's seq and answer (the device's memory).
         let mut last: Option<(u8, Report)> = None;
-        let (mut valid, mut bad_crc, mut short, mut seq0, mut duplicates) = (0u32, 0u32, 0u32, 0u32, 0u32);
+        let (mut valid, mut bad_crc, mut short, mut dropped, mut duplicates) = (0u32, 0u32, 0u32, 0u32, 0u32);
         let mut elapsed_ms = 0u32;
         for feed in feeds {
             let message = match feed {
@@ -212,9 +212,10 @@ proptest! {
                 .iter()
                 .filter(|r| matches!(r, Report::Ack { .. } | Report::Hello { reply_to: Some(_), .. }))
                 .collect();
-            if seq == 0 {
-                // Dropped and counted (section 10), never answered.
-                seq0 += 1;
+            if seq == 0 || kind >= 0x80 {
+                // Unanswerable, or a report type (an echo): dropped and
+                // counted (sections 4.6, 10), never answered.
+                dropped += 1;
                 prop_assert!(replies.is_empty(), "{message:?}: {got:?}");
                 prop_assert_eq!(effects(&sim), before);
                 continue;
@@ -242,10 +243,10 @@ proptest! {
         let counters = sim.state().counters;
         prop_assert_eq!(counters.rx_frames, valid);
         prop_assert_eq!(counters.bad_crc, bad_crc);
-        // Section 10: a command with seq 0 is counted as received (its CRC
-        // matched) and as dropped.
-        prop_assert_eq!(counters.bad_frames, short + seq0);
-        prop_assert_eq!(counters.rx_frames + counters.bad_crc + counters.bad_frames - seq0, valid + bad_crc + short);
+        // Section 10: a command with seq 0, or a report type, is counted as
+        // received (its CRC matched) and as dropped.
+        prop_assert_eq!(counters.bad_frames, short + dropped);
+        prop_assert_eq!(counters.rx_frames + counters.bad_crc + counters.bad_frames - dropped, valid + bad_crc + short);
         prop_assert_eq!(counters.duplicates, duplicates);
         still_answers(&mut sim);
     }
