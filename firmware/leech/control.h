@@ -17,8 +17,10 @@
 //   the tick rate being a power of two makes every scale a shift. The AVR has no 64-bit
 //   arithmetic to spare at 1 kHz (a 64-bit multiply or shift costs hundreds of cycles), so the
 //   P and D terms are computed in 32 bits from an error clamped, per configuration, where the
-//   term reaches +-2^29 (8192 permille, over 8 times full duty): the output is the same unless
-//   a P and a D term beyond that bound cancel. Only ki I uses a 32 x 32 -> 64 multiply.
+//   term reaches +-2^29 (8192 permille, over 8 times full duty), and the term clamped there too
+//   (a gain over 2^29, or 2^19 for kd, gets an error bound of 1 and saturates the duty from one
+//   um of error): the output is the same unless a P and a D term beyond that bound cancel.
+//   Only ki I uses a 32 x 32 -> 64 multiply.
 // * Anti-windup: the integral grows only while the output is not pushing further into
 //   saturation, and |ki I| stays within max_duty_permille (the bound on I is precomputed per
 //   configuration, and capped at the int32 range: only an integral gain under 0.0005 permille
