@@ -345,7 +345,10 @@ static void run_cups(const uint16_t vacuum[2], uint32_t now_ms) {
         if (!cup.pump_on)
             holds = false;
         else if (vacuum[c] == NO_SENSOR)
-            holds = now_ms - cup.pump_since_ms >= dev.attach_ms;
+            // Once it holds it keeps holding while the pump runs (the pump has then been on for
+            // at least attach_ms whatever the clock says): re-testing the elapsed time would drop
+            // holding when the u32 difference wraps, after 49.7 days.
+            holds = cup.holding || now_ms - cup.pump_since_ms >= dev.attach_ms;
         else
             holds = vacuum[c] >= (cup.holding ? dev.detach_kpa_x10 : dev.attach_kpa_x10);
         bool lost = cup.holding && !holds && cup.pump_on;

@@ -12,7 +12,8 @@
 //   Ack again (a duplicate, not executed); any other is decoded (UnknownType, BadLength,
 //   BadValue), executed, and its Ack remembered.
 // * A cup holds when its pump is on and, with a sensor, its vacuum reached attach_kpa_x10 and
-//   has not fallen below detach_kpa_x10 since; without one, its pump has run attach_ms.
+//   has not fallen below detach_kpa_x10 since; without one, its pump has run attach_ms (it then
+//   holds until the pump stops, without looking at the clock again).
 // * MOTOR_STALL: |duty| >= 300 permille through five 100 ms windows with the count unchanged;
 //   VACUUM_LOST: a holding cup stops holding with its pump on; LIMIT_HIT: a configured tube's
 //   length crosses out of min_um - 2000 ..= max_um + 2000 (a tube configured while out crosses
