@@ -115,19 +115,18 @@ void Tube::start(int32_t target) {
     target_um = target;
 }
 
-void Tube::control() {
+void Tube::control(uint8_t ticks) {
     if (!active) {
         duty_permille = 0;
         return;
     }
-    // Setpoint ramp: a whole step, plus one um each time the fractions add up to one.
+    // Setpoint ramp: a whole step per tick, plus one um each time the fractions add up to one
+    // (step_frac * ticks + setpoint_frac < 1024 * 11, and step_um * ticks < 2^22 * 11: no
+    // overflow for ticks <= MAX_TICKS).
     int32_t to_go = difference(target_um, setpoint_um);
-    int32_t step = step_um;
-    setpoint_frac += step_frac;
-    if (setpoint_frac >= TICK_HZ) {
-        setpoint_frac -= TICK_HZ;
-        step += 1;
-    }
+    uint16_t frac = setpoint_frac + step_frac * ticks;
+    int32_t step = step_um * ticks + (frac >> TICK_SHIFT);
+    setpoint_frac = frac & (TICK_HZ - 1);
     if (to_go > step)
         setpoint_um += step;
     else if (to_go < -step)
@@ -140,6 +139,14 @@ void Tube::control() {
     int32_t error = difference(setpoint_um, length_um);
     int32_t de = difference(error, last_error_um);
     last_error_um = error;
+    // Over several ticks: the error held through all of them (I), and the mean change per tick,
+    // rounded (D). One 32-bit division, only on a tick that follows an overrun.
+    int32_t error_sum = error;
+    if (ticks > 1) {
+        if (__builtin_mul_overflow(error, (int32_t)ticks, &error_sum)) error_sum = error < 0 ? I32_MIN : I32_MAX;
+        int32_t half = ticks / 2;
+        de = (de < 0 ? de - half : de + half) / ticks;
+    }
 
     // The products fit int32 (|error| <= p_error_max, |de| <= d_error_max); the clamps matter
     // only for gains over the limits, whose error bound is 1 (configure).
@@ -151,7 +158,7 @@ void Tube::control() {
     bool saturated = unclamped >= limit || unclamped <= -limit;
     bool same_sign = (unclamped > 0) == (error > 0);
     if (!saturated || !same_sign) {
-        integral = clamp32(sum(integral, error), integral_max);
+        integral = clamp32(sum(integral, error_sum), integral_max);
         unclamped = pd + integral_term(config.ki_q16, integral);
     }
     int32_t duty = clamp32(unclamped, limit);

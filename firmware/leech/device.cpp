@@ -392,7 +392,7 @@ static void check_tube(uint8_t i, int32_t counts, bool window_end, uint32_t now_
     }
 }
 
-void device_tick(const int32_t raw_counts[3], const uint16_t vacuum[2], uint32_t now_ms) {
+void device_tick(const int32_t raw_counts[3], const uint16_t vacuum[2], uint32_t now_ms, uint8_t ticks) {
     if (dev.link_armed && now_ms - dev.link_last_ms >= LINK_TIMEOUT_MS) {
         dev.link_armed = false;
         stop_motors();
@@ -408,7 +408,7 @@ void device_tick(const int32_t raw_counts[3], const uint16_t vacuum[2], uint32_t
         dev.raw_counts[i] = raw_counts[i];
         int32_t counts = t.configured && t.config.reverse_encoder ? -raw_counts[i] : raw_counts[i];
         t.measure(counts);
-        t.control();
+        t.control(ticks);
         check_tube(i, counts, window_end, now_ms);
     }
     run_cups(vacuum, now_ms);

@@ -90,7 +90,9 @@ extern Device dev;
 void device_begin(uint16_t capabilities, uint16_t reset_faults, uint32_t now_ms);
 // One byte from the serial line.
 void device_receive(uint8_t byte, uint32_t now_ms);
-// One control tick: raw encoder counts and vacuum readings (NO_SENSOR without a sensor) now.
-void device_tick(const int32_t raw_counts[3], const uint16_t vacuum_kpa_x10[2], uint32_t now_ms);
+// One control step: raw encoder counts and vacuum readings (NO_SENSOR without a sensor) now,
+// and the control ticks elapsed since the previous step (1..=MAX_TICKS).
+void device_tick(const int32_t raw_counts[3], const uint16_t vacuum_kpa_x10[2], uint32_t now_ms,
+                 uint8_t ticks);
 // The duty to apply to tube i's motor, permille, positive drives forward (reverse flag applied).
 int16_t device_motor_duty(uint8_t i);

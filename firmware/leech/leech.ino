@@ -263,16 +263,19 @@ void loop() {
         changed = true;
     }
     if (ticks_pending) {
-        // Ticks missed while a previous one ran are dropped: the loop's dt stays one tick.
-        ticks_pending = 0;
+        // Ticks that came while a previous one ran are not dropped: the control step covers
+        // them all (the ramp and the I and D terms use the true elapsed time), up to MAX_TICKS.
+        uint8_t ticks;
         int32_t counts[3];
         ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+            ticks = ticks_pending;
+            ticks_pending = 0;
             counts[0] = encoder_counts[0];
             counts[1] = encoder_counts[1];
             counts[2] = encoder_counts[2];
         }
         adc_poll();
-        device_tick(counts, vacuum_kpa_x10, millis());
+        device_tick(counts, vacuum_kpa_x10, millis(), ticks < MAX_TICKS ? ticks : MAX_TICKS);
         changed = true;
     }
     if (changed) apply_outputs();
