@@ -212,7 +212,12 @@ static uint8_t execute(uint8_t type, const uint8_t *b, uint32_t now_ms) {
         uint16_t period = get_u16(b);
         if (period != 0 && period < MIN_TELEMETRY_PERIOD_MS) return R_OUT_OF_RANGE;
         dev.telemetry_period_ms = period;
-        dev.next_telemetry_ms = now_ms + period;
+        // The first report is due half a period after the Ack (protocol section 8: within one
+        // period). At now + period it came up to a tick and a step of millis() late; the other
+        // half (5 ms or more) absorbs those (under 1 and 2 ms) and a late loop. Not at once,
+        // so that a command sent right behind SetTelemetry is still answered first, as by the
+        // reference device (the protocol suite checks it).
+        dev.next_telemetry_ms = now_ms + period / 2;
         return 0;
     }
     case T_CLEAR_FAULTS:

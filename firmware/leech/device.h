@@ -20,7 +20,8 @@
 //   out at the next tick). Each stops the motors. Every detection latches its bit and sends a
 //   Fault report, whether the bit was latched already or not.
 // * Reports go into an outbox that leech.ino drains into the serial port without blocking;
-//   telemetry is skipped when it would leave no room for acks and faults.
+//   telemetry is skipped when it would leave no room for acks and faults. After SetTelemetry
+//   the first report is due half a period after the Ack, then one every period.
 #pragma once
 
 #include <stdint.h>
