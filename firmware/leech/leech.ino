@@ -201,6 +201,9 @@ static void flush_reports() {
 }
 
 void setup() {
+    // Brake (IN1 = IN2 = high) in PORT before the IN pins become outputs: the other order drives
+    // them low first, a moment of coast.
+    MOTOR_DIR_PORT |= 0x3F;
     for (uint8_t i = 0; i < 3; i++) {
         pinMode(PIN_IN1[i], OUTPUT);
         pinMode(PIN_IN2[i], OUTPUT);
@@ -216,7 +219,6 @@ void setup() {
     TCCR3B = (1 << CS30);
     TCCR4A = (1 << COM4A1) | (1 << COM4B1) | (1 << WGM40);
     TCCR4B = (1 << CS40);
-    MOTOR_DIR_PORT |= 0x3F;  // brake (duty 0)
 
     uint16_t faults = 0;
     if (reset_cause & (1 << WDRF)) faults |= 1 << WATCHDOG_RESET;
