@@ -212,7 +212,12 @@ static uint8_t execute(uint8_t type, const uint8_t *b, uint32_t now_ms) {
         uint16_t period = get_u16(b);
         if (period != 0 && period < MIN_TELEMETRY_PERIOD_MS) return R_OUT_OF_RANGE;
         dev.telemetry_period_ms = period;
-        dev.next_telemetry_ms = now_ms + period;
+        // The first report is due half a period after the Ack (protocol section 8: within one
+        // period). At now + period it came up to a tick and a step of millis() late; the other
+        // half (5 ms or more) absorbs those (under 1 and 2 ms) and a late loop. Not at once,
+        // so that a command sent right behind SetTelemetry is still answered first, as by the
+        // reference device (the protocol suite checks it).
+        dev.next_telemetry_ms = now_ms + period / 2;
         return 0;
     }
     case T_CLEAR_FAULTS:
@@ -345,7 +350,10 @@ static void run_cups(const uint16_t vacuum[2], uint32_t now_ms) {
         if (!cup.pump_on)
             holds = false;
         else if (vacuum[c] == NO_SENSOR)
-            holds = now_ms - cup.pump_since_ms >= dev.attach_ms;
+            // Once it holds it keeps holding while the pump runs (the pump has then been on for
+            // at least attach_ms whatever the clock says): re-testing the elapsed time would drop
+            // holding when the u32 difference wraps, after 49.7 days.
+            holds = cup.holding || now_ms - cup.pump_since_ms >= dev.attach_ms;
         else
             holds = vacuum[c] >= (cup.holding ? dev.detach_kpa_x10 : dev.attach_kpa_x10);
         bool lost = cup.holding && !holds && cup.pump_on;
@@ -389,7 +397,7 @@ static void check_tube(uint8_t i, int32_t counts, bool window_end, uint32_t now_
     }
 }
 
-void device_tick(const int32_t raw_counts[3], const uint16_t vacuum[2], uint32_t now_ms) {
+void device_tick(const int32_t raw_counts[3], const uint16_t vacuum[2], uint32_t now_ms, uint8_t ticks) {
     if (dev.link_armed && now_ms - dev.link_last_ms >= LINK_TIMEOUT_MS) {
         dev.link_armed = false;
         stop_motors();
@@ -405,7 +413,7 @@ void device_tick(const int32_t raw_counts[3], const uint16_t vacuum[2], uint32_t
         dev.raw_counts[i] = raw_counts[i];
         int32_t counts = t.configured && t.config.reverse_encoder ? -raw_counts[i] : raw_counts[i];
         t.measure(counts);
-        t.control();
+        t.control(ticks);
         check_tube(i, counts, window_end, now_ms);
     }
     run_cups(vacuum, now_ms);

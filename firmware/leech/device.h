@@ -12,14 +12,16 @@
 //   Ack again (a duplicate, not executed); any other is decoded (UnknownType, BadLength,
 //   BadValue), executed, and its Ack remembered.
 // * A cup holds when its pump is on and, with a sensor, its vacuum reached attach_kpa_x10 and
-//   has not fallen below detach_kpa_x10 since; without one, its pump has run attach_ms.
+//   has not fallen below detach_kpa_x10 since; without one, its pump has run attach_ms (it then
+//   holds until the pump stops, without looking at the clock again).
 // * MOTOR_STALL: |duty| >= 300 permille through five 100 ms windows with the count unchanged;
 //   VACUUM_LOST: a holding cup stops holding with its pump on; LIMIT_HIT: a configured tube's
 //   length crosses out of min_um - 2000 ..= max_um + 2000 (a tube configured while out crosses
 //   out at the next tick). Each stops the motors. Every detection latches its bit and sends a
 //   Fault report, whether the bit was latched already or not.
 // * Reports go into an outbox that leech.ino drains into the serial port without blocking;
-//   telemetry is skipped when it would leave no room for acks and faults.
+//   telemetry is skipped when it would leave no room for acks and faults. After SetTelemetry
+//   the first report is due half a period after the Ack, then one every period.
 #pragma once
 
 #include <stdint.h>
@@ -89,7 +91,9 @@ extern Device dev;
 void device_begin(uint16_t capabilities, uint16_t reset_faults, uint32_t now_ms);
 // One byte from the serial line.
 void device_receive(uint8_t byte, uint32_t now_ms);
-// One control tick: raw encoder counts and vacuum readings (NO_SENSOR without a sensor) now.
-void device_tick(const int32_t raw_counts[3], const uint16_t vacuum_kpa_x10[2], uint32_t now_ms);
+// One control step: raw encoder counts and vacuum readings (NO_SENSOR without a sensor) now,
+// and the control ticks elapsed since the previous step (1..=MAX_TICKS).
+void device_tick(const int32_t raw_counts[3], const uint16_t vacuum_kpa_x10[2], uint32_t now_ms,
+                 uint8_t ticks);
 // The duty to apply to tube i's motor, permille, positive drives forward (reverse flag applied).
 int16_t device_motor_duty(uint8_t i);

@@ -19,8 +19,11 @@
 // * Vacuum sensors (MPXV6115V-like, ratiometric to 5 V, V = 0.2 V + 4.5 V * kPa / 115):
 //   vacuum_kpa_x10 = max(0, adc * 5000 / 1023 - 200) * 1150 / 4500, adc 0..1023 against AVcc.
 //   One free-running conversion per tick, channels alternating (each cup read at 512 Hz).
-// * Watchdog: 250 ms, reset every loop; the reset cause (MCUSR) is saved before anything else
-//   and reported as WATCHDOG_RESET / BROWNOUT_RESET.
+// * Watchdog: interrupt-and-system-reset mode at 120 ms, reset every loop. Its first time-out
+//   runs an interrupt that leaves a marker in .noinit RAM, the second resets the chip: a hung
+//   loop is reset within two time-outs, 240 ms nominal (the watchdog's 128 kHz oscillator is
+//   only typical). At boot the marker, or MCUSR's WDRF, means WATCHDOG_RESET; MCUSR's BORF
+//   means BROWNOUT_RESET (see "reset cause" below).
 // * Idle: SLEEP_MODE_IDLE until the next interrupt (tick, millis, UART, encoder).
 
 #include <avr/sleep.h>
@@ -59,12 +62,50 @@ const uint16_t TICK_TIMER_TOP = F_CPU / TICK_HZ - 1;  // 15624
 
 // ---- reset cause: saved before the C runtime starts, then the watchdog is disarmed (after a
 // watchdog reset it stays enabled at 16 ms) ----
+// The Mega's stock stk500v2 bootloader clears MCUSR before it jumps to the sketch, so WDRF alone
+// never tells a watchdog reset there. The watchdog's interrupt therefore leaves
+// WATCHDOG_MARKER in watchdog_marker (.noinit: neither the reset nor the C runtime clears it)
+// one time-out before the reset; at boot the marker means the watchdog's reset, whatever MCUSR
+// says. It is 32 bits so that the RAM's random content at power-up matches it with a chance of
+// 2^-32. It sits above .data and .bss, clear of the bootloader's few hundred bytes of variables
+// at the bottom of RAM and of its stack at the top. MCUSR is still read: a bootloader that
+// passes it on (Optiboot) reports WDRF too, and BORF, the only record of a brown-out.
+const uint32_t WATCHDOG_MARKER = 0x57444F47;  // "WDOG"
 uint8_t reset_cause __attribute__((section(".noinit")));
+volatile uint32_t watchdog_marker __attribute__((section(".noinit")));
 void save_reset_cause(void) __attribute__((naked, used, section(".init3")));
 void save_reset_cause(void) {
     reset_cause = MCUSR;
+    if (watchdog_marker == WATCHDOG_MARKER) reset_cause |= 1 << WDRF;
+    watchdog_marker = 0;
     MCUSR = 0;
     wdt_disable();
+}
+
+// The first time-out of a loop that stopped resetting the watchdog. Entering this vector
+// clears WDIE in hardware, so the next time-out resets the chip; WDIE is set again only by
+// loop() (watchdog_check), never here, so that a hang cannot re-arm the interrupt for ever.
+ISR(WDT_vect) { watchdog_marker = WATCHDOG_MARKER; }
+
+// Watchdog in interrupt-and-system-reset mode (WDE + WDIE), 120 ms (WDP1 + WDP0), with the
+// timed sequence (WDCE + WDE, then the new value within four cycles).
+static void watchdog_start() {
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+        wdt_reset();
+        WDTCSR = (1 << WDCE) | (1 << WDE);
+        WDTCSR = (1 << WDIE) | (1 << WDE) | (1 << WDP1) | (1 << WDP0);
+    }
+}
+
+// Resets the watchdog. If its interrupt ran (a loop pass took over 120 ms but the loop came
+// back), the marker is withdrawn and the interrupt armed again: otherwise the next time-out
+// would reset at once, and a later reset of another cause would read as the watchdog's.
+static void watchdog_check() {
+    wdt_reset();
+    if (!(WDTCSR & (1 << WDIE))) {
+        watchdog_marker = 0;
+        watchdog_start();
+    }
 }
 
 // ---- encoders ----
@@ -160,6 +201,9 @@ static void flush_reports() {
 }
 
 void setup() {
+    // Brake (IN1 = IN2 = high) in PORT before the IN pins become outputs: the other order drives
+    // them low first, a moment of coast.
+    MOTOR_DIR_PORT |= 0x3F;
     for (uint8_t i = 0; i < 3; i++) {
         pinMode(PIN_IN1[i], OUTPUT);
         pinMode(PIN_IN2[i], OUTPUT);
@@ -175,7 +219,6 @@ void setup() {
     TCCR3B = (1 << CS30);
     TCCR4A = (1 << COM4A1) | (1 << COM4B1) | (1 << WGM40);
     TCCR4B = (1 << CS40);
-    MOTOR_DIR_PORT |= 0x3F;  // brake (duty 0)
 
     uint16_t faults = 0;
     if (reset_cause & (1 << WDRF)) faults |= 1 << WATCHDOG_RESET;
@@ -203,11 +246,18 @@ void setup() {
 
     Serial.begin(115200);
     flush_reports();
-    wdt_enable(WDTO_250MS);
+    watchdog_start();
 }
 
 void loop() {
-    wdt_reset();
+    watchdog_check();
+#ifdef LEECH_TEST_HANG
+    // Test build only (docs/firmware.md, "Watchdog and reset causes"): the loop hangs, with
+    // interrupts on, LEECH_TEST_HANG ms after a boot that was not the watchdog's.
+    if (!(reset_cause & (1 << WDRF)) && millis() >= LEECH_TEST_HANG)
+        for (;;) {
+        }
+#endif
     // Outputs follow the device's state after a frame or a tick, the only things that change it.
     bool changed = false;
     while (Serial.available() > 0) {
@@ -215,16 +265,19 @@ void loop() {
         changed = true;
     }
     if (ticks_pending) {
-        // Ticks missed while a previous one ran are dropped: the loop's dt stays one tick.
-        ticks_pending = 0;
+        // Ticks that came while a previous one ran are not dropped: the control step covers
+        // them all (the ramp and the I and D terms use the true elapsed time), up to MAX_TICKS.
+        uint8_t ticks;
         int32_t counts[3];
         ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+            ticks = ticks_pending;
+            ticks_pending = 0;
             counts[0] = encoder_counts[0];
             counts[1] = encoder_counts[1];
             counts[2] = encoder_counts[2];
         }
         adc_poll();
-        device_tick(counts, vacuum_kpa_x10, millis());
+        device_tick(counts, vacuum_kpa_x10, millis(), ticks < MAX_TICKS ? ticks : MAX_TICKS);
         changed = true;
     }
     if (changed) apply_outputs();
