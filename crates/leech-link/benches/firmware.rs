@@ -12,7 +12,6 @@
 mod common;
 
 use std::path::Path;
-use std::sync::OnceLock;
 use std::time::Duration;
 
 use leech_link::chip::{self, Built, Chip};
@@ -25,12 +24,8 @@ fn main() {
 }
 
 fn built() -> &'static Built {
-    static BUILT: OnceLock<Built> = OnceLock::new();
-    BUILT.get_or_init(|| {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-        let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("firmware");
-        chip::build(&root, &out).unwrap_or_else(|e| panic!("{e}"))
-    })
+    let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("firmware");
+    chip::build_once(&out).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// The firmware, started, its link open and its three tubes configured as

@@ -27,7 +27,7 @@
 
 use std::error::Error;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::mpsc::Receiver;
 use std::time::{Duration, Instant};
 
@@ -102,12 +102,11 @@ fn mean(values: &[f64]) -> f64 {
     values.iter().sum::<f64>() / values.len().max(1) as f64
 }
 
-fn built() -> Result<Built, Box<dyn Error>> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+fn built() -> Result<&'static Built, Box<dyn Error>> {
     // Next to this example's binary: inside the target directory.
     let exe = std::env::current_exe()?;
     let out = exe.parent().ok_or("the example has no directory")?.join("firmware");
-    Ok(chip::build(&root, &out)?)
+    Ok(chip::build_once(&out)?)
 }
 
 /// Runs the firmware, configures its tubes (L1 as `l1`), holds them at the
@@ -312,8 +311,8 @@ fn main() -> Result<(), Box<dyn Error>> {
     };
     let built = built()?;
     let normal = SimConfig::default().tube_config(Tube::L1);
-    let ramp = run(&built, "ramp", normal, 210_000)?;
-    let step = run(&built, "step", TubeConfig { max_speed_um_s: 10_000_000, ..normal }, 205_000)?;
+    let ramp = run(built, "ramp", normal, 210_000)?;
+    let step = run(built, "step", TubeConfig { max_speed_um_s: 10_000_000, ..normal }, 205_000)?;
     report_ramp(&ramp);
     report_step(&step);
     let runs = [ramp, step];

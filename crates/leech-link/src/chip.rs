@@ -29,7 +29,7 @@ use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, Command, Stdio};
 use std::sync::mpsc::{self, Receiver, Sender};
-use std::sync::{Arc, Mutex, PoisonError};
+use std::sync::{Arc, Mutex, OnceLock, PoisonError};
 use std::time::{Duration, Instant};
 
 use serde::Deserialize;
@@ -81,6 +81,21 @@ pub fn build(root: &Path, out: &Path) -> Result<Built, ChipError> {
         return Err(ChipError::Build { why: format!("firmware/build.sh: {status}") });
     }
     Ok(Built { elf: out.join("leech.elf"), harness: out.join("leech-simavr") })
+}
+
+/// Builds the firmware of the repository this crate was compiled from (for
+/// its tests, benches and examples) into `out`, once per process: later
+/// calls return the first build's outcome, whatever their `out`.
+pub fn build_once(out: &Path) -> Result<&'static Built, ChipError> {
+    static BUILT: OnceLock<Result<Built, String>> = OnceLock::new();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let built = BUILT.get_or_init(|| {
+        build(&root, out).map_err(|e| match e {
+            ChipError::Build { why } => why,
+            other => other.to_string(),
+        })
+    });
+    built.as_ref().map_err(|why| ChipError::Build { why: why.clone() })
 }
 
 /// The simulated robot around the chip, as the harness last reported it.

@@ -11,7 +11,12 @@
 //!   two processes read them).
 //! * A background thread owns the master side. Every [`TICK`] (1 ms) it
 //!   reads what the host wrote, advances the simulation by the real time
-//!   elapsed, and writes what the device sent. While no host reads, the
+//!   elapsed, at most [`MAX_STEP`], and writes what the device sent. A
+//!   thread starved by a busy machine so loses time rather than judging the
+//!   link by it: the host's frames that waited in the terminal meanwhile
+//!   were sent in time, and stepping the whole gap at once after them would
+//!   make the device see a silent link (as a real controller, which never
+//!   stalls, would not). While no host reads, the
 //!   terminal's buffer fills and further device bytes are dropped (at most
 //!   [`BACKLOG`] bytes wait), as on a serial line with nobody listening.
 //! * The device keeps the slave side open itself, so that hosts may close
@@ -36,6 +41,9 @@ use crate::sim::{Faults, Sim, SimState};
 
 /// The device thread's period.
 pub const TICK: Duration = Duration::from_millis(1);
+
+/// The longest simulated step after a stall of the device thread.
+pub const MAX_STEP: Duration = Duration::from_millis(20);
 
 /// The most device bytes kept waiting for a host to read them.
 pub const BACKLOG: usize = 4096;
@@ -150,7 +158,7 @@ fn run(mut master: File, sim: &Mutex<Sim>, stop: &AtomicBool) {
         {
             let mut sim = sim.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
             sim.receive(&received);
-            sim.step(now.duration_since(last).as_secs_f64());
+            sim.step(now.duration_since(last).min(MAX_STEP).as_secs_f64());
             sim.take_output(&mut outbound);
         }
         last = now;

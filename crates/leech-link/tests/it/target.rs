@@ -94,7 +94,7 @@ mod firmware {
     //! a 2-core machine.
 
     use std::path::Path;
-    use std::sync::{Mutex, MutexGuard, OnceLock};
+    use std::sync::{Mutex, MutexGuard};
     use std::time::Duration;
 
     use leech_link::chip::{self, Built, Chip};
@@ -103,12 +103,8 @@ mod firmware {
     use super::{Observed, Target};
 
     fn built() -> &'static Built {
-        static BUILT: OnceLock<Built> = OnceLock::new();
-        BUILT.get_or_init(|| {
-            let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
-            let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("firmware");
-            chip::build(&root, &out).unwrap_or_else(|e| panic!("{e}"))
-        })
+        let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("firmware");
+        chip::build_once(&out).unwrap_or_else(|e| panic!("{e}"))
     }
 
     /// The firmware on its chip, one at a time (module doc).
