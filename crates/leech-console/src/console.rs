@@ -270,17 +270,24 @@ fn follow_events(shared: &Shared, events: &std::sync::mpsc::Receiver<Event>) {
 }
 
 /// Solves the model whenever the telemetry's lengths or holds change.
+///
+/// A solve takes milliseconds to tens of them and runs back to back while
+/// the tubes move: the thread rests at least as long as it solved, so
+/// that it takes at most half a core and the link's and the simulated
+/// controller's threads (whose deadlines are real: 500 ms without a frame
+/// is a lost link) keep their share on a small machine.
 fn follow_model(shared: &Shared, mut model: Model) {
     while !shared.quit.load(Ordering::SeqCst) {
         let seen = lock(&shared.live).telemetry.as_ref().map(|(t, _)| observation(t));
         if let Some((lengths, pumps, holding)) = seen {
             model.observe(lengths, pumps, holding);
         }
+        let started = Instant::now();
         if let Some((p, held)) = model.predict() {
             *lock(&shared.prediction) = Arc::new(p);
             *lock(&shared.held) = held;
         }
-        std::thread::sleep(Duration::from_millis(5));
+        std::thread::sleep(started.elapsed().max(Duration::from_millis(5)));
     }
 }
 
@@ -410,7 +417,7 @@ impl Console {
         let (lo, hi) = (r.limits.tube_length_min_m, r.limits.tube_length_max_m);
         // The view: around the start, as far as the tubes reach, and the goal.
         let start = lock(&s.prediction).body.as_ref().map_or([0.0, 0.0], |b| b.cups[0].centre_m);
-        let reach = hi * 1.3;
+        let reach = hi * 1.1;
         let mut view = [start[0] - reach, start[1] - reach, start[0] + reach, start[1] + reach];
         if let Some(g) = s.goal {
             view = [
