@@ -9,6 +9,7 @@ here="$(cd "$(dirname "$0")" && pwd)"
 root="$(cd "$here/../../../.." && pwd)"
 cd "$root"
 if ! command -v chromium > /dev/null; then
+    apt-get update > /dev/null
     apt-get install -y chromium > /dev/null
 fi
 cargo build -p leech-cli
