@@ -227,6 +227,12 @@
     stats.drawnAt.push(performance.now());
     if (stats.drawnAt.length > 200) stats.drawnAt.shift();
     $("body").dataset.lengths = body ? body.lengths_m.map((l) => l.toFixed(5)).join(",") : "";
+    // The tables are read by a person: 10 times a second is plenty, and
+    // leaves the machine's time to the drawing and the robot's link.
+    const now = performance.now();
+    if (now - (showState.tablesAt || 0) < 100 && !showState.force) return;
+    showState.tablesAt = now;
+    showState.force = false;
     const t = s.telemetry;
     for (let i = 0; i < 3; i++) {
       $("measured-" + i).textContent = t ? mm(t.lengths_m[i]) : "-";
@@ -281,6 +287,7 @@
   }
 
   function onMessage(msg) {
+    if (msg.type !== "state") showState.force = true;
     switch (msg.type) {
       case "hello":
         hello = msg;
