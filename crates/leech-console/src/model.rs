@@ -118,6 +118,8 @@ pub struct Model {
     scene: Scene,
     body: BodyCups,
     solver: Solver,
+    /// LA, LB last observed (m).
+    lengths: [f64; 2],
     /// The lengths and holds of the last prediction.
     last: Option<([f64; 2], Hold)>,
 }
@@ -127,36 +129,51 @@ impl Model {
     /// telemetry says otherwise.
     pub fn new(robot: Robot, scene: Scene, start: Foothold) -> Model {
         let body = BodyCups::new(robot.clone(), scene.clone(), start);
-        Model { robot, scene, body, solver: Solver::default(), last: None }
+        let short = robot.limits.tube_length_min_m;
+        Model { robot, scene, body, solver: Solver::default(), lengths: [short; 2], last: None }
     }
 
     /// Hands the latest telemetry to the model: lengths (m, L1, L2, L3),
     /// pumps and holds (rear, front).
     pub fn observe(&mut self, lengths_m: [f64; 3], pumps: [bool; 2], holding: [bool; 2]) {
+        self.lengths = [lengths_m[0], 0.5 * (lengths_m[1] + lengths_m[2])];
         self.body.observe(lengths_m, pumps, holding);
     }
 
     /// The prediction at the last lengths observed, with the equilibrium
-    /// it draws, or `None` when nothing changed since the last one.
+    /// under the robot's holds (none when it was not found), or `None` when neither the lengths (beyond
+    /// [`leech_link::body::RESOLVE_M`]) nor the holds changed since the last.
+    ///
+    /// Both holds fix the loop's length: where the tubes, within the
+    /// controller's tolerance, come out a little shorter than when the
+    /// front cup attached, no equilibrium joins the holds. The body is then
+    /// drawn held by the rear cup alone (the error says so), and each
+    /// release's evidence, which needs one hold only, is still found.
     pub fn predict(&mut self) -> Option<(Prediction, Option<Held>)> {
-        let held = match self.body.held() {
-            Ok(held) => held,
-            Err(e) => {
-                self.last = None;
-                return Some((Prediction { body: None, error: Some(e.to_string()) }, None));
-            }
-        };
-        let key = ([held.body.chain_a().tube_length(), held.body.chain_b().tube_length()], held.hold);
-        if self.last == Some(key) {
+        let hold = self.body.hold();
+        let lengths = self.lengths;
+        let unchanged = self.last.is_some_and(|(l, h)| {
+            h == hold && (0..2).all(|i| (l[i] - lengths[i]).abs() <= leech_link::body::RESOLVE_M)
+        });
+        if unchanged {
             return None;
         }
-        self.last = Some(key);
-        let mut drawn = drawing(&self.robot, &self.scene, &held);
-        if let Hold::Both { rear, front } = held.hold {
+        self.last = Some((lengths, hold));
+        let solve =
+            |hold: Hold| stance::solve_among(&self.robot, lengths, hold, &self.scene, &self.solver, FreeCups::Rest);
+        let (held, error) = match (self.body.held(), hold) {
+            (Ok(held), _) => (Some(held), None),
+            (Err(e), Hold::Both { rear, .. }) => {
+                let note = format!("both holds: {e}; drawn held by the rear cup alone");
+                (solve(Hold::Rear(rear)).ok(), Some(note))
+            }
+            (Err(e), _) => (None, Some(e.to_string())),
+        };
+        let mut drawn = held.as_ref().map(|h| drawing(&self.robot, &self.scene, h));
+        if let (Some(d), Hold::Both { rear, front }) = (drawn.as_mut(), hold) {
             // What each release would leave: the other cup alone.
             let alone = |hold: Hold, cup: Cup| {
-                let after = stance::solve_among(&self.robot, key.0, hold, &self.scene, &self.solver, FreeCups::Rest);
-                let cups = after.ok()?.cups(&self.robot).ok()?;
+                let cups = solve(hold).ok()?.cups(&self.robot).ok()?;
                 let state = match cup {
                     Cup::Rear => cups.0,
                     Cup::Front => cups.1,
@@ -164,9 +181,13 @@ impl Model {
                 // A cup carrying nothing has an infinite factor: far above any minimum.
                 state.map(|s| s.verdict.safety_factor.min(f64::MAX))
             };
-            drawn.cups[0].other_after_release = alone(Hold::Front(front), Cup::Front);
-            drawn.cups[1].other_after_release = alone(Hold::Rear(rear), Cup::Rear);
+            d.cups[0].other_after_release = alone(Hold::Front(front), Cup::Front);
+            d.cups[1].other_after_release = alone(Hold::Rear(rear), Cup::Rear);
+            // The drawing's own holds may be the rear alone (above): the cups hold as the robot says.
+            d.cups[1].holds = true;
         }
-        Some((Prediction { body: Some(drawn), error: None }, Some(held)))
+        // Only the body under the holds themselves says where a reach or a plan starts.
+        let exact = if error.is_none() { held } else { None };
+        Some((Prediction { body: drawn, error }, exact))
     }
 }

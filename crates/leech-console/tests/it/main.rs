@@ -265,3 +265,53 @@ async fn a_token_is_required_when_given() {
     .await
     .expect("within the limit");
 }
+
+/// The first state in which the run is over and `done` holds.
+async fn settled(ws: &mut Ws, within: Duration, done: impl Fn(&Value) -> bool) -> Value {
+    until(ws, within, |s| s["run"]["busy"] == false && done(s)).await
+}
+
+fn allowed(s: &Value, phase: &str) -> bool {
+    s["phases"].as_array().unwrap().iter().any(|p| p["phase"] == phase && p["allowed"] == true)
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_stride_by_hand_passes_the_interlock_on_the_models_evidence() {
+    tokio::time::timeout(Duration::from_secs(150), async {
+        let running = start(None).await;
+        let (mut ws, _) = connect(running.addr).await;
+        held(&mut ws).await;
+        assert_eq!(ask(&mut ws, r#"{"type":"take_control"}"#).await["type"], "ok");
+        let planning = ask(&mut ws, r#"{"type":"plan","goal_m":[0.1,0.0],"tolerance_m":0.05}"#).await;
+        assert_eq!(planning["type"], "ok", "{planning}");
+        let plan = next(&mut ws, |m| m["type"] == "plan").await;
+        assert_eq!(plan["status"], "reached", "{}", plan["reason"]);
+        let phases: Vec<&str> =
+            plan["steps"].as_array().unwrap().iter().map(|s| s["phase"].as_str().unwrap()).collect();
+        assert_eq!(phases[..3], ["start", "push", "attach_front"]);
+        // The plan's start and push through the executor, one step at a time.
+        for n in 1..=2 {
+            assert_eq!(ask(&mut ws, r#"{"type":"execute","mode":"step"}"#).await["type"], "ok");
+            let s = settled(&mut ws, Duration::from_secs(30), |s| s["run"]["next_step"] == n).await;
+            assert!(s["run"]["error"].is_null(), "{}", s["run"]);
+        }
+        // Then by hand: the model says the front cup lies flush, so it may attach.
+        let s = until(&mut ws, Duration::from_secs(5), |s| allowed(s, "attach_front")).await;
+        assert_eq!(s["prediction"]["body"]["cups"][1]["flush"], true);
+        assert_eq!(ask(&mut ws, r#"{"type":"stride","phase":"attach_front"}"#).await["type"], "ok");
+        settled(&mut ws, Duration::from_secs(10), |s| s["holding"] == json!([true, true])).await;
+        // Both hold: the model finds the front cup's factor alone, and the release passes.
+        let s = until(&mut ws, Duration::from_secs(10), |s| allowed(s, "release_rear")).await;
+        let alone = s["prediction"]["body"]["cups"][0]["other_after_release"].as_f64().unwrap();
+        assert!(alone >= 1.5, "the front cup alone: {alone}");
+        assert_eq!(ask(&mut ws, r#"{"type":"stride","phase":"release_rear"}"#).await["type"], "ok");
+        settled(&mut ws, Duration::from_secs(10), |s| s["holding"] == json!([false, true])).await;
+        // Now the front cup is the last: switching its pump off is refused.
+        let refused = ask(&mut ws, r#"{"type":"pump","cup":"front","on":false}"#).await;
+        assert_eq!((refused["type"].as_str(), refused["field"].as_str()), (Some("error"), Some("on")), "{refused}");
+        let s = state(&mut ws).await;
+        assert_eq!(s["telemetry"]["pumps_on"][1], true);
+    })
+    .await
+    .expect("within the limit");
+}
