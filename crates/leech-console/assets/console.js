@@ -135,6 +135,11 @@
         send(msg);
       };
     }
+    for (const name of hello.scenarios) {
+      const option = document.createElement("option");
+      option.value = option.textContent = name;
+      $("scenario").append(option);
+    }
     if (hello.goal) {
       $("goal-x").value = hello.goal.point_m[0];
       $("goal-y").value = hello.goal.point_m[1];
@@ -168,7 +173,9 @@
     else $("workspace").replaceChildren();
   };
   $("plan").onclick = () => {
-    send({ type: "plan", goal_m: [Number($("goal-x").value), Number($("goal-y").value)], tolerance_m: Number($("goal-tol").value) });
+    const scenario = $("scenario").value;
+    send(scenario ? { type: "plan", scenario } :
+      { type: "plan", goal_m: [Number($("goal-x").value), Number($("goal-y").value)], tolerance_m: Number($("goal-tol").value) });
     $("plan-info").textContent = "planning...";
   };
   $("plan-play").onclick = () => playPlan();

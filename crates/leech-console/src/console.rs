@@ -443,6 +443,11 @@ impl Console {
             "view_m": view,
             "goal": s.goal.map(|g| json!({ "point_m": g.point_m, "tolerance_m": g.tolerance_m })),
             "phases": HAND_PHASES.map(Phase::name),
+            "scenarios": stride::scenario::BUILTIN_SCENARIOS
+                .iter()
+                .filter(|b| stride::Scenario::builtin(b.name).is_ok_and(|sc| sc.scene == s.scene))
+                .map(|b| b.name)
+                .collect::<Vec<_>>(),
         })
     }
 
@@ -758,26 +763,41 @@ impl Console {
                 self.start_run(name, "plan".into(), moves[next..end].to_vec(), Some(next))?;
                 ok(json!({}))
             }
-            Request::Plan { goal_m, tolerance_m } => {
+            Request::Plan { scenario, goal_m, tolerance_m } => {
                 self.may_drive(tab, name)?;
                 self.idle(name)?;
-                for (i, x) in goal_m.iter().enumerate() {
-                    self.check_point(name, &format!("goal_m[{i}]"), *x)?;
-                }
-                if !(tolerance_m.is_finite() && tolerance_m > 0.0 && tolerance_m <= stride::scenario::MAX_TOLERANCE_M) {
-                    return Err(Refusal::new(
-                        name,
-                        "tolerance_m",
-                        tolerance_m,
-                        format!("a distance in (0, {}] m", stride::scenario::MAX_TOLERANCE_M),
-                        "bad tolerance",
-                    ));
-                }
+                let goal = match (scenario, goal_m, tolerance_m) {
+                    (Some(scenario), None, None) => self.scenario_goal(name, &scenario)?,
+                    (None, Some(goal_m), Some(tolerance_m)) => {
+                        for (i, x) in goal_m.iter().enumerate() {
+                            self.check_point(name, &format!("goal_m[{i}]"), *x)?;
+                        }
+                        let most = stride::scenario::MAX_TOLERANCE_M;
+                        if !(tolerance_m.is_finite() && tolerance_m > 0.0 && tolerance_m <= most) {
+                            return Err(Refusal::new(
+                                name,
+                                "tolerance_m",
+                                tolerance_m,
+                                format!("a distance in (0, {most}] m"),
+                                "bad tolerance",
+                            ));
+                        }
+                        Goal { point_m: goal_m, tolerance_m }
+                    }
+                    _ => {
+                        return Err(Refusal::new(
+                            name,
+                            "goal_m",
+                            "with the scenario, or without a tolerance",
+                            "a scenario alone, or goal_m with tolerance_m",
+                            "a plan needs one goal",
+                        ))
+                    }
+                };
                 let held = self.rear_alone(name)?;
                 let centre = held.rear_cup_m(&s.robot);
                 let on = s.scene.surface_frame(centre).map_or(centre, |(p, _)| p);
                 let start = Foothold { centre_m: on, direction_rad: held.unit.angle_rad };
-                let goal = Goal { point_m: goal_m, tolerance_m };
                 let shared = Arc::clone(s);
                 self.compute(name, later, move || plan_reply(&shared, start, goal))?;
                 ok(json!({}))
@@ -801,6 +821,27 @@ impl Console {
                 ok(json!({}))
             }
         }
+    }
+
+    /// The goal of built-in scenario `scenario`, which must be set in the console's scene.
+    fn scenario_goal(&self, name: &str, scenario: &str) -> Result<Goal, Refusal> {
+        let builtin = stride::scenario::BUILTIN_SCENARIOS.map(|b| b.name);
+        let Some(found) = builtin.iter().find(|b| **b == scenario) else {
+            let value = format!("{:?}", crate::messages::excerpt(scenario, 40));
+            return Err(Refusal::new(name, "scenario", value, builtin.join(", "), "no such built-in scenario"));
+        };
+        let scenario = stride::Scenario::builtin(found)
+            .map_err(|e| Refusal::new(name, "scenario", found, builtin.join(", "), format!("cannot read it: {e}")))?;
+        if scenario.scene != self.shared.scene {
+            return Err(Refusal::new(
+                name,
+                "scenario",
+                found,
+                format!("a scenario set in the console's scene ({})", self.shared.scene.name),
+                format!("its scene is {}", scenario.scene.name),
+            ));
+        }
+        Ok(scenario.goal)
     }
 
     /// Refuses a tab that does not drive.

@@ -76,12 +76,18 @@ pub enum Request {
         /// The point clicked (m).
         point_m: [f64; 2],
     },
-    /// Plan a climb from where the rear cup holds to a goal.
+    /// Plan a climb from where the rear cup holds to a goal: a built-in
+    /// scenario's (on the console's scene), or a point and a tolerance.
     Plan {
+        /// A built-in scenario's name (`leech scenario list`).
+        #[serde(default)]
+        scenario: Option<String>,
         /// Where the rear cup's face centre should land (m).
-        goal_m: [f64; 2],
+        #[serde(default)]
+        goal_m: Option<[f64; 2]>,
         /// How close it must come (m).
-        tolerance_m: f64,
+        #[serde(default)]
+        tolerance_m: Option<f64>,
     },
     /// Carry out the planned climb.
     Execute {

@@ -168,6 +168,9 @@ async fn a_hostile_client_is_refused_and_nothing_changes() {
             (r#"{"type":"stride","phase":"push","lengths_m":[0.2,0.5]}"#, "lengths_m[1]"),
             (r#"{"type":"execute","mode":"all"}"#, "plan"),
             (r#"{"type":"plan","goal_m":[0.5,0.0],"tolerance_m":-1}"#, "tolerance_m"),
+            (r#"{"type":"plan","goal_m":[0.5,0.0]}"#, "goal_m"),
+            (r#"{"type":"plan","scenario":"climb-wall-up"}"#, "scenario"),
+            (r#"{"type":"plan","scenario":"no-such"}"#, "scenario"),
         ];
         for (text, field) in hostile {
             let reply = ask(&mut driver, text).await;
