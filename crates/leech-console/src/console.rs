@@ -254,7 +254,8 @@ fn follow_events(shared: &Shared, events: &std::sync::mpsc::Receiver<Event>) {
                 continue;
             }
             Event::Fault { code, detail, .. } => {
-                format!("fault: {} (detail {detail})", fault_names(1u16.checked_shl(u32::from(code)).unwrap_or(0)))
+                let name = Faults::name(code).map_or_else(|| format!("bit {code}"), str::to_string);
+                format!("fault: {name} (detail {detail})")
             }
             Event::NoAnswer { command, .. } => format!("link: no answer to {command}"),
             Event::Disconnected => "link: the port failed; reconnecting".into(),
@@ -295,23 +296,6 @@ fn follow_model(shared: &Shared, mut model: Model) {
 fn observation(t: &Telemetry) -> ([f64; 3], [bool; 2], [bool; 2]) {
     let pair = |set: leech_protocol::message::CupSet| [set.contains(Cup::Rear), set.contains(Cup::Front)];
     (t.lengths_um.map(|l| f64::from(l) / 1e6), pair(t.pumps), pair(t.holding))
-}
-
-/// The latched faults by name.
-pub fn fault_names(bits: u16) -> String {
-    let names = [
-        (Faults::LINK_LOST, "link lost"),
-        (Faults::MOTOR_STALL, "motor stalled"),
-        (Faults::VACUUM_LOST, "vacuum lost"),
-        (Faults::LIMIT_HIT, "limit hit"),
-        (Faults::WATCHDOG_RESET, "watchdog reset"),
-    ];
-    let set: Vec<&str> = names.iter().filter(|(f, _)| bits & f.0 != 0).map(|(_, n)| *n).collect();
-    if set.is_empty() {
-        "none".into()
-    } else {
-        set.join(", ")
-    }
 }
 
 /// Whether a stride phase may go now, and why not.
@@ -485,7 +469,7 @@ impl Console {
                     pumps_on,
                     holding,
                     vacuum_kpa: t.vacuum_kpa_x10.map(|v| (v != NO_SENSOR).then(|| f64::from(v) / 10.0)),
-                    faults: fault_names(t.faults.0),
+                    faults: t.faults.to_string(),
                     device_bad_crc: t.counters.bad_crc,
                     device_bad_frames: t.counters.bad_frames,
                     device_duplicates: t.counters.duplicates,
@@ -655,11 +639,12 @@ impl Console {
                     r.value = format!("{delta_mm} (to {:.1} mm)", f64::from(target) / 1e3);
                     r
                 })?;
-                s.link
-                    .set_lengths(std::array::from_fn(|i| if i == t.index() { target } else { from[i] }))
-                    .map_err(|e| link_refusal(name, e))?;
-                lock(&s.live).commanded_um =
-                    Some(std::array::from_fn(|i| if i == t.index() { target } else { from[i] }));
+                // Sent as targets for all three, not as the protocol's Jog: the
+                // limit was judged on this target, and the others keep theirs.
+                let mut targets = from;
+                targets[t.index()] = target;
+                s.link.set_lengths(targets).map_err(|e| link_refusal(name, e))?;
+                lock(&s.live).commanded_um = Some(targets);
                 ok(json!({}))
             }
             Request::Pump { cup, on } => {

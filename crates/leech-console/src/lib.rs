@@ -18,6 +18,9 @@
 //!   Every refusal names the field, the value and what is allowed, and
 //!   changes nothing. Malformed, unknown, oversized and non-finite
 //!   messages are refused the same way ([`messages::parse`]).
+//! * **Stop** halts the motors at once and cancels a plan's remaining
+//!   steps; the step in progress ends when its wait for the lengths fails
+//!   (the executor's bound). The pumps stay as they are.
 //! * **One driver.** The first tab to take control drives; the others
 //!   watch. Control is released by the tab or when it disconnects. Any tab
 //!   may stop the robot, and ask for a reach preview or the workspace
