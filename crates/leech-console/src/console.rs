@@ -119,6 +119,8 @@ struct Shared {
     robot: Robot,
     scene: Scene,
     goal: Option<Goal>,
+    /// What the page shows (m): x0, y0, x1, y1.
+    view_m: [f64; 4],
     source: String,
     link: Arc<Link>,
     live: Mutex<Live>,
@@ -204,6 +206,7 @@ impl Console {
             robot: robot.clone(),
             scene: scene.clone(),
             goal,
+            view_m: view(&robot, start, goal),
             source: name,
             link: Arc::new(link),
             live: Mutex::default(),
@@ -234,6 +237,20 @@ impl Console {
         };
         Ok(Console { shared, threads: vec![follow, predict], _device: device })
     }
+}
+
+/// The part of the scene the page shows (m: x0, y0, x1, y1): around the
+/// starting foothold as far as the tubes reach, and the goal.
+fn view(robot: &Robot, start: Foothold, goal: Option<Goal>) -> [f64; 4] {
+    let [x, y] = start.centre_m;
+    let reach = robot.limits.tube_length_max_m * 1.1;
+    let mut view = [x - reach, y - reach, x + reach, y + reach];
+    if let Some(g) = goal {
+        let [gx, gy] = g.point_m;
+        let margin = 0.5 * reach;
+        view = [view[0].min(gx - margin), view[1].min(gy - margin), view[2].max(gx + margin), view[3].max(gy + margin)];
+    }
+    view
 }
 
 /// Keeps the latest telemetry and notes faults and link events.
@@ -399,18 +416,7 @@ impl Console {
         let s = &self.shared;
         let r = &s.robot;
         let (lo, hi) = (r.limits.tube_length_min_m, r.limits.tube_length_max_m);
-        // The view: around the start, as far as the tubes reach, and the goal.
-        let start = lock(&s.prediction).body.as_ref().map_or([0.0, 0.0], |b| b.cups[0].centre_m);
-        let reach = hi * 1.1;
-        let mut view = [start[0] - reach, start[1] - reach, start[0] + reach, start[1] + reach];
-        if let Some(g) = s.goal {
-            view = [
-                view[0].min(g.point_m[0] - reach * 0.5),
-                view[1].min(g.point_m[1] - reach * 0.5),
-                view[2].max(g.point_m[0] + reach * 0.5),
-                view[3].max(g.point_m[1] + reach * 0.5),
-            ];
-        }
+        let view = s.view_m;
         json!({
             "type": "hello",
             "tab": tab,
