@@ -127,6 +127,8 @@ struct Shared {
     prediction: Mutex<Arc<Prediction>>,
     /// The equilibrium the prediction draws.
     held: Mutex<Option<Held>>,
+    /// Signals a new prediction: the state goes out at once, not at the next tick.
+    predicted: Arc<tokio::sync::Notify>,
     /// A reach, plan or workspace being computed (one at a time).
     computing: AtomicBool,
     driver: Mutex<Option<u64>>,
@@ -212,6 +214,7 @@ impl Console {
             live: Mutex::default(),
             prediction: Mutex::default(),
             held: Mutex::new(None),
+            predicted: Arc::new(tokio::sync::Notify::new()),
             computing: AtomicBool::new(false),
             driver: Mutex::new(None),
             plan: Mutex::new(None),
@@ -304,6 +307,7 @@ fn follow_model(shared: &Shared, mut model: Model) {
         if let Some((p, held)) = model.predict() {
             *lock(&shared.prediction) = Arc::new(p);
             *lock(&shared.held) = held;
+            shared.predicted.notify_one();
         }
         std::thread::sleep(started.elapsed().max(Duration::from_millis(5)));
     }
@@ -396,6 +400,11 @@ fn evidence(phase: Phase, body: Option<&Drawing>) -> Evidence {
 }
 
 impl Console {
+    /// Notified whenever the model has a new prediction.
+    pub fn predicted(&self) -> Arc<tokio::sync::Notify> {
+        Arc::clone(&self.shared.predicted)
+    }
+
     /// A new tab's number (never reused).
     pub fn connect(&self) -> u64 {
         self.shared.tabs.fetch_add(1, Ordering::SeqCst);

@@ -6,7 +6,8 @@
 //!   page from elsewhere open in the operator's browser must not reach a
 //!   robot on 127.0.0.1.
 //! * Every tab is sent the hello ([`Console::hello`]) and then the state
-//!   every [`STATE_PERIOD`]; a slow tab skips states rather than queueing
+//!   every [`STATE_PERIOD`], and as soon as the model has a new body (at
+//!   most every [`MIN_STATE_GAP`]); a slow tab skips states rather than queueing
 //!   them. Requests are judged by [`Console::handle`], in the order a tab
 //!   sent them; a refusal comes back as `{"type": "error", ...}`.
 
@@ -30,6 +31,9 @@ use crate::messages::{self, Refusal, MAX_REQUEST_BYTES};
 
 /// How often the state is sent to every tab: 50 Hz.
 pub const STATE_PERIOD: Duration = Duration::from_millis(20);
+
+/// The shortest time between two states: at most 100 a second.
+pub const MIN_STATE_GAP: Duration = Duration::from_millis(10);
 
 const INDEX: &str = include_str!("../assets/index.html");
 const SCRIPT: &str = include_str!("../assets/console.js");
@@ -97,9 +101,16 @@ pub async fn serve(console: Arc<Console>, listener: TcpListener, token: Option<S
         async move {
             let mut tick = tokio::time::interval(STATE_PERIOD);
             tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+            let predicted = console.predicted();
             loop {
-                tick.tick().await;
+                // A new body goes out at once (a slider's move reaches the
+                // drawing a tick sooner), the rest every tick.
+                tokio::select! {
+                    _ = tick.tick() => {}
+                    () = predicted.notified() => {}
+                }
                 tx.send_replace(Arc::from(console.snapshot()));
+                tokio::time::sleep(MIN_STATE_GAP).await;
             }
         }
     }));
