@@ -30,8 +30,10 @@ use crate::flags::{
 mod climb;
 mod holds;
 mod link;
+pub(crate) mod serve;
 
 pub use link::{Action, Drive, Run, SimRobot};
+pub use serve::Serve;
 
 pub use climb::Climb;
 use holds::{load_scene, pose, situation};
@@ -76,6 +78,7 @@ pub enum Args {
     },
     SimRobot(SimRobot),
     Drive(Drive),
+    Serve(Serve),
 }
 
 /// Where results go: JSON or text on standard output, and the files asked for.
@@ -243,6 +246,7 @@ impl Args {
             },
             Command::SimRobot(a) => Args::SimRobot(link::sim_robot(a)?),
             Command::Drive(a) => Args::Drive(link::drive(a)?),
+            Command::Serve(a) => Args::Serve(serve::serve(a)?),
         })
     }
 
@@ -263,7 +267,7 @@ impl Args {
             | Args::Calibrate(Calibrate { outputs, .. })
             | Args::Simulate(Simulate { outputs, .. }) => outputs.json,
             Args::Drive(Drive { json, .. }) => *json,
-            Args::Figure(_) | Args::SimRobot(_) => false,
+            Args::Figure(_) | Args::SimRobot(_) | Args::Serve(_) => false,
         }
     }
 }

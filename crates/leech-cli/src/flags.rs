@@ -53,6 +53,36 @@ pub enum Command {
     SimRobot(SimRobotArgs),
     /// Drive the robot (or the simulated one) over its serial port.
     Drive(DriveArgs),
+    /// The operator's web console: see, plan and drive the robot (simulated by default) from a browser.
+    Serve(ServeArgs),
+}
+
+/// `leech serve`.
+#[derive(Debug, Args)]
+pub struct ServeArgs {
+    /// The robot (`[drive]` configures the controller's tubes, `[limits]` bounds every command).
+    #[command(flatten)]
+    pub robot: RobotChoice,
+    /// The controller's serial port; without it, the built-in simulated robot.
+    #[arg(long, value_name = "PATH", conflicts_with = "simulate")]
+    pub port: Option<PathBuf>,
+    /// Drive the built-in simulated robot (the default).
+    #[arg(long)]
+    pub simulate: bool,
+    /// The climb scenario whose scene, start and goal the console shows (`leech scenario list`);
+    /// crawl-floor by default.
+    #[arg(long, value_name = "NAME|FILE", conflicts_with = "scene")]
+    pub scenario: Option<PathBuf>,
+    /// Instead: a scene with a `[start]` (`leech scene list`).
+    #[arg(long, value_name = "NAME|FILE")]
+    pub scene: Option<PathBuf>,
+    /// Where to listen (default 127.0.0.1:8080, or a free port if that one is taken). Any
+    /// address but a loopback one needs --token.
+    #[arg(long, value_name = "ADDR:PORT")]
+    pub listen: Option<std::net::SocketAddr>,
+    /// A token the page and its websocket must carry (`?token=T`): 8 or more letters, digits, '-', '_', '.'.
+    #[arg(long, value_name = "T")]
+    pub token: Option<String>,
 }
 
 /// `leech sim-robot`.

@@ -8,6 +8,7 @@ mod failure;
 mod flags;
 mod link;
 mod render;
+mod serve;
 
 use std::process::ExitCode;
 use std::time::Instant;
@@ -170,6 +171,7 @@ fn run(args: Args, out: &mut String) -> Result<(), Failure> {
         Args::ScenarioShow { scenario, text, json } => render::scenario(out, &scenario, &text, json),
         Args::SimRobot(a) => link::sim_robot(a),
         Args::Drive(a) => link::drive(out, a),
+        Args::Serve(a) => serve::serve(a),
     }
 }
 

@@ -170,6 +170,17 @@ impl BodyCups {
         BodyCups { shared, _solver: Arc::new(solver) }
     }
 
+    /// The holds the body is under now.
+    pub fn hold(&self) -> Hold {
+        lock(&self.shared.model).hold
+    }
+
+    /// The body's equilibrium itself at the last lengths observed, under
+    /// its holds (solved now if the last one is stale): what a display draws.
+    pub fn held(&self) -> Result<Held, StanceError> {
+        lock(&self.shared.model).held()
+    }
+
     /// The body's equilibrium at the last lengths observed, under its holds
     /// (solved now if the last one is stale).
     pub fn pose(&self) -> Result<BodyPose, StanceError> {

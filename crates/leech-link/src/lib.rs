@@ -13,6 +13,8 @@
 //!   telemetry.
 //! * [`body`]: the simulated robot's body from leech's statics, as the
 //!   [`sim::Cups`] model that says where a cup's face seals.
+//! * [`settings`]: the tubes' configuration and a simulated controller
+//!   from a robot file's `[drive]` and `[limits]` sections.
 //! * [`chip`]: the robot's Arduino firmware (`firmware/`) on a simulated
 //!   ATmega2560 behind a pseudo-terminal, to test a host against the
 //!   firmware itself.
@@ -53,5 +55,6 @@ pub mod chip;
 pub mod executor;
 pub mod host;
 pub mod pty;
+pub mod settings;
 pub mod sim;
 pub mod wait;

@@ -1,13 +1,13 @@
 //! `leech sim-robot` and `leech drive`: flags resolved into the simulated
 //! robot's configuration and faults, and the controller's tube settings.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use leech::prelude::Robot;
 use leech::scene::Scene;
 use leech::stride::Phase;
-use leech::stride::{Foothold, Scenario};
+use leech::stride::{Foothold, Goal, Scenario};
 use leech_link::executor::Move;
 use leech_link::sim::{Faults, SimConfig};
 use leech_protocol::message::{Cup, Faults as FaultBits, Tube, TubeConfig};
@@ -73,22 +73,29 @@ fn seconds(flag: &str, s: f64) -> Result<Duration, Failure> {
 
 pub(super) fn sim_robot(a: SimRobotArgs) -> Result<SimRobot, Failure> {
     let robot = tuned(&a.robot, Ok)?;
-    let default = SimConfig::default();
-    let config = SimConfig {
-        // The encoder's counts per turn stay; the turn feeds what the robot's calibration says.
-        mm_per_rev: default.counts_per_rev / robot.drive.counts_per_mm,
-        initial_lengths_um: robot.drive.zero_lengths_m.map(|l| (l * 1e6).round() as i32),
-        max_tube_speed_mm_s: robot.drive.max_speed_m_per_s * 1e3,
-        ..default
-    };
+    let config = leech_link::settings::sim_config(&robot);
     let faults = a.faults.as_deref().map(faults).transpose()?.unwrap_or_default();
     let status_every = if a.status_every == 0.0 { None } else { Some(seconds("--status-every", a.status_every)?) };
     let duration = a.duration.map(|s| seconds("--duration", s)).transpose()?;
-    let body = match (&a.scenario, &a.scene) {
+    let body = place(&robot, a.scenario.as_deref(), a.scene.as_deref())?.map(|p| (robot, p.scene, p.start));
+    Ok(SimRobot { config, body, faults, status_every, duration })
+}
+
+/// Where a simulated robot is: a scene, its rear cup's start, and the
+/// scenario's goal.
+pub struct Place {
+    pub scene: Scene,
+    pub start: Foothold,
+    pub goal: Option<Goal>,
+}
+
+/// The place `--scenario` or `--scene` names, checked for `robot` (None without either).
+pub(super) fn place(robot: &Robot, scenario: Option<&Path>, scene: Option<&Path>) -> Result<Option<Place>, Failure> {
+    Ok(Some(match (scenario, scene) {
         (Some(path), _) => {
             let (scenario, _) = super::climb::load_scenario(path, "--scenario")?;
-            scenario.check_start(&robot)?;
-            Some((robot, scenario.scene, scenario.start))
+            scenario.check_start(robot)?;
+            Place { scene: scenario.scene, start: scenario.start, goal: Some(scenario.goal) }
         }
         (None, Some(path)) => {
             let (scene, _) = super::holds::load_scene(path, "--scene")?;
@@ -98,11 +105,11 @@ pub(super) fn sim_robot(a: SimRobotArgs) -> Result<SimRobot, Failure> {
                     path.display()
                 )));
             };
-            Some((robot, scene, Foothold { centre_m: start.rear_cup_m, direction_rad: start.direction_rad }))
+            let start = Foothold { centre_m: start.rear_cup_m, direction_rad: start.direction_rad };
+            Place { scene, start, goal: None }
         }
-        (None, None) => None,
-    };
-    Ok(SimRobot { config, body, faults, status_every, duration })
+        (None, None) => return Ok(None),
+    }))
 }
 
 /// The `--faults` spec: `drop=P,corrupt=P,delay=S,cut,vacuum-loss=rear|front,stall=1|2|3,lose-fault-reports,seed=N`.
@@ -220,22 +227,7 @@ pub(super) fn drive(a: DriveArgs) -> Result<Drive, Failure> {
         DriveAction::Run { plan: Some(plan), .. } => Action::Run(Run::Moves(plan_moves(&plan, [lo, hi])?)),
         DriveAction::Run { .. } => return Err(Failure::Input("run: give PLAN.json or --scenario".into())),
     };
-    let d = &robot.drive;
-    let q16 = |g: f64| (g * 65536.0).round() as i32;
-    let tubes = [Tube::L1, Tube::L2, Tube::L3].map(|tube| TubeConfig {
-        tube,
-        reverse_motor: false,
-        reverse_encoder: false,
-        counts_per_mm_x1000: (d.counts_per_mm * 1e3).round() as u32,
-        origin_um: um(d.zero_lengths_m[tube.index()]),
-        min_um: um(lo),
-        max_um: um(hi),
-        max_speed_um_s: (d.max_speed_m_per_s * 1e6).round() as u32,
-        max_duty_permille: 1000,
-        kp_q16: q16(d.gains[0]),
-        ki_q16: q16(d.gains[1]),
-        kd_q16: q16(d.gains[2]),
-    });
+    let tubes = leech_link::settings::tube_configs(&robot);
     Ok(Drive { port: a.port, min_safety_factor: robot.cup.min_safety_factor, tubes, action, json: a.json })
 }
 

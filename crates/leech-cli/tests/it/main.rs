@@ -406,6 +406,7 @@ fn simulate_writes_series_animation_and_summary() {
 mod climb;
 mod drive;
 mod holds;
+mod serve;
 mod tube;
 
 /// Help into a pipe closed early (`leech shape --help | head -0`) is not a panic.

@@ -1,0 +1,249 @@
+//! The web server: one page (embedded), one websocket, a token when asked.
+//!
+//! * `GET /` serves the page; `GET /ws` upgrades to the websocket. With a
+//!   token, both require `?token=T` (the page passes it on to its socket).
+//! * A websocket whose `Origin` is not this server's own is refused: a web
+//!   page from elsewhere open in the operator's browser must not reach a
+//!   robot on 127.0.0.1.
+//! * Every tab is sent the hello ([`Console::hello`]) and then the state
+//!   every [`STATE_PERIOD`], and as soon as the model has a new body (at
+//!   most every [`MIN_STATE_GAP`]); a slow tab skips states rather than queueing
+//!   them. Requests are judged by [`Console::handle`], in the order a tab
+//!   sent them; a refusal comes back as `{"type": "error", ...}`.
+
+use std::collections::HashMap;
+use std::net::SocketAddr;
+use std::sync::Arc;
+use std::time::Duration;
+
+use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
+use axum::extract::{Query, State};
+use axum::http::{header, HeaderMap, StatusCode};
+use axum::response::{Html, IntoResponse, Response};
+use axum::routing::get;
+use axum::Router;
+use serde_json::json;
+use tokio::net::TcpListener;
+use tokio::sync::{mpsc, watch};
+
+use crate::console::Console;
+use crate::messages::{self, Refusal, MAX_REQUEST_BYTES};
+
+/// How often the state is sent to every tab: 50 Hz.
+pub const STATE_PERIOD: Duration = Duration::from_millis(20);
+
+/// The shortest time between two states: at most 100 a second.
+pub const MIN_STATE_GAP: Duration = Duration::from_millis(10);
+
+const INDEX: &str = include_str!("../assets/index.html");
+const SCRIPT: &str = include_str!("../assets/console.js");
+const STYLE: &str = include_str!("../assets/console.css");
+
+/// Why the server may not listen where asked.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ListenError {
+    /// Another machine could reach the robot: a token is needed.
+    #[error("--listen {0}: not a loopback address, and the page moves a robot: give --token T (8 or more letters, digits, '-', '_' or '.')")]
+    NeedsToken(SocketAddr),
+    /// The token is too short or has characters a URL would mangle.
+    #[error("--token: expected 8 or more letters, digits, '-', '_' or '.', got {0} characters")]
+    BadToken(usize),
+}
+
+/// Checks the listening address and the token: any address other than a
+/// loopback one needs a token.
+pub fn check_listen(addr: SocketAddr, token: Option<&str>) -> Result<(), ListenError> {
+    if let Some(t) = token {
+        let fine = t.len() >= 8 && t.chars().all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c));
+        if !fine {
+            return Err(ListenError::BadToken(t.chars().count()));
+        }
+    } else if !addr.ip().is_loopback() {
+        return Err(ListenError::NeedsToken(addr));
+    }
+    Ok(())
+}
+
+#[derive(Clone)]
+struct App {
+    console: Arc<Console>,
+    token: Option<Arc<str>>,
+    state: watch::Receiver<Arc<str>>,
+}
+
+impl App {
+    /// Whether the request carries the token (always, without one).
+    fn admitted(&self, query: &HashMap<String, String>) -> bool {
+        let Some(token) = &self.token else { return true };
+        let given = query.get("token").map_or(&[][..], |t| t.as_bytes());
+        // Compared in full whatever differs first: the time says nothing of the token.
+        given.len() == token.len() && given.iter().zip(token.as_bytes()).fold(0u8, |acc, (a, b)| acc | (a ^ b)) == 0
+    }
+}
+
+/// Stops a task when dropped: the state's ticker ends with the server,
+/// however the server's future ends (done, or dropped by its caller).
+struct AbortOnDrop(tokio::task::JoinHandle<()>);
+
+impl Drop for AbortOnDrop {
+    fn drop(&mut self) {
+        self.0.abort();
+    }
+}
+
+/// Serves the console on `listener` until the future is dropped (open
+/// websockets would keep a graceful shutdown waiting for ever). The caller
+/// has checked the address ([`check_listen`]).
+pub async fn serve(console: Arc<Console>, listener: TcpListener, token: Option<String>) -> std::io::Result<()> {
+    let (tx, rx) = watch::channel::<Arc<str>>(Arc::from(console.snapshot()));
+    let _ticker = AbortOnDrop(tokio::spawn({
+        let console = Arc::clone(&console);
+        async move {
+            let mut tick = tokio::time::interval(STATE_PERIOD);
+            tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+            let predicted = console.predicted();
+            loop {
+                // A new body goes out at once (a slider's move reaches the
+                // drawing a tick sooner), the rest every tick.
+                tokio::select! {
+                    _ = tick.tick() => {}
+                    () = predicted.notified() => {}
+                }
+                tx.send_replace(Arc::from(console.snapshot()));
+                tokio::time::sleep(MIN_STATE_GAP).await;
+            }
+        }
+    }));
+    let app = App { console, token: token.map(Arc::from), state: rx };
+    let router = Router::new().route("/", get(page)).route("/ws", get(socket)).with_state(app);
+    axum::serve(listener, router).await
+}
+
+async fn page(State(app): State<App>, Query(query): Query<HashMap<String, String>>) -> Response {
+    if !app.admitted(&query) {
+        return (StatusCode::UNAUTHORIZED, "a token is needed: open the URL leech serve printed\n").into_response();
+    }
+    let html = INDEX.replace("/*STYLE*/", STYLE).replace("/*SCRIPT*/", SCRIPT);
+    let mut response = Html(html).into_response();
+    let headers = response.headers_mut();
+    // The page moves a robot: no other site may frame it (clickjacking).
+    headers.insert(header::X_FRAME_OPTIONS, header::HeaderValue::from_static("DENY"));
+    headers.insert(header::CACHE_CONTROL, header::HeaderValue::from_static("no-store"));
+    response
+}
+
+/// Whether a websocket's `Origin` (if any; programs send none) is this server.
+fn same_origin(headers: &HeaderMap) -> bool {
+    let Some(origin) = headers.get(header::ORIGIN) else { return true };
+    let host = headers.get(header::HOST).and_then(|h| h.to_str().ok());
+    let origin = origin.to_str().ok().and_then(|o| o.strip_prefix("http://").or_else(|| o.strip_prefix("https://")));
+    matches!((origin, host), (Some(o), Some(h)) if o == h)
+}
+
+async fn socket(
+    State(app): State<App>,
+    Query(query): Query<HashMap<String, String>>,
+    headers: HeaderMap,
+    upgrade: WebSocketUpgrade,
+) -> Response {
+    if !app.admitted(&query) {
+        return (StatusCode::UNAUTHORIZED, "a token is needed\n").into_response();
+    }
+    if !same_origin(&headers) {
+        return (StatusCode::FORBIDDEN, "the websocket is for this server's own page\n").into_response();
+    }
+    upgrade
+        .max_message_size(4 * MAX_REQUEST_BYTES)
+        .max_frame_size(4 * MAX_REQUEST_BYTES)
+        .on_upgrade(move |ws| session(app, ws))
+}
+
+/// One tab's session: hello, then states, replies and refusals.
+async fn session(app: App, mut ws: WebSocket) {
+    let console = app.console;
+    let tab = console.connect();
+    let mut state = app.state;
+    let (later_tx, mut later_rx) = mpsc::unbounded_channel::<String>();
+    let text = |v: serde_json::Value| Message::Text(v.to_string().into());
+    if ws.send(text(console.hello(tab))).await.is_ok() {
+        loop {
+            tokio::select! {
+                incoming = ws.recv() => {
+                    let text_in = match incoming {
+                        Some(Ok(Message::Text(t))) => t.to_string(),
+                        Some(Ok(Message::Binary(_))) => {
+                            let r = Refusal::new("message", "kind", "binary", "text (JSON)", "binary messages are not read");
+                            if ws.send(text(refusal(&r))).await.is_err() { break }
+                            continue;
+                        }
+                        Some(Ok(Message::Ping(_) | Message::Pong(_))) => continue,
+                        Some(Ok(Message::Close(_))) | Some(Err(_)) | None => break,
+                    };
+                    let reply = match messages::parse(&text_in) {
+                        Ok(None) => json!({ "type": "pong" }),
+                        Ok(Some(request)) => {
+                            let console = Arc::clone(&console);
+                            let tx = later_tx.clone();
+                            let later: crate::console::Later = Box::new(move |v| { let _ = tx.send(v.to_string()); });
+                            // Link commands wait for the controller's answer: off the async threads.
+                            let handled = tokio::task::spawn_blocking(move || console.handle(tab, request, later)).await;
+                            match handled {
+                                Ok(Ok(v)) => v,
+                                Ok(Err(r)) => refusal(&r),
+                                Err(_) => json!({ "type": "error", "message": "the request failed" }),
+                            }
+                        }
+                        Err(r) => refusal(&r),
+                    };
+                    if ws.send(text(reply)).await.is_err() { break }
+                }
+                changed = state.changed() => {
+                    if changed.is_err() { break }
+                    let s = state.borrow_and_update().to_string();
+                    if ws.send(Message::Text(s.into())).await.is_err() { break }
+                }
+                Some(later) = later_rx.recv() => {
+                    if ws.send(Message::Text(later.into())).await.is_err() { break }
+                }
+            }
+        }
+    }
+    console.disconnect(tab);
+}
+
+fn refusal(r: &Refusal) -> serde_json::Value {
+    json!({
+        "type": "error",
+        "request": r.request,
+        "field": r.field,
+        "value": r.value,
+        "allowed": r.allowed,
+        "message": r.message,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn another_address_needs_a_token() {
+        let loopback: SocketAddr = "127.0.0.1:8080".parse().unwrap();
+        let any: SocketAddr = "0.0.0.0:8080".parse().unwrap();
+        assert_eq!(check_listen(loopback, None), Ok(()));
+        assert_eq!(check_listen(any, None), Err(ListenError::NeedsToken(any)));
+        assert_eq!(check_listen(any, Some("short")), Err(ListenError::BadToken(5)));
+        assert_eq!(check_listen(any, Some("a-long_token.1")), Ok(()));
+    }
+
+    #[test]
+    fn a_foreign_origin_is_refused() {
+        let mut h = HeaderMap::new();
+        assert!(same_origin(&h));
+        h.insert(header::HOST, "127.0.0.1:8080".parse().unwrap());
+        h.insert(header::ORIGIN, "http://127.0.0.1:8080".parse().unwrap());
+        assert!(same_origin(&h));
+        h.insert(header::ORIGIN, "http://evil.example".parse().unwrap());
+        assert!(!same_origin(&h));
+    }
+}
