@@ -689,9 +689,8 @@ impl Console {
                                 "on",
                                 format!("false ({} cup)", stride_cup.name()),
                                 format!(
-                                    "true while the {} cup holds and the {} cup would hold alone with a safety \
-                                     factor of at least {}",
-                                    stride_cup.name(),
+                                    "true; false only while the {} cup would hold alone with a safety factor of at \
+                                     least {}",
                                     stride_cup.other().name(),
                                     s.robot.cup.min_safety_factor
                                 ),
