@@ -17,7 +17,7 @@
   let workspaceShown = false;
   let dragging = [false, false, false];
   // Measured by the browser tests: states received and bodies drawn.
-  const stats = window.consoleStats = { states: 0, drawn: 0, drawnAt: [], lastBodyKey: "" };
+  const stats = window.consoleStats = { states: 0, drawn: 0, drawnAt: [], lastBodyKey: "", lastDeviceTime: null };
 
   const log = (text, error) => {
     const li = document.createElement("li");
@@ -229,10 +229,16 @@
       drawBody($("body"), body, false);
       stats.lastBodyKey = key;
     }
-    // Every state redraws nothing else; the count says how often the drawing is current.
-    stats.drawn++;
-    stats.drawnAt.push(performance.now());
-    if (stats.drawnAt.length > 200) stats.drawnAt.shift();
+    // The drawing is brought up to date with each new telemetry report (the
+    // body is redrawn when the model's body changed): counted per report,
+    // not per state message, so a frozen telemetry counts nothing.
+    const deviceTime = s.telemetry ? s.telemetry.device_time_s : null;
+    if (deviceTime !== null && deviceTime !== stats.lastDeviceTime) {
+      stats.lastDeviceTime = deviceTime;
+      stats.drawn++;
+      stats.drawnAt.push(performance.now());
+      if (stats.drawnAt.length > 200) stats.drawnAt.shift();
+    }
     $("body").dataset.lengths = body ? body.lengths_m.map((l) => l.toFixed(5)).join(",") : "";
     // The tables are read by a person: 10 times a second is plenty, and
     // leaves the machine's time to the drawing and the robot's link.
