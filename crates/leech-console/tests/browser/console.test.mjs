@@ -116,12 +116,20 @@ test("Escape stops the motors", async () => {
     slider.dispatchEvent(new Event("change"));
   }, Math.round(l2 + 60));
   await page.waitForFunction(() => document.getElementById("duty-1").textContent.includes("moving"), null, { timeout: 5000 });
+  const pressed = Number(await page.locator("#measured-1").textContent());
+  const t0 = await page.evaluate(() => performance.now());
   await page.locator("body").press("Escape");
   await page.waitForFunction(() => [0, 1, 2].every((i) => !document.getElementById("duty-" + i).textContent.includes("moving")),
     null, { timeout: 2000 });
+  const shown = (await page.evaluate(() => performance.now())) - t0;
+  measured.escape_to_stopped_shown_ms = shown;
   assert.equal(await page.locator("#commanded-1").textContent(), "stopped");
+  // The tube is at rest where Escape caught it: at 20 mm/s a 200 ms stop
+  // moves it 4 mm; the page's tables refresh every 100 ms.
+  await page.waitForTimeout(300);
   const stopped = Number(await page.locator("#measured-1").textContent());
-  assert.ok(stopped < l2 + 55, `L2 stopped at ${stopped} mm, short of ${l2 + 60}`);
+  assert.ok(Math.abs(stopped - pressed) < 4, `L2 went on from ${pressed} to ${stopped} mm after Escape`);
+  assert.ok(shown < 500, `the page showed the motors stopped ${shown} ms after Escape`);
 });
 
 test("a click on the floor previews the body that puts the front cup there; the workspace overlays", async () => {
