@@ -15,13 +15,21 @@
 //! * Every tab is sent the hello ([`Console::hello`]) and then the state
 //!   every [`STATE_PERIOD`], and as soon as the model has a new body (at
 //!   most every [`MIN_STATE_GAP`]); a slow tab skips states rather than queueing
-//!   them. Requests are judged by [`Console::handle`], in the order a tab
+//!   them. A tab that does not read what it is sent within
+//!   [`SEND_DEADLINE`], or from which nothing comes (not even a pong) for
+//!   [`SILENCE`], is dropped, and with it its control.
+//! * **Control is a lease**: the driving tab loses control when nothing
+//!   (request or `ping`) came from it for [`LEASE`]; then any tab may take
+//!   control. The page pings every 2 s while it drives, so only a hung,
+//!   frozen or vanished tab lapses.
+//! * Requests are judged by [`Console::handle`], in the order a tab
 //!   sent them; a refusal comes back as `{"type": "error", ...}`.
 
 use std::collections::HashMap;
 use std::net::SocketAddr;
 use std::sync::Arc;
-use std::time::Duration;
+use std::sync::{Mutex, MutexGuard};
+use std::time::{Duration, Instant};
 
 use axum::extract::ws::{Message, WebSocket, WebSocketUpgrade};
 use axum::extract::{Query, State};
@@ -34,13 +42,28 @@ use tokio::net::TcpListener;
 use tokio::sync::{mpsc, watch};
 
 use crate::console::Console;
-use crate::messages::{self, Refusal, MAX_REQUEST_BYTES};
+use crate::messages::{self, Refusal, Request, MAX_REQUEST_BYTES};
 
 /// How often the state is sent to every tab: 50 Hz.
 pub const STATE_PERIOD: Duration = Duration::from_millis(20);
 
 /// The shortest time between two states: at most 100 a second.
 pub const MIN_STATE_GAP: Duration = Duration::from_millis(10);
+
+/// How long the driving tab keeps control without sending anything: then
+/// any tab may take it. The page sends a ping every 2 s while it drives.
+pub const LEASE: Duration = Duration::from_secs(10);
+
+/// How long a message to a tab may wait to be sent: a tab that does not
+/// read is dropped then (and with it its control).
+pub const SEND_DEADLINE: Duration = Duration::from_secs(5);
+
+/// How often the server pings every tab.
+pub const PING_PERIOD: Duration = Duration::from_secs(5);
+
+/// A tab from which nothing came for this long (not even the pong of a
+/// ping) is dropped.
+pub const SILENCE: Duration = Duration::from_secs(20);
 
 const INDEX: &str = include_str!("../assets/index.html");
 const SCRIPT: &str = include_str!("../assets/console.js");
@@ -77,6 +100,8 @@ struct App {
     token: Option<Arc<str>>,
     state: watch::Receiver<Arc<str>>,
     hosts: Hosts,
+    /// When each open tab last sent a message (a request or a ping).
+    heard: Arc<Mutex<HashMap<u64, Instant>>>,
 }
 
 /// The `Host` values this server answers to.
@@ -124,6 +149,28 @@ impl Hosts {
 const FOREIGN_HOST: &str = "this server answers only to its own address (Host header refused)\n";
 
 impl App {
+    /// A message came from `tab`: its lease (if it drives) starts again.
+    fn heard(&self, tab: u64) {
+        lock(&self.heard).insert(tab, Instant::now());
+    }
+
+    /// `tab` closed.
+    fn forget(&self, tab: u64) {
+        lock(&self.heard).remove(&tab);
+    }
+
+    /// Ends the control of a driving tab silent for more than [`LEASE`]
+    /// (releasing a watching tab's control changes nothing).
+    fn lapse(&self) {
+        // Held throughout: a tab heard from meanwhile is not released.
+        let heard = lock(&self.heard);
+        for (&tab, at) in heard.iter() {
+            if at.elapsed() > LEASE {
+                let _ = self.console.handle(tab, Request::ReleaseControl {}, Box::new(|_| {}));
+            }
+        }
+    }
+
     /// Whether the request carries the token (always, without one).
     fn admitted(&self, query: &HashMap<String, String>) -> bool {
         let Some(token) = &self.token else { return true };
@@ -167,7 +214,17 @@ pub async fn serve(console: Arc<Console>, listener: TcpListener, token: Option<S
         }
     }));
     let hosts = Hosts::of(listener.local_addr()?);
-    let app = App { console, token: token.map(Arc::from), state: rx, hosts };
+    let app = App { console, token: token.map(Arc::from), state: rx, hosts, heard: Arc::default() };
+    let _lease = AbortOnDrop(tokio::spawn({
+        let app = app.clone();
+        async move {
+            let mut tick = tokio::time::interval(LEASE / 20);
+            loop {
+                tick.tick().await;
+                app.lapse();
+            }
+        }
+    }));
     let router = Router::new().route("/", get(page)).route("/ws", get(socket)).with_state(app);
     axum::serve(listener, router).await
 }
@@ -217,57 +274,92 @@ async fn socket(
         .on_upgrade(move |ws| session(app, ws))
 }
 
-/// One tab's session: hello, then states, replies and refusals.
+/// One tab's session: hello, then states, replies and refusals, until the
+/// tab closes, stops reading ([`SEND_DEADLINE`]) or stops answering
+/// ([`SILENCE`]).
 async fn session(app: App, mut ws: WebSocket) {
-    let console = app.console;
+    let console = Arc::clone(&app.console);
     let tab = console.connect();
-    let mut state = app.state;
+    app.heard(tab);
+    let mut state = app.state.clone();
     let (later_tx, mut later_rx) = mpsc::unbounded_channel::<String>();
     let text = |v: serde_json::Value| Message::Text(v.to_string().into());
-    if ws.send(text(console.hello(tab))).await.is_ok() {
+    let mut ping = tokio::time::interval(PING_PERIOD);
+    ping.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut last_heard = Instant::now();
+    if put(&mut ws, text(console.hello(tab))).await {
         loop {
             tokio::select! {
                 incoming = ws.recv() => {
+                    last_heard = Instant::now();
                     let text_in = match incoming {
                         Some(Ok(Message::Text(t))) => t.to_string(),
                         Some(Ok(Message::Binary(_))) => {
+                            app.heard(tab);
                             let r = Refusal::new("message", "kind", "binary", "text (JSON)", "binary messages are not read");
-                            if ws.send(text(refusal(&r))).await.is_err() { break }
+                            if !put(&mut ws, text(refusal(&r))).await { break }
                             continue;
                         }
+                        // The browser answers pings itself, even when the page hangs:
+                        // they keep the socket, not the control.
                         Some(Ok(Message::Ping(_) | Message::Pong(_))) => continue,
                         Some(Ok(Message::Close(_))) | Some(Err(_)) | None => break,
                     };
+                    app.heard(tab);
                     let reply = match messages::parse(&text_in) {
                         Ok(None) => json!({ "type": "pong" }),
-                        Ok(Some(request)) => {
-                            let console = Arc::clone(&console);
-                            let tx = later_tx.clone();
-                            let later: crate::console::Later = Box::new(move |v| { let _ = tx.send(v.to_string()); });
-                            // Link commands wait for the controller's answer: off the async threads.
-                            let handled = tokio::task::spawn_blocking(move || console.handle(tab, request, later)).await;
-                            match handled {
-                                Ok(Ok(v)) => v,
-                                Ok(Err(r)) => refusal(&r),
-                                Err(_) => json!({ "type": "error", "message": "the request failed" }),
-                            }
-                        }
+                        Ok(Some(request)) => run(&console, tab, request, later_tx.clone()).await,
                         Err(r) => refusal(&r),
                     };
-                    if ws.send(text(reply)).await.is_err() { break }
+                    if !put(&mut ws, text(reply)).await { break }
                 }
                 changed = state.changed() => {
                     if changed.is_err() { break }
                     let s = state.borrow_and_update().to_string();
-                    if ws.send(Message::Text(s.into())).await.is_err() { break }
+                    if !put(&mut ws, Message::Text(s.into())).await { break }
                 }
                 Some(later) = later_rx.recv() => {
-                    if ws.send(Message::Text(later.into())).await.is_err() { break }
+                    if !put(&mut ws, Message::Text(later.into())).await { break }
+                }
+                _ = ping.tick() => {
+                    if last_heard.elapsed() > SILENCE { break }
+                    if !put(&mut ws, Message::Ping(Vec::new().into())).await { break }
                 }
             }
         }
     }
+    app.forget(tab);
     console.disconnect(tab);
+}
+
+/// Sends one message within [`SEND_DEADLINE`]: false if the socket failed
+/// or the tab does not read (its queue stays full), and the session ends.
+async fn put(ws: &mut WebSocket, message: Message) -> bool {
+    matches!(tokio::time::timeout(SEND_DEADLINE, ws.send(message)).await, Ok(Ok(())))
+}
+
+/// Judges one request off the async threads (link commands wait for the
+/// controller's answer): the answer or the refusal.
+async fn run(
+    console: &Arc<Console>,
+    tab: u64,
+    request: Request,
+    later_tx: mpsc::UnboundedSender<String>,
+) -> serde_json::Value {
+    let console = Arc::clone(console);
+    let later: crate::console::Later = Box::new(move |v| {
+        let _ = later_tx.send(v.to_string());
+    });
+    match tokio::task::spawn_blocking(move || console.handle(tab, request, later)).await {
+        Ok(Ok(v)) => v,
+        Ok(Err(r)) => refusal(&r),
+        Err(_) => json!({ "type": "error", "message": "the request failed" }),
+    }
+}
+
+/// A lock, even if a thread panicked holding it (the map stays usable).
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
 fn refusal(r: &Refusal) -> serde_json::Value {

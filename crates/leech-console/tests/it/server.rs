@@ -3,12 +3,15 @@
 //! tab's queued requests.
 
 use std::net::SocketAddr;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
+use futures_util::{SinkExt, StreamExt};
+use leech_console::server;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
+use tokio_tungstenite::tungstenite::Message;
 
-use crate::{start, LIMIT};
+use crate::{ask, connect, start, until, LIMIT};
 
 /// Sends `request` as is and returns the whole response (the server closes it).
 async fn raw(addr: SocketAddr, request: String) -> String {
@@ -51,6 +54,47 @@ async fn a_foreign_host_is_refused_the_page_and_the_socket() {
             let socket = raw(addr, socket_request(&host)).await;
             assert!(socket.starts_with("HTTP/1.1 101"), "{host}: {socket}");
         }
+    })
+    .await
+    .expect("within the limit");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_silent_drivers_control_lapses_and_another_tab_takes_it() {
+    tokio::time::timeout(LIMIT, async {
+        let running = start(None).await;
+        let (mut a, a_tab) = connect(running.addr).await;
+        let (mut b, _) = connect(running.addr).await;
+        assert_eq!(ask(&mut a, r#"{"type":"take_control"}"#).await["type"], "ok");
+        // A keeps reading (so it is not dropped as a tab that does not read)...
+        let (mut a_out, mut a_in) = a.split();
+        let reader = tokio::spawn(async move { while let Some(Ok(_)) = a_in.next().await {} });
+        // ...and pings every 2 s, as the page does while it drives: it keeps control past the lease.
+        let kept = Instant::now();
+        while kept.elapsed() < server::LEASE + Duration::from_secs(2) {
+            a_out.send(Message::Text(r#"{"type":"ping"}"#.into())).await.unwrap();
+            tokio::time::sleep(Duration::from_secs(2)).await;
+        }
+        let refused = ask(&mut b, r#"{"type":"take_control"}"#).await;
+        assert_eq!(
+            (refused["type"].as_str(), refused["field"].as_str()),
+            (Some("error"), Some("control")),
+            "{refused}"
+        );
+        // Then A goes silent (a hung page): after the lease, B may take control.
+        let silent = Instant::now();
+        loop {
+            let reply = ask(&mut b, r#"{"type":"take_control"}"#).await;
+            if reply["type"] == "ok" {
+                break;
+            }
+            assert!(silent.elapsed() < server::LEASE + Duration::from_secs(3), "A still drives: {reply}");
+            tokio::time::sleep(Duration::from_millis(250)).await;
+        }
+        assert!(silent.elapsed() >= server::LEASE - Duration::from_secs(2), "lapsed after {:?}", silent.elapsed());
+        let s = until(&mut b, Duration::from_secs(2), |s| s["driver"] != a_tab).await;
+        assert!(s["driver"].is_u64(), "{s}");
+        reader.abort();
     })
     .await
     .expect("within the limit");
