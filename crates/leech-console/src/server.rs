@@ -22,11 +22,15 @@
 //!   (request or `ping`) came from it for [`LEASE`]; then any tab may take
 //!   control. The page pings every 2 s while it drives, so only a hung,
 //!   frozen or vanished tab lapses.
+//! * **A stop never waits**: it is carried out as soon as it is read, ahead
+//!   of the tab's requests still waiting (at most [`QUEUE`]), and the moves
+//!   queued before it, by any tab, are refused.
 //! * Requests are judged by [`Console::handle`], in the order a tab
 //!   sent them; a refusal comes back as `{"type": "error", ...}`.
 
 use std::collections::HashMap;
 use std::net::SocketAddr;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 use std::sync::{Mutex, MutexGuard};
 use std::time::{Duration, Instant};
@@ -57,6 +61,10 @@ pub const LEASE: Duration = Duration::from_secs(10);
 /// How long a message to a tab may wait to be sent: a tab that does not
 /// read is dropped then (and with it its control).
 pub const SEND_DEADLINE: Duration = Duration::from_secs(5);
+
+/// How many requests of a tab may wait for the ones before them; more are
+/// refused.
+pub const QUEUE: usize = 256;
 
 /// How often the server pings every tab.
 pub const PING_PERIOD: Duration = Duration::from_secs(5);
@@ -102,6 +110,8 @@ struct App {
     hosts: Hosts,
     /// When each open tab last sent a message (a request or a ping).
     heard: Arc<Mutex<HashMap<u64, Instant>>>,
+    /// How many stops were asked (by any tab).
+    stops: Arc<AtomicU64>,
 }
 
 /// The `Host` values this server answers to.
@@ -214,7 +224,8 @@ pub async fn serve(console: Arc<Console>, listener: TcpListener, token: Option<S
         }
     }));
     let hosts = Hosts::of(listener.local_addr()?);
-    let app = App { console, token: token.map(Arc::from), state: rx, hosts, heard: Arc::default() };
+    let app =
+        App { console, token: token.map(Arc::from), state: rx, hosts, heard: Arc::default(), stops: Arc::default() };
     let _lease = AbortOnDrop(tokio::spawn({
         let app = app.clone();
         async move {
@@ -287,6 +298,10 @@ async fn session(app: App, mut ws: WebSocket) {
     let mut ping = tokio::time::interval(PING_PERIOD);
     ping.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
     let mut last_heard = Instant::now();
+    // The tab's requests, carried out in order by a worker of its own; its
+    // answers come back with the later ones.
+    let (queue, queued) = mpsc::channel::<(u64, Request)>(QUEUE);
+    let _worker = AbortOnDrop(tokio::spawn(work(app.clone(), tab, queued, later_tx.clone())));
     if put(&mut ws, text(console.hello(tab))).await {
         loop {
             tokio::select! {
@@ -307,11 +322,29 @@ async fn session(app: App, mut ws: WebSocket) {
                     };
                     app.heard(tab);
                     let reply = match messages::parse(&text_in) {
-                        Ok(None) => json!({ "type": "pong" }),
-                        Ok(Some(request)) => run(&console, tab, request, later_tx.clone()).await,
-                        Err(r) => refusal(&r),
+                        Ok(None) => Some(json!({ "type": "pong" })),
+                        // A stop goes ahead of the tab's queue, and cancels the moves
+                        // queued (by any tab) before it.
+                        Ok(Some(Request::Stop {})) => {
+                            app.stops.fetch_add(1, Ordering::SeqCst);
+                            Some(run(&console, tab, Request::Stop {}, later_tx.clone()).await)
+                        }
+                        Ok(Some(request)) => match queue.try_send((app.stops.load(Ordering::SeqCst), request)) {
+                            Ok(()) => None,
+                            Err(mpsc::error::TrySendError::Full((_, r))) => Some(refusal(&Refusal::new(
+                                r.name(),
+                                "queue",
+                                format!("{QUEUE} requests waiting"),
+                                format!("at most {QUEUE} requests waiting"),
+                                "too many requests at once: wait for their answers",
+                            ))),
+                            Err(mpsc::error::TrySendError::Closed(_)) => break,
+                        },
+                        Err(r) => Some(refusal(&r)),
                     };
-                    if !put(&mut ws, text(reply)).await { break }
+                    if let Some(reply) = reply {
+                        if !put(&mut ws, text(reply)).await { break }
+                    }
                 }
                 changed = state.changed() => {
                     if changed.is_err() { break }
@@ -330,6 +363,37 @@ async fn session(app: App, mut ws: WebSocket) {
     }
     app.forget(tab);
     console.disconnect(tab);
+}
+
+/// Carries out one tab's queued requests in order, each tagged with the
+/// number of stops asked before it: a move (`set_lengths`, `jog`, `stride`,
+/// `execute`) a stop came after is refused, and one a stop came during is
+/// stopped again once done, so that nothing moves after a stop.
+async fn work(app: App, tab: u64, mut queued: mpsc::Receiver<(u64, Request)>, out: mpsc::UnboundedSender<String>) {
+    while let Some((stops, request)) = queued.recv().await {
+        let moves = matches!(
+            request,
+            Request::SetLengths { .. } | Request::Jog { .. } | Request::Stride { .. } | Request::Execute { .. }
+        );
+        let reply = if moves && app.stops.load(Ordering::SeqCst) != stops {
+            refusal(&Refusal::new(
+                request.name(),
+                "stop",
+                "asked before a stop",
+                "a request sent after the stop",
+                "cancelled: a stop came after it",
+            ))
+        } else {
+            let reply = run(&app.console, tab, request, out.clone()).await;
+            if moves && app.stops.load(Ordering::SeqCst) != stops {
+                let _ = run(&app.console, tab, Request::Stop {}, out.clone()).await;
+            }
+            reply
+        };
+        if out.send(reply.to_string()).is_err() {
+            break;
+        }
+    }
 }
 
 /// Sends one message within [`SEND_DEADLINE`]: false if the socket failed

@@ -11,7 +11,9 @@ use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::TcpStream;
 use tokio_tungstenite::tungstenite::Message;
 
-use crate::{ask, connect, start, until, LIMIT};
+use serde_json::json;
+
+use crate::{answer, ask, connect, held, measured, start, state, until, LIMIT};
 
 /// Sends `request` as is and returns the whole response (the server closes it).
 async fn raw(addr: SocketAddr, request: String) -> String {
@@ -95,6 +97,53 @@ async fn a_silent_drivers_control_lapses_and_another_tab_takes_it() {
         let s = until(&mut b, Duration::from_secs(2), |s| s["driver"] != a_tab).await;
         assert!(s["driver"].is_u64(), "{s}");
         reader.abort();
+    })
+    .await
+    .expect("within the limit");
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_stop_goes_ahead_of_a_backlog_of_jogs_and_the_motors_stop() {
+    tokio::time::timeout(LIMIT, async {
+        let running = start(None).await;
+        let (mut ws, _) = connect(running.addr).await;
+        held(&mut ws).await;
+        assert_eq!(ask(&mut ws, r#"{"type":"take_control"}"#).await["type"], "ok");
+        const JOGS: usize = 300;
+        for i in 0..JOGS {
+            let delta = if i % 2 == 0 { 2 } else { -1 };
+            let jog = json!({"type": "jog", "tube": 1, "delta_mm": delta}).to_string();
+            ws.feed(Message::Text(jog.into())).await.unwrap();
+        }
+        ws.flush().await.unwrap();
+        let sent = Instant::now();
+        ws.send(Message::Text(r#"{"type":"stop"}"#.into())).await.unwrap();
+        let mut before = 0;
+        let stopped = loop {
+            let a = answer(&mut ws).await;
+            if a["request"] == "stop" {
+                break a;
+            }
+            assert_eq!(a["request"], "jog", "{a}");
+            before += 1;
+        };
+        let took = sent.elapsed();
+        assert_eq!(stopped["type"], "ok", "{stopped}");
+        assert!(before < JOGS, "the stop came after all {JOGS} jogs' answers, {took:?} after it was sent");
+        assert!(took < Duration::from_millis(500), "the stop's answer took {took:?}");
+        // The jogs left are answered (refused: a stop came after them), and nothing moves.
+        for _ in before..JOGS {
+            let a = answer(&mut ws).await;
+            assert_eq!(a["request"], "jog", "{a}");
+        }
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        let first = state(&mut ws).await;
+        tokio::time::sleep(Duration::from_millis(300)).await;
+        let second = state(&mut ws).await;
+        assert_eq!(second["telemetry"]["moving"], json!([false, false, false]), "{}", second["telemetry"]);
+        for i in 0..3 {
+            assert!((measured(&first, i) - measured(&second, i)).abs() < 1e-4, "tube {i} moves after the stop");
+        }
     })
     .await
     .expect("within the limit");
