@@ -148,3 +148,21 @@ async fn a_stop_goes_ahead_of_a_backlog_of_jogs_and_the_motors_stop() {
     .await
     .expect("within the limit");
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_tab_that_neither_reads_nor_answers_is_dropped() {
+    tokio::time::timeout(LIMIT, async {
+        let running = start(None).await;
+        let (mut a, _) = connect(running.addr).await;
+        let (mut b, _) = connect(running.addr).await;
+        assert_eq!(ask(&mut a, r#"{"type":"take_control"}"#).await["type"], "ok");
+        until(&mut b, Duration::from_secs(5), |s| s["tabs"] == 2).await;
+        // A hangs: it is kept open but never read again (no pongs, a full queue).
+        let within = server::SILENCE + server::PING_PERIOD + server::SEND_DEADLINE + Duration::from_secs(5);
+        let s = until(&mut b, within, |s| s["tabs"] == 1).await;
+        assert!(s["driver"].is_null(), "{s}");
+        drop(a);
+    })
+    .await
+    .expect("within the limit");
+}
