@@ -368,4 +368,7 @@
     };
   }
   connect();
+  // Control is a lease the server ends after 10 s without a word from this
+  // tab: while it drives, a ping every 2 s keeps it (a hung tab stops them).
+  setInterval(() => { if (drives()) send({ type: "ping" }); }, 2000);
 })();

@@ -22,7 +22,10 @@
 //!   steps; the step in progress ends when its wait for the lengths fails
 //!   (the executor's bound). The pumps stay as they are.
 //! * **One driver.** The first tab to take control drives; the others
-//!   watch. Control is released by the tab or when it disconnects. Any tab
+//!   watch. Control is released by the tab, when it disconnects, or when
+//!   nothing came from it for [`server::LEASE`] (10 s; the page pings every
+//!   2 s while it drives, so a hung or vanished tab cannot lock the others
+//!   out); a tab that stops reading is dropped. Any tab
 //!   may stop the robot, and ask for a reach preview or the workspace
 //!   (nothing moves).
 //! * **Everyone sees the same state**, sent to every tab every

@@ -9,21 +9,23 @@ use std::time::{Duration, Instant};
 use futures_util::{SinkExt, StreamExt};
 use leech::robot::Robot;
 use leech::stride::Scenario;
-use leech_console::{server, Console, Setup, Source};
+use leech_console::{Console, Setup, Source};
 use serde_json::{json, Value};
 use tokio::net::TcpStream;
 use tokio_tungstenite::tungstenite::Message;
 use tokio_tungstenite::{MaybeTlsStream, WebSocketStream};
 
-type Ws = WebSocketStream<MaybeTlsStream<TcpStream>>;
+pub(crate) type Ws = WebSocketStream<MaybeTlsStream<TcpStream>>;
+
+mod server;
 
 /// Each test's bound: a hung server fails the test, it does not hang CI.
-const LIMIT: Duration = Duration::from_secs(90);
+pub(crate) const LIMIT: Duration = Duration::from_secs(90);
 
 /// A console on the simulated robot in the crawl-floor scenario, served on
 /// 127.0.0.1 at a free port; the server stops when this is dropped.
-struct Running {
-    addr: SocketAddr,
+pub(crate) struct Running {
+    pub(crate) addr: SocketAddr,
     server: tokio::task::JoinHandle<()>,
 }
 
@@ -33,7 +35,7 @@ impl Drop for Running {
     }
 }
 
-async fn start(token: Option<&str>) -> Running {
+pub(crate) async fn start(token: Option<&str>) -> Running {
     let scenario = Scenario::builtin("crawl-floor").unwrap();
     let setup = Setup {
         robot: Robot::builtin(),
@@ -47,19 +49,19 @@ async fn start(token: Option<&str>) -> Running {
     let addr = listener.local_addr().unwrap();
     let token = token.map(str::to_string);
     let server = tokio::spawn(async move {
-        let _ = server::serve(Arc::new(console), listener, token).await;
+        let _ = leech_console::server::serve(Arc::new(console), listener, token).await;
     });
     Running { addr, server }
 }
 
-async fn connect(addr: SocketAddr) -> (Ws, u64) {
+pub(crate) async fn connect(addr: SocketAddr) -> (Ws, u64) {
     let (mut ws, _) = tokio_tungstenite::connect_async(format!("ws://{addr}/ws")).await.unwrap();
     let hello = next(&mut ws, |m| m["type"] == "hello").await;
     (ws, hello["tab"].as_u64().unwrap())
 }
 
 /// The next message that `pick` accepts (others skipped).
-async fn next(ws: &mut Ws, pick: impl Fn(&Value) -> bool) -> Value {
+pub(crate) async fn next(ws: &mut Ws, pick: impl Fn(&Value) -> bool) -> Value {
     loop {
         let msg = ws.next().await.expect("the socket stays open").expect("a message");
         if let Message::Text(t) = msg {
@@ -72,21 +74,21 @@ async fn next(ws: &mut Ws, pick: impl Fn(&Value) -> bool) -> Value {
 }
 
 /// The answer to the last request (states skipped).
-async fn answer(ws: &mut Ws) -> Value {
+pub(crate) async fn answer(ws: &mut Ws) -> Value {
     next(ws, |m| m["type"] == "ok" || m["type"] == "error").await
 }
 
-async fn ask(ws: &mut Ws, text: &str) -> Value {
+pub(crate) async fn ask(ws: &mut Ws, text: &str) -> Value {
     ws.send(Message::Text(text.into())).await.unwrap();
     answer(ws).await
 }
 
-async fn state(ws: &mut Ws) -> Value {
+pub(crate) async fn state(ws: &mut Ws) -> Value {
     next(ws, |m| m["type"] == "state").await
 }
 
 /// The first state that `done` accepts, within `within`.
-async fn until(ws: &mut Ws, within: Duration, done: impl Fn(&Value) -> bool) -> Value {
+pub(crate) async fn until(ws: &mut Ws, within: Duration, done: impl Fn(&Value) -> bool) -> Value {
     let end = Instant::now() + within;
     loop {
         let s = state(ws).await;
@@ -97,13 +99,13 @@ async fn until(ws: &mut Ws, within: Duration, done: impl Fn(&Value) -> bool) -> 
     }
 }
 
-fn measured(s: &Value, i: usize) -> f64 {
+pub(crate) fn measured(s: &Value, i: usize) -> f64 {
     s["telemetry"]["lengths_m"][i].as_f64().unwrap_or(f64::NAN)
 }
 
 /// Waits for the simulated robot to hold with its rear cup (its pump is
 /// switched on at start) and for the model to have a body.
-async fn held(ws: &mut Ws) -> Value {
+pub(crate) async fn held(ws: &mut Ws) -> Value {
     until(ws, Duration::from_secs(20), |s| s["holding"][0] == true && s["prediction"]["body"].is_object()).await
 }
 
@@ -263,7 +265,7 @@ async fn a_token_is_required_when_given() {
         assert!(ok.starts_with("HTTP/1.1 200") && ok.contains("leech console"), "{ok}");
         // A non-loopback address without a token is refused before anything listens.
         let any: SocketAddr = "0.0.0.0:8080".parse().unwrap();
-        assert!(server::check_listen(any, None).is_err());
+        assert!(leech_console::server::check_listen(any, None).is_err());
     })
     .await
     .expect("within the limit");
