@@ -616,6 +616,7 @@ impl Console {
             }
             Request::SetLengths { lengths_m } => {
                 self.may_drive(tab, name)?;
+                self.idle(name)?;
                 for (i, l) in lengths_m.iter().enumerate() {
                     self.check_length(name, &format!("lengths_m[{i}]"), *l)?;
                 }
@@ -626,6 +627,7 @@ impl Console {
             }
             Request::Jog { tube, delta_mm } => {
                 self.may_drive(tab, name)?;
+                self.idle(name)?;
                 let t = match tube {
                     1 => Tube::L1,
                     2 => Tube::L2,

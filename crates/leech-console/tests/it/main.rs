@@ -15,10 +15,12 @@ use tokio::net::TcpStream;
 use tokio_tungstenite::tungstenite::Message;
 use tokio_tungstenite::{MaybeTlsStream, WebSocketStream};
 
+mod rules;
+
 type Ws = WebSocketStream<MaybeTlsStream<TcpStream>>;
 
 /// Each test's bound: a hung server fails the test, it does not hang CI.
-const LIMIT: Duration = Duration::from_secs(90);
+pub(crate) const LIMIT: Duration = Duration::from_secs(90);
 
 /// A console on the simulated robot in the crawl-floor scenario, served on
 /// 127.0.0.1 at a free port; the server stops when this is dropped.
@@ -33,7 +35,7 @@ impl Drop for Running {
     }
 }
 
-async fn start(token: Option<&str>) -> Running {
+pub(crate) async fn start(token: Option<&str>) -> Running {
     let scenario = Scenario::builtin("crawl-floor").unwrap();
     let setup = Setup {
         robot: Robot::builtin(),
@@ -52,14 +54,14 @@ async fn start(token: Option<&str>) -> Running {
     Running { addr, server }
 }
 
-async fn connect(addr: SocketAddr) -> (Ws, u64) {
+pub(crate) async fn connect(addr: SocketAddr) -> (Ws, u64) {
     let (mut ws, _) = tokio_tungstenite::connect_async(format!("ws://{addr}/ws")).await.unwrap();
     let hello = next(&mut ws, |m| m["type"] == "hello").await;
     (ws, hello["tab"].as_u64().unwrap())
 }
 
 /// The next message that `pick` accepts (others skipped).
-async fn next(ws: &mut Ws, pick: impl Fn(&Value) -> bool) -> Value {
+pub(crate) async fn next(ws: &mut Ws, pick: impl Fn(&Value) -> bool) -> Value {
     loop {
         let msg = ws.next().await.expect("the socket stays open").expect("a message");
         if let Message::Text(t) = msg {
@@ -76,17 +78,17 @@ async fn answer(ws: &mut Ws) -> Value {
     next(ws, |m| m["type"] == "ok" || m["type"] == "error").await
 }
 
-async fn ask(ws: &mut Ws, text: &str) -> Value {
+pub(crate) async fn ask(ws: &mut Ws, text: &str) -> Value {
     ws.send(Message::Text(text.into())).await.unwrap();
     answer(ws).await
 }
 
-async fn state(ws: &mut Ws) -> Value {
+pub(crate) async fn state(ws: &mut Ws) -> Value {
     next(ws, |m| m["type"] == "state").await
 }
 
 /// The first state that `done` accepts, within `within`.
-async fn until(ws: &mut Ws, within: Duration, done: impl Fn(&Value) -> bool) -> Value {
+pub(crate) async fn until(ws: &mut Ws, within: Duration, done: impl Fn(&Value) -> bool) -> Value {
     let end = Instant::now() + within;
     loop {
         let s = state(ws).await;
@@ -97,13 +99,13 @@ async fn until(ws: &mut Ws, within: Duration, done: impl Fn(&Value) -> bool) -> 
     }
 }
 
-fn measured(s: &Value, i: usize) -> f64 {
+pub(crate) fn measured(s: &Value, i: usize) -> f64 {
     s["telemetry"]["lengths_m"][i].as_f64().unwrap_or(f64::NAN)
 }
 
 /// Waits for the simulated robot to hold with its rear cup (its pump is
 /// switched on at start) and for the model to have a body.
-async fn held(ws: &mut Ws) -> Value {
+pub(crate) async fn held(ws: &mut Ws) -> Value {
     until(ws, Duration::from_secs(20), |s| s["holding"][0] == true && s["prediction"]["body"].is_object()).await
 }
 
@@ -270,11 +272,11 @@ async fn a_token_is_required_when_given() {
 }
 
 /// The first state in which the run is over and `done` holds.
-async fn settled(ws: &mut Ws, within: Duration, done: impl Fn(&Value) -> bool) -> Value {
+pub(crate) async fn settled(ws: &mut Ws, within: Duration, done: impl Fn(&Value) -> bool) -> Value {
     until(ws, within, |s| s["run"]["busy"] == false && done(s)).await
 }
 
-fn allowed(s: &Value, phase: &str) -> bool {
+pub(crate) fn allowed(s: &Value, phase: &str) -> bool {
     s["phases"].as_array().unwrap().iter().any(|p| p["phase"] == phase && p["allowed"] == true)
 }
 
