@@ -17,7 +17,7 @@ use tokio_tungstenite::{MaybeTlsStream, WebSocketStream};
 
 mod rules;
 
-type Ws = WebSocketStream<MaybeTlsStream<TcpStream>>;
+pub(crate) type Ws = WebSocketStream<MaybeTlsStream<TcpStream>>;
 
 /// Each test's bound: a hung server fails the test, it does not hang CI.
 pub(crate) const LIMIT: Duration = Duration::from_secs(90);
@@ -74,7 +74,7 @@ pub(crate) async fn next(ws: &mut Ws, pick: impl Fn(&Value) -> bool) -> Value {
 }
 
 /// The answer to the last request (states skipped).
-async fn answer(ws: &mut Ws) -> Value {
+pub(crate) async fn answer(ws: &mut Ws) -> Value {
     next(ws, |m| m["type"] == "ok" || m["type"] == "error").await
 }
 
