@@ -711,18 +711,31 @@ impl Console {
             Request::Pump { cup, on } => {
                 self.may_drive(tab, name)?;
                 let (stride_cup, wire) = stride_cup(cup);
-                if !on {
-                    let holding = lock(&s.live).telemetry.as_ref().map(|(t, _)| observation(t).2);
-                    let Some(holding) = holding else {
-                        return Err(Refusal::new(
-                            name,
-                            "telemetry",
-                            "none",
-                            "a robot that reports",
-                            "no telemetry yet",
-                        ));
+                let holding = lock(&s.live).telemetry.as_ref().map(|(t, _)| observation(t).2);
+                let Some(holding) = holding else {
+                    return Err(Refusal::new(name, "telemetry", "none", "a robot that reports", "no telemetry yet"));
+                };
+                // A free cup's pump switched on while the other cup holds is
+                // an attach: the interlock judges it (module doc).
+                if on && !holding[wire.index()] && holding.contains(&true) {
+                    let phase = match stride_cup {
+                        stride::Cup::Rear => Phase::AttachRear,
+                        stride::Cup::Front => Phase::AttachFront,
                     };
-                    if holding[wire.index()] {
+                    let prediction = Arc::clone(&lock(&s.prediction));
+                    let run = lock(&s.run).clone();
+                    self.phase_refusal(phase, Some(holding), &prediction, &run).map_err(|why| {
+                        Refusal::new(
+                            name,
+                            "on",
+                            format!("true ({} cup, free)", stride_cup.name()),
+                            format!("false; true only while the {} cup's face lies flush", stride_cup.name()),
+                            why,
+                        )
+                    })?;
+                }
+                if !on && holding[wire.index()] {
+                    {
                         let phase = match stride_cup {
                             stride::Cup::Rear => Phase::ReleaseRear,
                             stride::Cup::Front => Phase::ReleaseFront,

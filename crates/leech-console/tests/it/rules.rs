@@ -95,3 +95,39 @@ async fn a_plan_is_executed_only_from_the_state_it_was_planned_in() {
     .await
     .expect("within the limit");
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_free_cups_pump_is_switched_on_only_when_it_may_attach() {
+    tokio::time::timeout(LIMIT, async {
+        let running = start(None).await;
+        let (mut ws, _) = connect(running.addr).await;
+        held(&mut ws).await;
+        assert_eq!(ask(&mut ws, r#"{"type":"take_control"}"#).await["type"], "ok");
+        // Bent so that the front cup is not flush: attach_front is refused...
+        let s = state(&mut ws).await;
+        let (la, lb) = (measured(&s, 0), measured(&s, 1));
+        let bend = json!({"type": "set_lengths", "lengths_m": [la + 0.05, lb - 0.03, lb - 0.03]}).to_string();
+        assert_eq!(ask(&mut ws, &bend).await["type"], "ok");
+        let s = crate::until(&mut ws, Duration::from_secs(15), |s| {
+            (measured(s, 0) - la - 0.05).abs() < 1e-3 && (measured(s, 1) - lb + 0.03).abs() < 1e-3
+        })
+        .await;
+        tokio::time::sleep(Duration::from_millis(500)).await;
+        let s = {
+            let _ = s;
+            state(&mut ws).await
+        };
+        let attach = s["phases"].as_array().unwrap().iter().find(|p| p["phase"] == "attach_front").unwrap().clone();
+        assert_eq!(attach["allowed"], false, "{attach}");
+        // ... and so is its pump, with the same reason.
+        let refused = ask(&mut ws, r#"{"type":"pump","cup":"front","on":true}"#).await;
+        assert_eq!((refused["type"].as_str(), refused["field"].as_str()), (Some("error"), Some("on")), "{refused}");
+        assert_eq!(refused["message"], attach["reason"], "{refused}");
+        let s = state(&mut ws).await;
+        assert_eq!(s["telemetry"]["pumps_on"], json!([true, false]));
+        // The holding rear cup's pump on again changes nothing and is allowed.
+        assert_eq!(ask(&mut ws, r#"{"type":"pump","cup":"rear","on":true}"#).await["type"], "ok");
+    })
+    .await
+    .expect("within the limit");
+}
