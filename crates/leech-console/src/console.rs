@@ -597,9 +597,24 @@ fn solids(scene: &Scene, view: [f64; 4]) -> Vec<Vec<Vec2>> {
         .collect()
 }
 
+/// Refuses `name` while `run` is busy.
+fn idle_run(name: &str, run: &Run) -> Result<(), Refusal> {
+    if run.busy {
+        Err(Refusal::new(name, "run", &run.what, "nothing running", "a run is going on; stop it first"))
+    } else {
+        Ok(())
+    }
+}
+
 /// A link error as a refusal of `request`.
 fn link_refusal(request: &str, e: LinkError) -> Refusal {
-    Refusal::new(request, "link", "the command", "a command the controller accepts", e.to_string())
+    Refusal::new(
+        request,
+        "link",
+        format!("{request} (sent to the controller)"),
+        "a command the controller accepts over a working link",
+        format!("the controller or the link refused {request}: {e}"),
+    )
 }
 
 /// The stride's name of a cup.
@@ -963,12 +978,7 @@ impl Console {
 
     /// Refuses while a step or a plan runs.
     fn idle(&self, name: &str) -> Result<(), Refusal> {
-        let run = lock(&self.shared.run);
-        if run.busy {
-            Err(Refusal::new(name, "run", &run.what, "nothing running", "a run is going on; stop it first"))
-        } else {
-            Ok(())
-        }
+        idle_run(name, &lock(&self.shared.run))
     }
 
     /// A tube length within the robot file's limits.
@@ -1045,15 +1055,7 @@ impl Console {
         let s = Arc::clone(&self.shared);
         {
             let mut run = lock(&s.run);
-            if run.busy {
-                return Err(Refusal::new(
-                    name,
-                    "run",
-                    &run.what,
-                    "nothing running",
-                    "a run is going on; stop it first",
-                ));
-            }
+            idle_run(name, &run)?;
             let (next_step, steps) = plan.map_or((0, 0), |(_, steps, next)| (next, steps));
             *run = Run { busy: true, what: what.clone(), next_step, steps, error: None };
         }
