@@ -95,6 +95,8 @@ const NOTICES: usize = 6;
 
 /// A plan and how far its run has come.
 struct PlanState {
+    /// Which plan (a run advances only its own plan's progress).
+    id: u64,
     moves: Vec<Move>,
     /// The next step to carry out.
     next: usize,
@@ -134,6 +136,10 @@ struct Shared {
     computing: AtomicBool,
     driver: Mutex<Option<u64>>,
     plan: Mutex<Option<PlanState>>,
+    /// The last plan's id.
+    plan_ids: AtomicU64,
+    /// A plan is being computed: nothing may be executed until it arrives.
+    planning: AtomicBool,
     run: Mutex<Run>,
     /// Asks a running plan to stop after its step.
     cancel: AtomicBool,
@@ -219,6 +225,8 @@ impl Console {
             computing: AtomicBool::new(false),
             driver: Mutex::new(None),
             plan: Mutex::new(None),
+            plan_ids: AtomicU64::new(0),
+            planning: AtomicBool::new(false),
             run: Mutex::default(),
             cancel: AtomicBool::new(false),
             quit: AtomicBool::new(false),
@@ -526,11 +534,45 @@ impl Console {
         if run.busy {
             return Err(format!("{} is running; stop it first", run.what));
         }
-        let Some([rear, front]) = holding else { return Err("no telemetry yet".into()) };
-        let machine = StrideMachine::with_holding(Holding { rear, front }, self.shared.robot.cup.min_safety_factor)
-            .map_err(|e| format!("the interlock cannot start: {e}"))?;
-        let body = prediction.body.as_ref();
-        machine.check(phase.command(evidence(phase, body))).map(|_| ()).map_err(|e| e.to_string())
+        interlock(&self.shared, phase, holding, prediction)
+    }
+}
+
+/// Whether the interlock allows `phase` now on the model's evidence, and
+/// why not (whatever runs).
+fn interlock(s: &Shared, phase: Phase, holding: Option<[bool; 2]>, prediction: &Prediction) -> Result<(), String> {
+    let Some([rear, front]) = holding else { return Err("no telemetry yet".into()) };
+    let machine = StrideMachine::with_holding(Holding { rear, front }, s.robot.cup.min_safety_factor)
+        .map_err(|e| format!("the interlock cannot start: {e}"))?;
+    let body = prediction.body.as_ref();
+    machine.check(phase.command(evidence(phase, body))).map(|_| ()).map_err(|e| e.to_string())
+}
+
+/// How long a run waits for the model to catch up with the telemetry
+/// before a cup's step.
+const LIVE_CHECK: Duration = Duration::from_secs(3);
+
+/// The console's live interlock before a plan's or a hand's cup step: the
+/// model's prediction for the measured lengths must allow `phase`
+/// (waiting up to [`LIVE_CHECK`] for the model to catch up with the last
+/// move), as a hand stride must.
+fn live_interlock(s: &Shared, phase: Phase) -> Result<(), String> {
+    let end = Instant::now() + LIVE_CHECK;
+    loop {
+        let measured = lock(&s.live).telemetry.as_ref().map(|(t, _)| observation(t));
+        let prediction = Arc::clone(&lock(&s.prediction));
+        let current = match (&measured, prediction.body.as_ref()) {
+            (Some((l, _, _)), Some(b)) => (b.lengths_m[0] - l[0]).abs() < 1e-3 && (b.lengths_m[1] - l[1]).abs() < 1e-3,
+            _ => false,
+        };
+        let verdict = interlock(s, phase, measured.map(|m| m.2), &prediction);
+        match verdict {
+            Ok(()) if current => return Ok(()),
+            _ if Instant::now() >= end || s.cancel.load(Ordering::SeqCst) => {
+                return Err(verdict.err().unwrap_or_else(|| "the model lags the measured lengths".into()))
+            }
+            _ => std::thread::sleep(Duration::from_millis(20)),
+        }
     }
 }
 
@@ -556,9 +598,24 @@ fn solids(scene: &Scene, view: [f64; 4]) -> Vec<Vec<Vec2>> {
         .collect()
 }
 
+/// Refuses `name` while `run` is busy.
+fn idle_run(name: &str, run: &Run) -> Result<(), Refusal> {
+    if run.busy {
+        Err(Refusal::new(name, "run", &run.what, "nothing running", "a run is going on; stop it first"))
+    } else {
+        Ok(())
+    }
+}
+
 /// A link error as a refusal of `request`.
 fn link_refusal(request: &str, e: LinkError) -> Refusal {
-    Refusal::new(request, "link", "the command", "a command the controller accepts", e.to_string())
+    Refusal::new(
+        request,
+        "link",
+        format!("{request} (sent to the controller)"),
+        "a command the controller accepts over a working link",
+        format!("the controller or the link refused {request}: {e}"),
+    )
 }
 
 /// The stride's name of a cup.
@@ -617,16 +674,19 @@ impl Console {
             }
             Request::SetLengths { lengths_m } => {
                 self.may_drive(tab, name)?;
+                self.idle(name)?;
                 for (i, l) in lengths_m.iter().enumerate() {
                     self.check_length(name, &format!("lengths_m[{i}]"), *l)?;
                 }
                 let um = lengths_m.map(|l| (l * 1e6).round() as i32);
                 s.link.set_lengths(um).map_err(|e| link_refusal(name, e))?;
                 lock(&s.live).commanded_um = Some(um);
+                self.drop_plan();
                 ok(json!({}))
             }
             Request::Jog { tube, delta_mm } => {
                 self.may_drive(tab, name)?;
+                self.idle(name)?;
                 let t = match tube {
                     1 => Tube::L1,
                     2 => Tube::L2,
@@ -661,23 +721,37 @@ impl Console {
                 targets[t.index()] = target;
                 s.link.set_lengths(targets).map_err(|e| link_refusal(name, e))?;
                 lock(&s.live).commanded_um = Some(targets);
+                self.drop_plan();
                 ok(json!({}))
             }
             Request::Pump { cup, on } => {
                 self.may_drive(tab, name)?;
                 let (stride_cup, wire) = stride_cup(cup);
-                if !on {
-                    let holding = lock(&s.live).telemetry.as_ref().map(|(t, _)| observation(t).2);
-                    let Some(holding) = holding else {
-                        return Err(Refusal::new(
-                            name,
-                            "telemetry",
-                            "none",
-                            "a robot that reports",
-                            "no telemetry yet",
-                        ));
+                let holding = lock(&s.live).telemetry.as_ref().map(|(t, _)| observation(t).2);
+                let Some(holding) = holding else {
+                    return Err(Refusal::new(name, "telemetry", "none", "a robot that reports", "no telemetry yet"));
+                };
+                // A free cup's pump switched on while the other cup holds is
+                // an attach: the interlock judges it (module doc).
+                if on && !holding[wire.index()] && holding.contains(&true) {
+                    let phase = match stride_cup {
+                        stride::Cup::Rear => Phase::AttachRear,
+                        stride::Cup::Front => Phase::AttachFront,
                     };
-                    if holding[wire.index()] {
+                    let prediction = Arc::clone(&lock(&s.prediction));
+                    let run = lock(&s.run).clone();
+                    self.phase_refusal(phase, Some(holding), &prediction, &run).map_err(|why| {
+                        Refusal::new(
+                            name,
+                            "on",
+                            format!("true ({} cup, free)", stride_cup.name()),
+                            format!("false; true only while the {} cup's face lies flush", stride_cup.name()),
+                            why,
+                        )
+                    })?;
+                }
+                if !on && holding[wire.index()] {
+                    {
                         let phase = match stride_cup {
                             stride::Cup::Rear => Phase::ReleaseRear,
                             stride::Cup::Front => Phase::ReleaseFront,
@@ -702,6 +776,7 @@ impl Console {
                 }
                 self.idle(name)?;
                 s.link.pump(wire, on).map_err(|e| link_refusal(name, e))?;
+                self.drop_plan();
                 ok(json!({}))
             }
             Request::Stride { phase, lengths_m } => {
@@ -745,22 +820,40 @@ impl Console {
                     front_safety_factor: if p == Phase::ReleaseRear { after } else { None },
                 };
                 self.start_run(name, format!("stride {}", p.name()), vec![step], None)?;
+                self.drop_plan();
                 ok(json!({}))
             }
             Request::Execute { mode } => {
                 self.may_drive(tab, name)?;
-                let (moves, next) = match &*lock(&s.plan) {
-                    Some(plan) if plan.next < plan.moves.len() => (plan.moves.clone(), plan.next),
+                if s.planning.load(Ordering::SeqCst) {
+                    return Err(Refusal::new(
+                        name,
+                        "plan",
+                        "being computed",
+                        "a plan that has arrived",
+                        "wait for the plan",
+                    ));
+                }
+                let (moves, next, id) = match &*lock(&s.plan) {
+                    Some(plan) if plan.next < plan.moves.len() => (plan.moves.clone(), plan.next, plan.id),
                     Some(_) => {
                         return Err(Refusal::new(name, "plan", "carried out", "a plan with steps left", "plan again"))
                     }
-                    None => return Err(Refusal::new(name, "plan", "none", "a reached plan", "plan a climb first")),
+                    None => {
+                        return Err(Refusal::new(
+                            name,
+                            "plan",
+                            "none",
+                            "a reached plan, planned from the robot's present state",
+                            "plan a climb first (a manual command drops the plan)",
+                        ))
+                    }
                 };
                 let end = match mode {
                     Execute::Step => next + 1,
                     Execute::All => moves.len(),
                 };
-                self.start_run(name, "plan".into(), moves[next..end].to_vec(), Some(next))?;
+                self.start_run(name, "plan".into(), moves[next..end].to_vec(), Some((id, moves.len(), next)))?;
                 ok(json!({}))
             }
             Request::Plan { scenario, goal_m, tolerance_m } => {
@@ -799,7 +892,20 @@ impl Console {
                 let on = s.scene.surface_frame(centre).map_or(centre, |(p, _)| p);
                 let start = Foothold { centre_m: on, direction_rad: held.unit.angle_rad };
                 let shared = Arc::clone(s);
-                self.compute(name, later, move || plan_reply(&shared, start, goal))?;
+                s.planning.store(true, Ordering::SeqCst);
+                *lock(&s.plan) = None;
+                self.compute(name, later, move || {
+                    // Cleared however the planner ends (a panic too).
+                    struct Planned<'a>(&'a AtomicBool);
+                    impl Drop for Planned<'_> {
+                        fn drop(&mut self) {
+                            self.0.store(false, Ordering::SeqCst);
+                        }
+                    }
+                    let _planned = Planned(&shared.planning);
+                    plan_reply(&shared, start, goal)
+                })
+                .inspect_err(|_| s.planning.store(false, Ordering::SeqCst))?;
                 ok(json!({}))
             }
             Request::Reach { point_m } => {
@@ -865,14 +971,15 @@ impl Console {
         }
     }
 
+    /// Drops the previewed plan after a manual command: a plan is carried
+    /// out only from the state it was planned in.
+    fn drop_plan(&self) {
+        *lock(&self.shared.plan) = None;
+    }
+
     /// Refuses while a step or a plan runs.
     fn idle(&self, name: &str) -> Result<(), Refusal> {
-        let run = lock(&self.shared.run);
-        if run.busy {
-            Err(Refusal::new(name, "run", &run.what, "nothing running", "a run is going on; stop it first"))
-        } else {
-            Ok(())
-        }
+        idle_run(name, &lock(&self.shared.run))
     }
 
     /// A tube length within the robot file's limits.
@@ -936,29 +1043,28 @@ impl Console {
         })
     }
 
-    /// Starts carrying out `moves` on the executor's thread (`plan_index`:
-    /// where they start in the plan, whose progress they advance).
-    fn start_run(&self, name: &str, what: String, moves: Vec<Move>, plan_index: Option<usize>) -> Result<(), Refusal> {
+    /// Starts carrying out `moves` on the executor's thread (`plan`: the
+    /// plan's id, its number of steps and where they start in it: that
+    /// plan's progress they advance).
+    fn start_run(
+        &self,
+        name: &str,
+        what: String,
+        moves: Vec<Move>,
+        plan: Option<(u64, usize, usize)>,
+    ) -> Result<(), Refusal> {
         let s = Arc::clone(&self.shared);
         {
             let mut run = lock(&s.run);
-            if run.busy {
-                return Err(Refusal::new(
-                    name,
-                    "run",
-                    &run.what,
-                    "nothing running",
-                    "a run is going on; stop it first",
-                ));
-            }
-            *run = Run { busy: true, what: what.clone(), next_step: plan_index.unwrap_or(0), steps: 0, error: None };
-            run.steps = lock(&s.plan).as_ref().filter(|_| plan_index.is_some()).map_or(0, |p| p.moves.len());
+            idle_run(name, &run)?;
+            let (next_step, steps) = plan.map_or((0, 0), |(_, steps, next)| (next, steps));
+            *run = Run { busy: true, what: what.clone(), next_step, steps, error: None };
         }
         s.cancel.store(false, Ordering::SeqCst);
         let spawned = std::thread::Builder::new().name("console-run".into()).spawn({
             let s = Arc::clone(&s);
             move || {
-                let error = run_moves(&s, &moves, plan_index).err();
+                let error = run_moves(&s, &moves, plan.map(|(id, _, next)| (id, next))).err();
                 let mut run = lock(&s.run);
                 run.busy = false;
                 run.error = error;
@@ -973,13 +1079,18 @@ impl Console {
 
 /// Carries out `moves` behind the executor's interlock, one step at a
 /// time so that a stop is heard between steps.
-fn run_moves(s: &Shared, moves: &[Move], plan_index: Option<usize>) -> Result<(), String> {
+fn run_moves(s: &Shared, moves: &[Move], plan: Option<(u64, usize)>) -> Result<(), String> {
     let mut ex = Executor::new(&s.link, s.robot.cup.min_safety_factor, executor::Options::default())
         .map_err(|e| e.to_string())?;
-    let first = plan_index.unwrap_or(0);
+    let first = plan.map_or(0, |(_, i)| i);
     for (k, step) in moves.iter().enumerate() {
         if s.cancel.load(Ordering::SeqCst) {
             return Err("stopped".into());
+        }
+        if !matches!(step.phase, Phase::Start | Phase::Push | Phase::Pull) {
+            live_interlock(s, step.phase).map_err(|why| {
+                format!("step {} ({}) refused by the console's interlock: {why}", first + k, step.phase.name())
+            })?;
         }
         if matches!(step.phase, Phase::Start | Phase::Push | Phase::Pull) {
             let [la, lb] = step.lengths_m.map(|l| (l * 1e6).round() as i32);
@@ -992,8 +1103,8 @@ fn run_moves(s: &Shared, moves: &[Move], plan_index: Option<usize>) -> Result<()
                 e.to_string()
             }
         })?;
-        if let Some(i) = plan_index {
-            if let Some(plan) = lock(&s.plan).as_mut() {
+        if let Some((id, i)) = plan {
+            if let Some(plan) = lock(&s.plan).as_mut().filter(|p| p.id == id) {
                 plan.next = i + k + 1;
             }
             lock(&s.run).next_step = i + k + 1;
@@ -1024,7 +1135,8 @@ fn plan_reply(s: &Shared, start: Foothold, goal: Goal) -> Reply {
         })
         .collect();
     let reached = plan.status == stride::Status::Reached;
-    *lock(&s.plan) = reached.then(|| PlanState { moves: executor::moves(&plan), next: 0 });
+    let id = s.plan_ids.fetch_add(1, Ordering::SeqCst) + 1;
+    *lock(&s.plan) = reached.then(|| PlanState { id, moves: executor::moves(&plan), next: 0 });
     json!({
         "type": "plan",
         "status": if reached { "reached" } else { "impossible" },

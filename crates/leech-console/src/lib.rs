@@ -14,7 +14,16 @@
 //!   stride's interlock ([`leech::stride::StrideMachine`]) on the model's
 //!   evidence (a free cup's face flush; the other cup's safety factor after
 //!   a release at least the robot's minimum); plans and single phases run
-//!   through [`leech_link::executor::Executor`], which judges them again.
+//!   through [`leech_link::executor::Executor`], which judges them again,
+//!   and the console's interlock judges each cup step of a run again on
+//!   the live model just before it. A pump switched on is an attach when
+//!   its cup is free and the other holds (refused unless the face lies
+//!   flush: a pull would otherwise make it grip unjudged); on a cup that
+//!   already holds it changes nothing and is allowed; while no cup holds
+//!   (the robot lies free) it is allowed, since a grip can only add a
+//!   hold. Lengths, jogs and pumps are refused while a run goes on, and
+//!   any of them, or a stride by hand, drops the previewed plan: a plan is
+//!   carried out only from the state it was planned in.
 //!   Every refusal names the field, the value and what is allowed, and
 //!   changes nothing. Malformed, unknown, oversized and non-finite
 //!   messages are refused the same way ([`messages::parse`]).

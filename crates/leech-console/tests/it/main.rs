@@ -15,9 +15,10 @@ use tokio::net::TcpStream;
 use tokio_tungstenite::tungstenite::Message;
 use tokio_tungstenite::{MaybeTlsStream, WebSocketStream};
 
-pub(crate) type Ws = WebSocketStream<MaybeTlsStream<TcpStream>>;
-
+mod rules;
 mod server;
+
+pub(crate) type Ws = WebSocketStream<MaybeTlsStream<TcpStream>>;
 
 /// Each test's bound: a hung server fails the test, it does not hang CI.
 pub(crate) const LIMIT: Duration = Duration::from_secs(90);
@@ -272,11 +273,11 @@ async fn a_token_is_required_when_given() {
 }
 
 /// The first state in which the run is over and `done` holds.
-async fn settled(ws: &mut Ws, within: Duration, done: impl Fn(&Value) -> bool) -> Value {
+pub(crate) async fn settled(ws: &mut Ws, within: Duration, done: impl Fn(&Value) -> bool) -> Value {
     until(ws, within, |s| s["run"]["busy"] == false && done(s)).await
 }
 
-fn allowed(s: &Value, phase: &str) -> bool {
+pub(crate) fn allowed(s: &Value, phase: &str) -> bool {
     s["phases"].as_array().unwrap().iter().any(|p| p["phase"] == phase && p["allowed"] == true)
 }
 
