@@ -51,7 +51,6 @@ after(async () => {
 });
 
 const stateOf = () => page.evaluate(() => window.consoleStats);
-const bodyLengths = async () => (await page.locator("#body").getAttribute("data-lengths") || "").split(",").map(Number);
 const reason = (phase) => page.locator(`#reason-${phase}`).textContent();
 
 test("the page draws the body and follows telemetry at 30 Hz or more", async () => {
@@ -69,9 +68,13 @@ test("the page draws the body and follows telemetry at 30 Hz or more", async () 
   await page.screenshot({ path: join(SHOTS, "console.png") });
 });
 
+// L1 at the start (mm, measured), where the front cup lies flush on the floor.
+let startL1;
+
 test("a slider moves the simulated robot and the drawing follows within 100 ms", async () => {
-  const [la0] = await bodyLengths();
-  const target = Math.round(la0 * 1e3 + 20);
+  await page.waitForFunction(() => Number(document.getElementById("measured-0").textContent) > 0, null, { timeout: 10000 });
+  startL1 = Number(await page.locator("#measured-0").textContent());
+  const target = Math.round(startL1 + 20);
   const latency = await page.evaluate(async (target) => {
     const slider = document.getElementById("slider-0");
     const body = document.getElementById("body");
@@ -94,6 +97,22 @@ test("a slider moves the simulated robot and the drawing follows within 100 ms",
 });
 
 test("a pump switches, and a release that would drop the robot is refused with the reason", async () => {
+  // A free cup's pump goes on only where the cup may attach: refused with
+  // the interlock's reason while the front cup is off the floor...
+  await page.click("#pump-front");
+  await page.waitForFunction(() => document.getElementById("pump-refusal").textContent.length > 0, null, { timeout: 5000 });
+  assert.match(await page.locator("#pump-refusal").textContent(), /flush/);
+  assert.ok(!(await page.locator("#pump-front").isChecked()), "the front pump stays off");
+  // ...and switched on once L1 is back where the front cup lies flush.
+  await page.evaluate((t) => {
+    const slider = document.getElementById("slider-0");
+    slider.value = t;
+    slider.dispatchEvent(new Event("change"));
+  }, Math.round(startL1));
+  await page.waitForFunction(() => !document.getElementById("phase-attach_front").disabled, null, { timeout: 15000 })
+    .catch(async () => {
+      throw new Error(`attach_front stays refused: ${await reason("attach_front")}; L1 ${await page.locator("#measured-0").textContent()} mm`);
+    });
   await page.click("#pump-front");
   await page.waitForFunction(() => document.getElementById("pump-front").checked, null, { timeout: 5000 });
   await page.click("#pump-front");
