@@ -732,47 +732,35 @@ impl Console {
                     return Err(Refusal::new(name, "telemetry", "none", "a robot that reports", "no telemetry yet"));
                 };
                 // A free cup's pump switched on while the other cup holds is
-                // an attach: the interlock judges it (module doc).
-                if on && !holding[wire.index()] && holding.contains(&true) {
-                    let phase = match stride_cup {
-                        stride::Cup::Rear => Phase::AttachRear,
-                        stride::Cup::Front => Phase::AttachFront,
+                // an attach, a holding cup's switched off a release: the
+                // interlock judges both (module doc).
+                let judged = match (on, holding[wire.index()], stride_cup) {
+                    (true, false, stride::Cup::Rear) if holding.contains(&true) => Some(Phase::AttachRear),
+                    (true, false, stride::Cup::Front) if holding.contains(&true) => Some(Phase::AttachFront),
+                    (false, true, stride::Cup::Rear) => Some(Phase::ReleaseRear),
+                    (false, true, stride::Cup::Front) => Some(Phase::ReleaseFront),
+                    _ => None,
+                };
+                if let Some(phase) = judged {
+                    let (value, allowed) = if on {
+                        (
+                            format!("true ({} cup, free)", stride_cup.name()),
+                            format!("false; true only while the {} cup's face lies flush", stride_cup.name()),
+                        )
+                    } else {
+                        (
+                            format!("false ({} cup)", stride_cup.name()),
+                            format!(
+                                "true; false only while the {} cup would hold alone with a safety factor of at least {}",
+                                stride_cup.other().name(),
+                                s.robot.cup.min_safety_factor
+                            ),
+                        )
                     };
                     let prediction = Arc::clone(&lock(&s.prediction));
                     let run = lock(&s.run).clone();
-                    self.phase_refusal(phase, Some(holding), &prediction, &run).map_err(|why| {
-                        Refusal::new(
-                            name,
-                            "on",
-                            format!("true ({} cup, free)", stride_cup.name()),
-                            format!("false; true only while the {} cup's face lies flush", stride_cup.name()),
-                            why,
-                        )
-                    })?;
-                }
-                if !on && holding[wire.index()] {
-                    {
-                        let phase = match stride_cup {
-                            stride::Cup::Rear => Phase::ReleaseRear,
-                            stride::Cup::Front => Phase::ReleaseFront,
-                        };
-                        let prediction = Arc::clone(&lock(&s.prediction));
-                        let run = lock(&s.run).clone();
-                        self.phase_refusal(phase, Some(holding), &prediction, &run).map_err(|why| {
-                            Refusal::new(
-                                name,
-                                "on",
-                                format!("false ({} cup)", stride_cup.name()),
-                                format!(
-                                    "true; false only while the {} cup would hold alone with a safety factor of at \
-                                     least {}",
-                                    stride_cup.other().name(),
-                                    s.robot.cup.min_safety_factor
-                                ),
-                                why,
-                            )
-                        })?;
-                    }
+                    self.phase_refusal(phase, Some(holding), &prediction, &run)
+                        .map_err(|why| Refusal::new(name, "on", value, allowed, why))?;
                 }
                 self.idle(name)?;
                 s.link.pump(wire, on).map_err(|e| link_refusal(name, e))?;
