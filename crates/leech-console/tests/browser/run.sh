@@ -9,8 +9,11 @@ here="$(cd "$(dirname "$0")" && pwd)"
 root="$(cd "$here/../../../.." && pwd)"
 cd "$root"
 if ! command -v chromium > /dev/null; then
-    apt-get update > /dev/null
-    apt-get install -y chromium > /dev/null
+    # Debian's Chromium (a test tool's own browser download is not allowed).
+    sudo=""
+    [ "$(id -u)" -eq 0 ] || sudo="sudo"
+    $sudo apt-get update > /dev/null
+    $sudo apt-get install -y --no-install-recommends chromium > /dev/null
 fi
 cargo build -p leech-cli
 target="${CARGO_TARGET_DIR:-$root/target}"
