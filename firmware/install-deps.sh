@@ -6,6 +6,13 @@ set -eu
 
 packages="gcc-avr avr-libc arduino-core-avr arduino-mk simavr libsimavr-dev libsimavrparts1 libelf-dev"
 
+# `install-deps.sh --list` prints the packages only (for CI, which installs
+# them together with its own).
+if [ "${1:-}" = "--list" ]; then
+    echo "$packages"
+    exit 0
+fi
+
 missing=""
 for p in $packages; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing="$missing $p"
