@@ -45,7 +45,7 @@ use crate::body::Body;
 use crate::cantilever::Cantilever;
 pub use crate::chain::MAX_LINKS;
 use crate::chain::{Chain, ChainSpec, Discretization};
-use crate::error::{non_negative, positive, within, InputError};
+use crate::error::{non_negative, positive, within, InputError, Num};
 use crate::geom::right_normal;
 
 /// The built-in robot's file, comments included.
@@ -354,9 +354,8 @@ impl Robot {
 
     /// Parses and validates a robot file.
     pub fn from_toml_str(text: &str) -> Result<Robot, InputError> {
-        let raw: RawRobot = toml::from_str(text).map_err(|e| InputError::Toml {
-            message: e.to_string().split_whitespace().collect::<Vec<_>>().join(" "),
-        })?;
+        let raw: RawRobot =
+            toml::from_str(text).map_err(|e| InputError::Toml { message: crate::scene::file::one_line(text, &e) })?;
         let l = positive("tube.element_length_m", raw.tube.element_length_m)?;
         let (per_element, mass) = either(
             "tube",
@@ -418,7 +417,7 @@ impl Robot {
                 min,
                 format!(
                     "at least two elements (2 x tube.element_length_m = {} m): the body needs four in all",
-                    2.0 * l
+                    Num(2.0 * l)
                 ),
             ));
         }
@@ -428,8 +427,9 @@ impl Robot {
                 "limits.tube_length_max_m",
                 max,
                 format!(
-                    "a number > limits.tube_length_min_m ({min}) and at most {MAX_LINKS} elements ({} m)",
-                    l * MAX_LINKS as f64
+                    "a number > limits.tube_length_min_m ({}) and at most {MAX_LINKS} elements ({} m)",
+                    Num(min),
+                    Num(l * MAX_LINKS as f64)
                 ),
             ));
         }
@@ -598,7 +598,7 @@ impl Robot {
             InputError::invalid(
                 field,
                 length,
-                format!("a tube length in m from one element ({l}) to {MAX_LINKS} elements"),
+                format!("a tube length in m from one element ({}) to {MAX_LINKS} elements", Num(l)),
             )
         })
     }
@@ -632,7 +632,7 @@ impl Robot {
             return Err(InputError::Invalid {
                 field: "lengths (LA, LB)".into(),
                 value: format!("{la}, {lb} ({links} elements in all)"),
-                allowed: format!("at least 4 elements in all, e.g. both tubes at least {} m", 2.0 * l),
+                allowed: format!("at least 4 elements in all, e.g. both tubes at least {} m", Num(2.0 * l)),
             });
         }
         let nu = right_normal(self.world.base_angle_deg.to_radians());
