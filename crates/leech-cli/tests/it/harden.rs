@@ -106,3 +106,9 @@ fn a_huge_shape_parameter_prints_short() {
     assert!(text.contains("Pi = 5e304"), "{text}");
     no_long_numbers(&text);
 }
+
+#[test]
+fn leech_alone_says_a_subcommand_is_needed() {
+    let e = rejected(&[]);
+    assert!(e.contains("subcommand is needed") && e.contains("shape") && e.contains("chain"), "{e}");
+}
