@@ -102,8 +102,24 @@ pub struct World {
 #[serde(deny_unknown_fields)]
 pub struct Model {
     /// How tubes are cut into links.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "discretization")]
     pub discretization: Discretization,
+}
+
+/// A discretization's name; anything else (a number, a table) answered
+/// with the names allowed, not the parser's "wanted string or table".
+fn discretization<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Discretization, D::Error> {
+    use serde::de::Error as _;
+    use serde::Deserialize as _;
+    let value = toml::Value::deserialize(d)?;
+    match value.as_str() {
+        Some("paper") => Ok(Discretization::Paper),
+        Some("midpoint") => Ok(Discretization::Midpoint),
+        _ => Err(D::Error::custom(format!(
+            "model.discretization: got {}, expected \"paper\" or \"midpoint\"",
+            crate::error::quoted(&value.to_string())
+        ))),
+    }
 }
 
 /// The driving unit: its motors, frame and the rear cup.

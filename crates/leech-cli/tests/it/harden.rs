@@ -112,3 +112,15 @@ fn leech_alone_says_a_subcommand_is_needed() {
     let e = rejected(&[]);
     assert!(e.contains("subcommand is needed") && e.contains("shape") && e.contains("chain"), "{e}");
 }
+
+#[test]
+fn a_non_string_discretization_lists_the_allowed_values() {
+    let robot = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../leech/robots/leech.toml")).unwrap();
+    for value in ["3", "\"fine\"", "{ a = 1 }"] {
+        let text = robot.replace("discretization = \"paper\"", &format!("discretization = {value}"));
+        let path = scratch("discretization.toml", text.as_bytes());
+        let e = rejected(&["shape", "--lengths", "0.3,0.2", "--robot", path.to_str().unwrap()]);
+        std::fs::remove_file(&path).ok();
+        assert!(e.contains("discretization") && e.contains("paper") && e.contains("midpoint"), "{value}: {e}");
+    }
+}
