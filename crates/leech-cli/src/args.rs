@@ -13,7 +13,7 @@ use std::time::Duration;
 use leech::calibration::{read_sag, read_shapes, BodyShape, Fit, SagTube};
 use leech::chain::Discretization;
 use leech::dynamics::{Actuation, Integrator, SimulationOptions, Start};
-use leech::error::{positive, within};
+use leech::error::{positive, within, Num};
 use leech::inverse_statics::check_target;
 use leech::prelude::*;
 use leech::scene::Scene;
@@ -313,7 +313,9 @@ fn tube_scene(path: &Path, diameter: Option<f64>, tube: &Cantilever) -> Result<(
     let diameter = diameter.unwrap_or(Robot::builtin().tube.outer_diameter_m);
     if !(diameter.is_finite() && diameter > 0.0 && diameter <= length) {
         return Err(Failure::Input(format!(
-            "--outer-diameter: got {diameter}, expected a number of m above 0 and at most the tube's length ({length} m)"
+            "--outer-diameter: got {}, expected a number of m above 0 and at most the tube's length ({} m)",
+            Num(diameter),
+            Num(length)
         )));
     }
     let (scene, _) = load_scene(path, "--scene")?;
@@ -330,7 +332,8 @@ fn tube_scene(path: &Path, diameter: Option<f64>, tube: &Cantilever) -> Result<(
     if !scene.is_free(ahead, on_surface) {
         let deg = chain.clamp_angle().to_degrees();
         return Err(Failure::Input(format!(
-            "--base-angle: got {deg} deg, which points the tube into a solid of the scene; expected a direction into free space"
+            "--base-angle: got {} deg, which points the tube into a solid of the scene; expected a direction into free space",
+            Num(deg)
         )));
     }
     Ok((scene, 0.5 * diameter))
@@ -344,8 +347,11 @@ fn shape(a: flags::ShapeArgs) -> Result<Shape, Failure> {
     let start = scene.as_ref().and_then(|s| s.start).filter(|_| a.rear.is_none() && a.base_angle.is_none());
     let base_angle = match (a.base_angle, &a.rear) {
         (Some(deg), Some(r)) if deg != r[2] => {
-            let message =
-                format!("--rear: its angle {} deg differs from --base-angle {deg}; give one, or both alike", r[2]);
+            let message = format!(
+                "--rear: its angle {} deg differs from --base-angle {}; give one, or both alike",
+                Num(r[2]),
+                Num(deg)
+            );
             return Err(Failure::Input(message));
         }
         (deg, r) => deg.or(r.map(|r| r[2])).or(start.map(|s| s.direction_rad.to_degrees())),
@@ -451,7 +457,7 @@ fn simulate(a: flags::SimulateArgs) -> Result<Simulate, Failure> {
 pub(crate) fn solver(max_iterations: usize, time_limit: f64) -> Result<Solver, Failure> {
     let seconds = positive("--time-limit (s)", time_limit)?;
     let time_limit = Duration::try_from_secs_f64(seconds)
-        .map_err(|_| Failure::Input(format!("--time-limit: got {seconds}, expected a number of seconds")))?;
+        .map_err(|_| Failure::Input(format!("--time-limit: got {}, expected a number of seconds", Num(seconds))))?;
     Ok(Solver::new(SolverOptions { max_iterations, time_limit: Some(time_limit), ..SolverOptions::default() }))
 }
 

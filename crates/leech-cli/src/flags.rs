@@ -668,11 +668,13 @@ fn parse_pose(text: &str) -> Result<[f64; 3], String> {
 fn numbers<const N: usize>(text: &str, all: &str, one: &str) -> Result<[f64; N], String> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
     if parts.len() != N {
-        return Err(format!("got '{text}', expected {all}"));
+        return Err(format!("got {}, expected {all}", leech::error::quoted(text)));
     }
     let mut out = [0.0; N];
     for (x, s) in out.iter_mut().zip(parts) {
-        *x = s.parse::<f64>().map_err(|_| format!("got '{s}' in '{text}', expected {one}"))?;
+        *x = s.parse::<f64>().map_err(|_| {
+            format!("got {} in {}, expected {one}", leech::error::quoted(s), leech::error::quoted(text))
+        })?;
     }
     Ok(out)
 }

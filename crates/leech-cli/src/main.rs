@@ -88,6 +88,21 @@ fn clap_failure(e: &clap::Error) -> ExitCode {
             }
         };
     }
+    if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+        // `leech` (or `leech drive`) alone: say what is missing, on one line.
+        let help = e.to_string();
+        let usage = help.lines().find_map(|l| l.strip_prefix("Usage: ")).unwrap_or("leech <COMMAND>");
+        let commands: Vec<&str> = help
+            .lines()
+            .skip_while(|l| l.trim() != "Commands:")
+            .skip(1)
+            .take_while(|l| !l.trim().is_empty())
+            .filter_map(|l| l.split_whitespace().next())
+            .filter(|name| *name != "help")
+            .collect();
+        eprintln!("leech: a subcommand is needed ({usage}), one of {}; see --help", commands.join(", "));
+        return ExitCode::from(2);
+    }
     // One line: clap's message without its usage and help hints.
     let rendered = e.to_string();
     let message: Vec<&str> = rendered

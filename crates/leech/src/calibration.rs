@@ -81,7 +81,7 @@ impl Table {
     fn parse(text: &str, source: &str, required: &[&str], optional: &[&str]) -> Result<Table, InputError> {
         let bad = |row: usize, message: String| InputError::Invalid {
             field: format!("{source} row {row}"),
-            value: message,
+            value: crate::error::clip(&message, crate::error::MESSAGE_CHARS),
             allowed: "CSV with the documented columns".into(),
         };
         let mut reader =
@@ -92,14 +92,14 @@ impl Table {
             if !required.contains(&name) && !optional.contains(&name) {
                 return Err(InputError::Invalid {
                     field: format!("{source} header"),
-                    value: format!("unknown column '{name}'"),
+                    value: format!("unknown column {}", crate::error::quoted(name)),
                     allowed: format!("the columns {}", [required, optional].concat().join(", ")),
                 });
             }
             if columns.insert(name.to_string(), i).is_some() {
                 return Err(InputError::Invalid {
                     field: format!("{source} header"),
-                    value: format!("column '{name}' twice"),
+                    value: format!("column {} twice", crate::error::quoted(name)),
                     allowed: "each column once".into(),
                 });
             }
@@ -133,7 +133,7 @@ impl Table {
             Ok(v) if v.is_finite() && v.abs() < 1e6 => Ok(v),
             _ => Err(InputError::Invalid {
                 field: format!("{} row {}, column {column}", self.source, row.0),
-                value: format!("'{value}'"),
+                value: crate::error::quoted(&value),
                 allowed: "a finite number of magnitude below 1e6".into(),
             }),
         }
@@ -197,7 +197,7 @@ pub fn read_shapes(text: &str, source: &str) -> Result<Vec<BodyShape>, InputErro
             other => {
                 return Err(InputError::Invalid {
                     field: format!("{source} row {}, column chain", row.0),
-                    value: format!("'{}'", other.unwrap_or("")),
+                    value: crate::error::quoted(other.unwrap_or("")),
                     allowed: "a, b or endpoint (one endpoint per shape)".into(),
                 })
             }

@@ -129,7 +129,7 @@ impl Path for Cantilever {
 pub struct CantileverSpec {
     /// Number of elements `n` (1 to [`crate::chain::MAX_LINKS`]).
     pub elements: usize,
-    /// Element length `l` (m).
+    /// Element length `l` (m); the tube, `n l`, at most [`crate::chain::MAX_TUBE_LENGTH_M`].
     pub element_length_m: f64,
     /// Element mass `m` (kg).
     pub element_mass_kg: f64,
@@ -176,7 +176,7 @@ impl CantileverSpec {
 
     /// Builds the tube at `length` (m; `n l` when `None`), checking every value.
     fn built(&self, length: Option<f64>) -> Result<Cantilever, crate::error::InputError> {
-        use crate::error::{non_negative, positive, within, InputError};
+        use crate::error::{non_negative, positive, within, InputError, Num};
         if self.elements == 0 || self.elements > crate::chain::MAX_LINKS {
             return Err(InputError::invalid(
                 "elements",
@@ -185,7 +185,16 @@ impl CantileverSpec {
             ));
         }
         let l = positive("element_length_m", self.element_length_m)?;
+        // The derived length, not only its factors: 20 elements of 1e308 m
+        // are each finite but together overflow.
         let full = self.elements as f64 * l;
+        if !(full.is_finite() && full <= crate::chain::MAX_TUBE_LENGTH_M) {
+            return Err(InputError::Invalid {
+                field: "tube length (elements x element_length_m)".into(),
+                value: format!("{} x {} m = {} m", self.elements, Num(l), Num(full)),
+                allowed: format!("a finite length of at most {} m", Num(crate::chain::MAX_TUBE_LENGTH_M)),
+            });
+        }
         let tube_length = match length {
             Some(length) => within("tube_length_m", positive("tube_length_m", length)?, 0.0, full)?,
             None => full,

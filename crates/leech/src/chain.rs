@@ -82,6 +82,11 @@ pub enum Discretization {
 /// (a 100 m tube at 1 cm elements).
 pub const MAX_LINKS: usize = 10_000;
 
+/// Longest tube (m) a chain may describe: any longer and a product of
+/// finite inputs (`elements x element length`) may overflow, or describe
+/// nothing a soft robot could be.
+pub const MAX_TUBE_LENGTH_M: f64 = 1e3;
+
 /// Largest factor by which a short last element's spring exceeds `k`.
 pub const MAX_STIFFNESS_RATIO: f64 = 1e4;
 

@@ -55,7 +55,7 @@
 
 use serde::Serialize;
 
-use crate::error::InputError;
+use crate::error::{InputError, Num};
 use crate::geom::{cross, dot, Vec2};
 pub use crate::robot::Cup;
 
@@ -115,7 +115,7 @@ pub fn verdict(cup: &Cup, force_n: Vec2, moment_nm: f64, outward_normal: Vec2) -
     if !force_n.iter().all(|f| f.is_finite()) {
         return Err(InputError::Invalid {
             field: "cup force (N)".into(),
-            value: format!("({}, {})", force_n[0], force_n[1]),
+            value: format!("({}, {})", Num(force_n[0]), Num(force_n[1])),
             allowed: "finite components".into(),
         });
     }
@@ -127,7 +127,7 @@ pub fn verdict(cup: &Cup, force_n: Vec2, moment_nm: f64, outward_normal: Vec2) -
     if !((length - 1.0).abs() <= UNIT_TOLERANCE) {
         return Err(InputError::Invalid {
             field: "surface normal".into(),
-            value: format!("({}, {})", n[0], n[1]),
+            value: format!("({}, {})", Num(n[0]), Num(n[1])),
             allowed: format!("a unit vector (length 1 within {UNIT_TOLERANCE})"),
         });
     }

@@ -32,14 +32,84 @@ pub enum InputError {
 impl InputError {
     /// An [`InputError::Invalid`] for a number.
     pub fn invalid(field: impl Into<String>, value: f64, allowed: impl Into<String>) -> InputError {
-        // Plain notation unless that would print hundreds of digits.
-        let text = if value == 0.0 || !value.is_finite() || (1e-6..1e15).contains(&value.abs()) {
-            format!("{value}")
-        } else {
-            format!("{value:e}")
-        };
-        InputError::Invalid { field: field.into(), value: text, allowed: allowed.into() }
+        InputError::Invalid { field: field.into(), value: Num(value).to_string(), allowed: allowed.into() }
     }
+}
+
+/// A number as messages print it: the shortest text that reads back to it
+/// (`0.25`, `-3`), in scientific notation (`1e308`, `2.5e-9`) beyond 1e6 or
+/// below 1e-4 in magnitude, where plain notation would run to hundreds of
+/// digits.
+///
+/// ```
+/// use leech::error::Num;
+/// assert_eq!(Num(0.25).to_string(), "0.25");
+/// assert_eq!(Num(1e308).to_string(), "1e308");
+/// assert_eq!(Num(-2.5e-9).to_string(), "-2.5e-9");
+/// assert_eq!(Num(f64::INFINITY).to_string(), "inf");
+/// ```
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Num(pub f64);
+
+impl std::fmt::Display for Num {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let x = self.0;
+        if x == 0.0 || !x.is_finite() || (1e-4..1e6).contains(&x.abs()) {
+            write!(f, "{x}")
+        } else {
+            write!(f, "{x:e}")
+        }
+    }
+}
+
+/// Most characters of a user's text a message quotes: enough to find the
+/// spot, never a file's worth.
+pub const EXCERPT_CHARS: usize = 40;
+
+/// Most characters of a parser's message a message passes on: the parser
+/// may quote a user's text in it (an unknown key), at any length.
+pub const MESSAGE_CHARS: usize = 240;
+
+/// At most `max` characters of `text`, escaped as Rust's `{:?}` does but
+/// for quotes (no NUL, control characters or byte-order marks reach a
+/// terminal), `...` after a cut: a message passes a user's bytes on only
+/// this way.
+///
+/// ```
+/// use leech::error::clip;
+/// assert_eq!(clip("a\u{0}b\u{feff}", 40), "a\\0b\\u{feff}");
+/// assert_eq!(clip(&"[".repeat(10_000), 3), "[[[...");
+/// ```
+pub fn clip(text: &str, max: usize) -> String {
+    let mut out = String::new();
+    for (i, c) in text.chars().enumerate() {
+        if i == max {
+            out.push_str("...");
+            break;
+        }
+        match c {
+            // Printable but invisible, or reordering what follows.
+            '\u{feff}' | '\u{200b}'..='\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2060}'..='\u{2069}' => {
+                out.extend(c.escape_unicode());
+            }
+            '"' | '\'' => out.push(c),
+            _ => out.extend(c.escape_debug()),
+        }
+    }
+    out
+}
+
+/// `text` quoted for a message: at most [`EXCERPT_CHARS`] characters,
+/// escaped (see [`clip`]), in single quotes as the command line's messages
+/// quote what a user gave.
+///
+/// ```
+/// use leech::error::quoted;
+/// assert_eq!(quoted("1.2.3"), "'1.2.3'");
+/// assert_eq!(quoted("x\ty'"), "'x\\ty\\''");
+/// ```
+pub fn quoted(text: &str) -> String {
+    format!("'{}'", clip(text, EXCERPT_CHARS).replace('\'', "\\'"))
 }
 
 /// Longest name or description a file may give (characters).
@@ -52,10 +122,9 @@ pub fn printable(field: &str, text: &str) -> Result<(), InputError> {
     if text.chars().count() <= MAX_NAME_CHARS && !text.chars().any(char::is_control) {
         return Ok(());
     }
-    let shown: String = text.chars().take(40).flat_map(char::escape_default).collect();
     Err(InputError::Invalid {
         field: field.into(),
-        value: format!("\"{shown}\"{}", if text.chars().count() > 40 { "..." } else { "" }),
+        value: quoted(text),
         allowed: format!("printable text (no control characters) of at most {MAX_NAME_CHARS} characters"),
     })
 }
@@ -83,6 +152,6 @@ pub fn within(field: &str, value: f64, lo: f64, hi: f64) -> Result<f64, InputErr
     if value.is_finite() && (lo..=hi).contains(&value) {
         Ok(value)
     } else {
-        Err(InputError::invalid(field, value, format!("a finite number in [{lo}, {hi}]")))
+        Err(InputError::invalid(field, value, format!("a finite number in [{}, {}]", Num(lo), Num(hi))))
     }
 }

@@ -45,7 +45,7 @@ use crate::body::Body;
 use crate::cantilever::Cantilever;
 pub use crate::chain::MAX_LINKS;
 use crate::chain::{Chain, ChainSpec, Discretization};
-use crate::error::{non_negative, positive, within, InputError};
+use crate::error::{non_negative, positive, within, InputError, Num};
 use crate::geom::right_normal;
 
 /// The built-in robot's file, comments included.
@@ -102,8 +102,24 @@ pub struct World {
 #[serde(deny_unknown_fields)]
 pub struct Model {
     /// How tubes are cut into links.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "discretization")]
     pub discretization: Discretization,
+}
+
+/// A discretization's name; anything else (a number, a table) answered
+/// with the names allowed, not the parser's "wanted string or table".
+fn discretization<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Discretization, D::Error> {
+    use serde::de::Error as _;
+    use serde::Deserialize as _;
+    let value = toml::Value::deserialize(d)?;
+    match value.as_str() {
+        Some("paper") => Ok(Discretization::Paper),
+        Some("midpoint") => Ok(Discretization::Midpoint),
+        _ => Err(D::Error::custom(format!(
+            "model.discretization: got {}, expected \"paper\" or \"midpoint\"",
+            crate::error::quoted(&value.to_string())
+        ))),
+    }
 }
 
 /// The driving unit: its motors, frame and the rear cup.
@@ -354,9 +370,8 @@ impl Robot {
 
     /// Parses and validates a robot file.
     pub fn from_toml_str(text: &str) -> Result<Robot, InputError> {
-        let raw: RawRobot = toml::from_str(text).map_err(|e| InputError::Toml {
-            message: e.to_string().split_whitespace().collect::<Vec<_>>().join(" "),
-        })?;
+        let raw: RawRobot =
+            toml::from_str(text).map_err(|e| InputError::Toml { message: crate::scene::file::one_line(text, &e) })?;
         let l = positive("tube.element_length_m", raw.tube.element_length_m)?;
         let (per_element, mass) = either(
             "tube",
@@ -418,7 +433,7 @@ impl Robot {
                 min,
                 format!(
                     "at least two elements (2 x tube.element_length_m = {} m): the body needs four in all",
-                    2.0 * l
+                    Num(2.0 * l)
                 ),
             ));
         }
@@ -428,8 +443,9 @@ impl Robot {
                 "limits.tube_length_max_m",
                 max,
                 format!(
-                    "a number > limits.tube_length_min_m ({min}) and at most {MAX_LINKS} elements ({} m)",
-                    l * MAX_LINKS as f64
+                    "a number > limits.tube_length_min_m ({}) and at most {MAX_LINKS} elements ({} m)",
+                    Num(min),
+                    Num(l * MAX_LINKS as f64)
                 ),
             ));
         }
@@ -598,7 +614,7 @@ impl Robot {
             InputError::invalid(
                 field,
                 length,
-                format!("a tube length in m from one element ({l}) to {MAX_LINKS} elements"),
+                format!("a tube length in m from one element ({}) to {MAX_LINKS} elements", Num(l)),
             )
         })
     }
@@ -632,7 +648,7 @@ impl Robot {
             return Err(InputError::Invalid {
                 field: "lengths (LA, LB)".into(),
                 value: format!("{la}, {lb} ({links} elements in all)"),
-                allowed: format!("at least 4 elements in all, e.g. both tubes at least {} m", 2.0 * l),
+                allowed: format!("at least 4 elements in all, e.g. both tubes at least {} m", Num(2.0 * l)),
             });
         }
         let nu = right_normal(self.world.base_angle_deg.to_radians());

@@ -63,7 +63,11 @@ impl Grid {
         let max = positive("lengths range max", max)?;
         let step = positive("lengths range step", step)?;
         if max < min {
-            return Err(InputError::invalid("lengths range max", max, format!("at least the min ({min})")));
+            return Err(InputError::invalid(
+                "lengths range max",
+                max,
+                format!("at least the min ({})", crate::error::Num(min)),
+            ));
         }
         let count = ((max - min) / step).floor() + 1.0;
         if count > 2_001.0 {

@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+use leech::error::{quoted, Num};
 use leech::prelude::Robot;
 use leech::scene::Scene;
 use leech::stride::Phase;
@@ -67,7 +68,7 @@ fn seconds(flag: &str, s: f64) -> Result<Duration, Failure> {
     if s.is_finite() && s > 0.0 && s <= 86_400.0 {
         Ok(Duration::from_secs_f64(s))
     } else {
-        Err(Failure::Input(format!("{flag}: got {s}, expected seconds in (0, 86400]")))
+        Err(Failure::Input(format!("{flag}: got {}, expected seconds in (0, 86400]", Num(s))))
     }
 }
 
@@ -115,7 +116,7 @@ pub(super) fn place(robot: &Robot, scenario: Option<&Path>, scene: Option<&Path>
 /// The `--faults` spec: `drop=P,corrupt=P,delay=S,cut,vacuum-loss=rear|front,stall=1|2|3,lose-fault-reports,seed=N`.
 fn faults(spec: &str) -> Result<Faults, Failure> {
     let mut f = Faults::default();
-    let bad = |item: &str, allowed: &str| Failure::Input(format!("--faults: got '{item}', expected {allowed}"));
+    let bad = |item: &str, allowed: &str| Failure::Input(format!("--faults: got {}, expected {allowed}", quoted(item)));
     let rate = |item: &str, v: &str| match v.parse::<f64>() {
         Ok(p) if (0.0..=1.0).contains(&p) => Ok(p),
         _ => Err(bad(item, "a probability in [0, 1]")),
@@ -179,7 +180,11 @@ pub(super) fn drive(a: DriveArgs) -> Result<Drive, Failure> {
             };
             let most = (hi - lo) * 1e3;
             if !(mm.is_finite() && mm.abs() <= most) {
-                return Err(Failure::Input(format!("jog: got {mm} mm, expected at most {most} mm either way")));
+                return Err(Failure::Input(format!(
+                    "jog: got {} mm, expected at most {} mm either way",
+                    Num(mm),
+                    Num(most)
+                )));
             }
             Action::Jog(tube, (mm * 1e3).round() as i32)
         }
@@ -203,8 +208,11 @@ pub(super) fn drive(a: DriveArgs) -> Result<Drive, Failure> {
                 (true, Some(l)) if l.iter().all(|x| (lo..=hi).contains(x)) => l,
                 (true, Some(l)) => {
                     return Err(Failure::Input(format!(
-                        "--lengths: got {}, {}, expected lengths within the robot's limits [{lo}, {hi}] m",
-                        l[0], l[1]
+                        "--lengths: got {}, {}, expected lengths within the robot's limits [{}, {}] m",
+                        Num(l[0]),
+                        Num(l[1]),
+                        Num(lo),
+                        Num(hi)
                     )))
                 }
                 (true, None) => return Err(Failure::Input(format!("stride {}: give --lengths LA,LB", phase.name()))),
@@ -243,7 +251,10 @@ fn plan_moves(path: &std::path::Path, [lo, hi]: [f64; 2]) -> Result<Vec<Move>, F
     let v: serde_json::Value = serde_json::from_str(&text)
         .map_err(|e| bad(format!("not JSON ({e}), expected a plan from leech climb --json")))?;
     if v["status"] != "reached" {
-        return Err(bad(format!("status {}, expected a plan that reached its goal (\"reached\")", v["status"])));
+        return Err(bad(format!(
+            "status {}, expected a plan that reached its goal (\"reached\")",
+            quoted(&v["status"].to_string())
+        )));
     }
     let steps = v["steps"].as_array().ok_or_else(|| bad("no steps, expected a plan from leech climb --json".into()))?;
     if steps.is_empty() {
@@ -254,22 +265,29 @@ fn plan_moves(path: &std::path::Path, [lo, hi]: [f64; 2]) -> Result<Vec<Move>, F
         .enumerate()
         .map(|(i, step)| {
             let phase = step["phase"].as_str().and_then(Phase::from_name).ok_or_else(|| {
-                bad(format!("steps[{i}].phase: got {}, expected a phase name (push, attach_front, ...)", step["phase"]))
+                bad(format!(
+                    "steps[{i}].phase: got {}, expected a phase name (push, attach_front, ...)",
+                    quoted(&step["phase"].to_string())
+                ))
             })?;
             match step["lengths_m"].as_array() {
                 Some(lengths) if lengths.len() == 2 => {}
                 _ => {
                     return Err(bad(format!(
-                        "steps[{i}].lengths_m: got {}, expected [LA, LB]: two lengths (m) within the robot's limits [{lo}, {hi}] m",
-                        step["lengths_m"]
+                        "steps[{i}].lengths_m: got {}, expected [LA, LB]: two lengths (m) within the robot's limits [{}, {}] m",
+                        quoted(&step["lengths_m"].to_string()),
+                        Num(lo),
+                        Num(hi)
                     )))
                 }
             }
             let length = |k: usize| {
                 step["lengths_m"][k].as_f64().filter(|l| (lo..=hi).contains(l)).ok_or_else(|| {
                     bad(format!(
-                        "steps[{i}].lengths_m[{k}]: got {}, expected a length within the robot's limits [{lo}, {hi}] m",
-                        step["lengths_m"][k]
+                        "steps[{i}].lengths_m[{k}]: got {}, expected a length within the robot's limits [{}, {}] m",
+                        quoted(&step["lengths_m"][k].to_string()),
+                        Num(lo),
+                        Num(hi)
                     ))
                 })
             };
@@ -305,7 +323,7 @@ fn fault_set(spec: &str) -> Result<FaultBits, Failure> {
         let bit = names.iter().find(|(name, _)| *name == item.replace('_', "-")).map(|(_, bit)| *bit);
         match bit {
             Some(bit) => set = set.union(bit),
-            None => return Err(Failure::Input(format!("clear-faults: got '{item}', expected {allowed}"))),
+            None => return Err(Failure::Input(format!("clear-faults: got {}, expected {allowed}", quoted(item)))),
         }
     }
     Ok(set)
@@ -315,7 +333,7 @@ fn fault_set(spec: &str) -> Result<FaultBits, Failure> {
 fn evidence(given: Option<f64>) -> Result<f64, Failure> {
     match given {
         Some(f) if f.is_finite() && f > 0.0 => Ok(f),
-        Some(f) => Err(Failure::Input(format!("--safety-factor: got {f}, expected a positive number"))),
+        Some(f) => Err(Failure::Input(format!("--safety-factor: got {}, expected a positive number", Num(f)))),
         None => Err(Failure::Input(
             "stride release: give --safety-factor SF, the holding cup's after the release (leech shape --hold)".into(),
         )),

@@ -87,7 +87,7 @@ pub fn chain(out: &mut String, a: &Chain, eq: &Equilibrium) -> Result<(), Failur
     } else {
         text::chain(out, a.elements, &report);
     }
-    let title = format!("single tube: {} elements, Pi = {:.3}", a.elements, report.shape_parameter);
+    let title = format!("single tube: {} elements, Pi = {}", a.elements, text::fixed(report.shape_parameter, 3));
     files::pictures(&a.outputs, || leech_plot::shape::cantilever_figure(&title, &a.tube, &eq.q))
 }
 
@@ -101,8 +101,12 @@ pub fn chain_in_scene(out: &mut String, a: &Chain, scene: &Scene, held: &TubeHel
         text::chain(out, a.elements, &report.tube);
         text::tube_in_scene(out, &report);
     }
-    let title =
-        format!("single tube: {} elements, Pi = {:.3}, on {}", a.elements, report.tube.shape_parameter, scene.name);
+    let title = format!(
+        "single tube: {} elements, Pi = {}, on {}",
+        a.elements,
+        text::fixed(report.tube.shape_parameter, 3),
+        scene.name
+    );
     files::pictures(&a.outputs, || leech_plot::stance::tube_figure(&title, held, scene))
 }
 

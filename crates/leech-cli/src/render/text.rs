@@ -42,7 +42,7 @@ fn solution(out: &mut String, s: &Solution) {
 }
 
 pub fn chain(out: &mut String, elements: usize, r: &CantileverReport) {
-    say!(out, "tube of {elements} elements, {:.4} m, shape parameter Pi = {:.4}", r.length_m, r.shape_parameter);
+    say!(out, "tube of {elements} elements, {:.4} m, shape parameter Pi = {}", r.length_m, fixed(r.shape_parameter, 4));
     say!(out, "tip at ({:.3}, {:.3}) mm", r.tip_m[0] * 1e3, r.tip_m[1] * 1e3);
     solution(out, &r.solution);
 }
@@ -75,7 +75,7 @@ pub fn shape(
     two_chain: Option<(&BodyReport, Option<&SolveTiming>)>,
     constant_curvature: Option<&ConstantCurvatureReport>,
 ) {
-    say!(out, "{}: LA = {la:.4} m, LB = {lb:.4} m (Pi = {:.0})", robot.name, robot.shape_parameter());
+    say!(out, "{}: LA = {la:.4} m, LB = {lb:.4} m (Pi = {})", robot.name, fixed(robot.shape_parameter(), 0));
     if let Some((r, timing)) = two_chain {
         let links = format_args!("{} + {} links", r.links[0], r.links[1]);
         endpoint(out, "two-chain", r.endpoint_m, r.endpoint_angle_rad, links);
@@ -121,9 +121,11 @@ pub fn stance(out: &mut String, s: &StanceReport, minimum: f64) {
         };
         let verdict = match (v.holds, v.meets_minimum) {
             _ if v.safety_factor.is_infinite() => "holds, unloaded".to_string(),
-            (true, true) => format!("holds, safety factor {:.2}{mode}", v.safety_factor),
-            (true, false) => format!("holds, safety factor {:.2} below the minimum {minimum}{mode}", v.safety_factor),
-            (false, _) => format!("FAILS, safety factor {:.2}{mode}", v.safety_factor),
+            (true, true) => format!("holds, safety factor {}{mode}", fixed(v.safety_factor, 2)),
+            (true, false) => {
+                format!("holds, safety factor {} below the minimum {minimum}{mode}", fixed(v.safety_factor, 2))
+            }
+            (false, _) => format!("FAILS, safety factor {}{mode}", fixed(v.safety_factor, 2)),
         };
         say!(
             out,
@@ -264,8 +266,8 @@ pub fn calibration(out: &mut String, r: &Calibration, fitted_file: &Path) {
     }
     say!(
         out,
-        "Pi = {:.1}; RMS residual {:.3} mm, largest {:.3} mm over {} points ({} iterations); wrote {}",
-        r.shape_parameter,
+        "Pi = {}; RMS residual {:.3} mm, largest {:.3} mm over {} points ({} iterations); wrote {}",
+        fixed(r.shape_parameter, 1),
         r.rms_residual_mm,
         r.max_residual_mm,
         r.points,
@@ -319,4 +321,14 @@ pub fn simulation(out: &mut String, result: &Simulation, real_time_factor: f64) 
         last.lengths_m[0],
         last.lengths_m[1]
     );
+}
+
+/// `x` with `digits` decimals, or as [`leech::error::Num`] prints it where
+/// that would run past a dozen digits (a shape parameter of 1e300).
+pub(crate) fn fixed(x: f64, digits: usize) -> String {
+    if x.is_finite() && x.abs() >= 1e6 {
+        leech::error::Num(x).to_string()
+    } else {
+        format!("{x:.digits$}")
+    }
 }

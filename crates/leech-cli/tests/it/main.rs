@@ -405,6 +405,7 @@ fn simulate_writes_series_animation_and_summary() {
 
 mod climb;
 mod drive;
+mod harden;
 mod holds;
 mod serve;
 mod tube;

@@ -165,9 +165,11 @@ pub(crate) fn parse_bounded<T: serde::de::DeserializeOwned>(
 }
 
 /// The parser's message with its line number, folded to one line (the
-/// parser's own text spans several lines and draws a caret under the spot).
+/// parser's own text spans several lines and draws a caret under the spot),
+/// escaped and cut short: it may quote the file's bytes (an unknown key).
 pub(crate) fn one_line(text: &str, error: &toml::de::Error) -> String {
-    let message = error.message().split_whitespace().collect::<Vec<_>>().join(" ");
+    let folded = error.message().split_whitespace().collect::<Vec<_>>().join(" ");
+    let message = crate::error::clip(&folded, crate::error::MESSAGE_CHARS);
     match error.span() {
         Some(span) => {
             let line = text[..span.start.min(text.len())].matches('\n').count() + 1;

@@ -26,7 +26,7 @@ pub enum Solid {
 
 /// A point as the file writes it.
 pub(super) fn show(p: Vec2) -> String {
-    format!("[{}, {}]", p[0], p[1])
+    format!("[{}, {}]", crate::error::Num(p[0]), crate::error::Num(p[1]))
 }
 
 /// Checks a point is finite and within [`MAX_COORDINATE_M`].
@@ -53,7 +53,7 @@ impl Solid {
                 if !((length - 1.0).abs() <= UNIT_TOLERANCE) {
                     return Err(InputError::Invalid {
                         field: format!("{field}.normal"),
-                        value: format!("{} (length {length})", show(*normal)),
+                        value: format!("{} (length {})", show(*normal), crate::error::Num(length)),
                         allowed: format!("a unit vector (length 1 within {UNIT_TOLERANCE})"),
                     });
                 }

@@ -383,7 +383,7 @@ fn a_robot_base_stands_on_each_builtin() {
 fn a_name_with_control_characters_is_refused() {
     let toml = "name = \"a\\u0001b\"\n[[half_plane]]\npoint_m = [0.0, 0.0]\nnormal = [0.0, 1.0]\n";
     let e = leech::scene::Scene::from_toml_str(toml, "s.toml").unwrap_err().to_string();
-    assert!(e.starts_with("s.toml: name: got \"a\\u{1}b\""), "{e}");
+    assert!(e.starts_with("s.toml: name: got 'a\\u{1}b'"), "{e}");
     assert!(leech::error::printable("name", "LEeCH (estimated parameters)").is_ok());
     assert!(leech::error::printable("name", &"x".repeat(201)).is_err());
 }
