@@ -14,6 +14,7 @@ use leech::calibration::{read_sag, read_shapes, BodyShape, Fit, SagTube};
 use leech::chain::Discretization;
 use leech::dynamics::{Actuation, Integrator, SimulationOptions, Start};
 use leech::error::{positive, within, Num};
+use leech::files::{self, check_output, read_text};
 use leech::inverse_statics::check_target;
 use leech::prelude::*;
 use leech::scene::Scene;
@@ -199,6 +200,12 @@ pub struct Simulate {
 impl Args {
     /// Checks the flags and loads what they name.
     pub fn resolve(command: Command) -> Result<Args, Failure> {
+        let args = Args::resolve_flags(command)?;
+        args.check_outputs()?;
+        Ok(args)
+    }
+
+    fn resolve_flags(command: Command) -> Result<Args, Failure> {
         Ok(match command {
             Command::Robot { robot, json } => {
                 Args::Robot { robot: robot.as_deref().map(load_robot).transpose()?, json }
@@ -248,6 +255,35 @@ impl Args {
             Command::Drive(a) => Args::Drive(link::drive(a)?),
             Command::Serve(a) => Args::Serve(serve::serve(a)?),
         })
+    }
+
+    /// Checks every file the command will write (and figure's directory)
+    /// before any work, so an unwritable path fails at once.
+    fn check_outputs(&self) -> Result<(), Failure> {
+        let outputs = match self {
+            Args::Chain(Chain { outputs, .. })
+            | Args::Shape(Shape { outputs, .. })
+            | Args::Simulate(Simulate { outputs, .. })
+            | Args::Climb(Climb { outputs, .. }) => Some(outputs),
+            Args::Workspace(w) => {
+                check_output(&w.csv, "--out", None)?;
+                Some(&w.outputs)
+            }
+            Args::Calibrate(c) => {
+                check_output(&c.out, "--out", None)?;
+                Some(&c.outputs)
+            }
+            Args::Figure(f) => return Ok(files::check_output_dir(&f.dir, "--out")?),
+            _ => None,
+        };
+        let Some(o) = outputs else { return Ok(()) };
+        let files = [("--svg", &o.svg, None), ("--png", &o.png, Some("png")), ("--csv", &o.csv, None)];
+        for (flag, path, extension) in files {
+            if let Some(path) = path {
+                check_output(path, flag, extension)?;
+            }
+        }
+        Ok(())
     }
 
     /// Whether standard output is JSON (a failed solve then prints its status as JSON).
@@ -486,7 +522,7 @@ fn load_robot_or_builtin(path: Option<&Path>) -> Result<Robot, Failure> {
 }
 
 fn load_robot(path: &Path) -> Result<Robot, Failure> {
-    let text = read(path, "--robot", MAX_ROBOT_BYTES)?;
+    let text = read_text(path, "--robot", files::ROBOT_FILE)?;
     Robot::from_toml_str(&text).map_err(|e| Failure::Input(format!("{}: {e}", path.display())))
 }
 
@@ -497,19 +533,8 @@ fn measured<T>(
     parse: impl FnOnce(&str, &str) -> Result<Vec<T>, InputError>,
 ) -> Result<Measured<T>, Failure> {
     let name = path.display().to_string();
-    let rows = parse(&read(path, flag, MAX_MEASUREMENT_BYTES)?, &name)?;
+    let rows = parse(&read_text(path, flag, files::MEASUREMENT_FILE)?, &name)?;
     Ok(Measured { name, rows })
-}
-
-/// Largest robot file read (bytes): far beyond any real one, and a device
-/// file (`--robot /dev/zero`) is refused rather than read forever.
-const MAX_ROBOT_BYTES: usize = 1 << 20;
-
-/// Largest measurement file read (bytes).
-const MAX_MEASUREMENT_BYTES: usize = 16 << 20;
-
-fn read(path: &Path, flag: &str, limit: usize) -> Result<String, Failure> {
-    holds::read_at_most(path, flag, limit).map_err(Failure::Input)
 }
 
 /// The models a `--model` choice evaluates, the two-chain model first.

@@ -20,7 +20,7 @@ pub struct Cli {
 pub enum Command {
     /// Print a robot description (the built-in robot unless --robot is given).
     Robot {
-        /// Robot file (TOML).
+        /// Robot file (TOML, at most 1 MiB).
         #[arg(long, value_name = "FILE")]
         robot: Option<PathBuf>,
         /// Print JSON instead of TOML.
@@ -180,7 +180,7 @@ pub enum DriveAction {
     /// Carry out a climb step by step, each confirmed by telemetry, behind the stride interlock: a
     /// plan from `leech climb --json`, or a scenario planned first; a cup must hold to begin.
     Run {
-        /// A plan as `leech climb --json` writes it (status "reached").
+        /// A plan as `leech climb --json` writes it (status "reached"; at most 16 MiB, 10000 steps).
         #[arg(value_name = "PLAN.json", required_unless_present = "scenario", conflicts_with = "scenario")]
         plan: Option<PathBuf>,
         /// Instead: a built-in scenario's name or a scenario file, planned as `leech climb` does.
@@ -211,10 +211,11 @@ pub enum OnOff {
 #[derive(Debug, Args)]
 #[command(allow_negative_numbers = true)]
 pub struct ClimbArgs {
-    /// A built-in scenario's name (`leech scenario list`) or a scenario file (TOML).
+    /// A built-in scenario's name (`leech scenario list`) or a scenario file (TOML, at most 1 MiB).
     #[arg(long, value_name = "NAME|FILE", required_unless_present = "scene", conflicts_with = "scene")]
     pub scenario: Option<PathBuf>,
-    /// Instead of a scenario: a built-in scene's name (`leech scene list`) or a scene file.
+    /// Instead of a scenario: a built-in scene's name (`leech scene list`) or a scene file (TOML, at
+    /// most 1 MiB).
     #[arg(long, value_name = "NAME|FILE", requires_all = ["start", "goal"])]
     pub scene: Option<PathBuf>,
     /// With --scene: the rear cup's face centre X,Y (m) on a surface and the body's heading DEG.
@@ -401,10 +402,12 @@ pub enum FitArg {
 /// `leech calibrate`.
 #[derive(Debug, Args)]
 pub struct CalibrateArgs {
-    /// Tube-sag measurements (CSV: `tube_length_m,base_angle_deg,x_m,y_m[,tip_mass_kg]`).
+    /// Tube-sag measurements (CSV: `tube_length_m,base_angle_deg,x_m,y_m[,tip_mass_kg]`; at most
+    /// 16 MiB, 100000 rows, 1000 tubes).
     #[arg(long, value_name = "FILE")]
     pub sag: PathBuf,
-    /// Body-shape measurements (CSV: shape,la_m,lb_m,base_angle_deg,chain,x_m,y_m).
+    /// Body-shape measurements (CSV: shape,la_m,lb_m,base_angle_deg,chain,x_m,y_m; at most 16 MiB,
+    /// 100000 rows, 1000 shapes).
     #[arg(long, value_name = "FILE")]
     pub shapes: Option<PathBuf>,
     /// What to fit.
@@ -426,7 +429,8 @@ pub struct CalibrateArgs {
 /// `leech compare`.
 #[derive(Debug, Args)]
 pub struct CompareArgs {
-    /// Body-shape measurements (CSV: shape,la_m,lb_m,base_angle_deg,chain,x_m,y_m).
+    /// Body-shape measurements (CSV: shape,la_m,lb_m,base_angle_deg,chain,x_m,y_m; at most 16 MiB,
+    /// 100000 rows, 1000 shapes).
     #[arg(long, value_name = "FILE")]
     pub shapes: PathBuf,
     #[command(flatten)]
@@ -440,7 +444,7 @@ pub struct CompareArgs {
 #[derive(Debug, Args)]
 #[command(allow_negative_numbers = true)]
 pub struct WorkspaceArgs {
-    /// Robot file (TOML); the built-in LEeCH robot if absent.
+    /// Robot file (TOML, at most 1 MiB); the built-in LEeCH robot if absent.
     #[arg(long, value_name = "FILE")]
     pub robot: Option<PathBuf>,
     /// Tube lengths for both tubes, MIN:MAX:STEP in m.
@@ -520,7 +524,7 @@ pub struct FigureArgs {
 /// Which robot: a file or the built-in one, optionally at another shape parameter.
 #[derive(Debug, Args)]
 pub struct RobotChoice {
-    /// Robot file (TOML); the built-in LEeCH robot if absent.
+    /// Robot file (TOML, at most 1 MiB); the built-in LEeCH robot if absent.
     #[arg(long = "robot", value_name = "FILE")]
     pub file: Option<PathBuf>,
     /// Shape parameter Pi = k/(m g l), set by scaling the joint stiffness.
@@ -537,7 +541,7 @@ pub struct Output {
     /// Write a picture as SVG.
     #[arg(long, value_name = "FILE")]
     pub svg: Option<PathBuf>,
-    /// Write a picture as PNG.
+    /// Write a picture as PNG (a name ending in .png).
     #[arg(long, value_name = "FILE")]
     pub png: Option<PathBuf>,
 }

@@ -13,7 +13,6 @@ mod serve;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use anyhow::Context;
 use clap::Parser;
 use leech::calibration::Calibration;
 use leech::inverse_statics::Reacher;
@@ -134,8 +133,7 @@ fn run(args: Args, out: &mut String) -> Result<(), Failure> {
             render::shape(out, &a, solved.as_ref())
         }
         Args::Figure(a) => {
-            std::fs::create_dir_all(&a.dir)
-                .with_context(|| format!("creating the output directory {}", a.dir.display()))?;
+            // The directory exists: resolving checked it (and made it).
             for name in &a.names {
                 render::figure(out, &a.dir, &leech_plot::figures::build(name, &a.robot)?)?;
             }

@@ -14,6 +14,10 @@
 //!   (chain A's tip). `shape` names the body; its lengths and angle must agree
 //!   on every row.
 //!
+//! A file has at most [`MAX_ROWS`] rows, [`MAX_TUBES`] tubes and
+//! [`MAX_SHAPES`] shapes (each is a solve per evaluation of the fit); rows
+//! are grouped by a hash of their key, so reading is linear in the rows.
+//!
 //! # The fit
 //!
 //! The residual of a point on a tube or chain is its distance (m) to the
@@ -31,14 +35,32 @@
 //! data: a tip mass in the sag file, or body shapes (the payload). Fitting it
 //! without one is an error, not a meaningless number.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
 
 use crate::body::Body;
 use crate::constant_curvature::PlanarBody;
-use crate::error::InputError;
+use crate::error::{quoted, InputError};
 use crate::least_squares::{central_differences, levenberg_marquardt, LeastSquares, Options, Stop, UNBOUNDED};
 use crate::robot::Robot;
 use crate::statics::Solver;
+
+/// Most data rows a measurement file may have.
+pub const MAX_ROWS: usize = 100_000;
+
+/// Most tubes a sag file may describe.
+pub const MAX_TUBES: usize = 1_000;
+
+/// Most shapes a body-shapes file may describe.
+pub const MAX_SHAPES: usize = 1_000;
+
+/// An error for a file with more than `max` of `what` (`rows`, `shapes`).
+fn too_many(source: &str, what: &str, max: usize) -> InputError {
+    InputError::Invalid {
+        field: source.into(),
+        value: format!("more than {max} {what}"),
+        allowed: format!("at most {max} {what}"),
+    }
+}
 
 /// One tube of a sag experiment.
 #[derive(Clone, Debug, PartialEq)]
@@ -115,6 +137,9 @@ impl Table {
         }
         let mut rows = Vec::new();
         for record in reader.records() {
+            if rows.len() == MAX_ROWS {
+                return Err(too_many(source, "rows", MAX_ROWS));
+            }
             let record = record.map_err(|e| bad(e.position().map_or(0, |p| p.line() as usize), e.to_string()))?;
             let line = record.position().map_or(0, |p| p.line() as usize);
             rows.push((line, record.iter().map(str::to_string).collect()));
@@ -144,14 +169,21 @@ impl Table {
 pub fn read_sag(text: &str, source: &str) -> Result<Vec<SagTube>, InputError> {
     let table = Table::parse(text, source, &["tube_length_m", "base_angle_deg", "x_m", "y_m"], &["tip_mass_kg"])?;
     let mut tubes: Vec<SagTube> = Vec::new();
+    // Tube by its key: the bits of its length, angle and tip mass (finite, -0 made +0).
+    let mut index: HashMap<[u64; 3], usize> = HashMap::new();
     for row in &table.rows {
         let length = table.number(row, "tube_length_m")?;
         let angle = table.number(row, "base_angle_deg")?;
         let tip_mass = if table.columns.contains_key("tip_mass_kg") { table.number(row, "tip_mass_kg")? } else { 0.0 };
         let point = [table.number(row, "x_m")?, table.number(row, "y_m")?];
-        match tubes.iter_mut().find(|t| t.length == length && t.base_angle_deg == angle && t.tip_mass == tip_mass) {
-            Some(tube) => tube.points.push(point),
-            None => tubes.push(SagTube { length, base_angle_deg: angle, tip_mass, points: vec![point] }),
+        let key = [length, angle, tip_mass].map(|v| (v + 0.0).to_bits());
+        match index.get(&key) {
+            Some(&i) => tubes[i].points.push(point),
+            None if tubes.len() == MAX_TUBES => return Err(too_many(source, "tubes", MAX_TUBES)),
+            None => {
+                index.insert(key, tubes.len());
+                tubes.push(SagTube { length, base_angle_deg: angle, tip_mass, points: vec![point] });
+            }
         }
     }
     Ok(tubes)
@@ -161,25 +193,28 @@ pub fn read_sag(text: &str, source: &str) -> Result<Vec<SagTube>, InputError> {
 pub fn read_shapes(text: &str, source: &str) -> Result<Vec<BodyShape>, InputError> {
     let table = Table::parse(text, source, &["shape", "la_m", "lb_m", "base_angle_deg", "chain", "x_m", "y_m"], &[])?;
     let mut shapes: Vec<BodyShape> = Vec::new();
+    let mut index: HashMap<String, usize> = HashMap::new();
     for row in &table.rows {
         let name = table.text(row, "shape").unwrap_or_default();
         let lengths = [table.number(row, "la_m")?, table.number(row, "lb_m")?];
         let angle = table.number(row, "base_angle_deg")?;
         let point = [table.number(row, "x_m")?, table.number(row, "y_m")?];
-        let index = match shapes.iter().position(|s| s.name == name) {
-            Some(i) => {
+        let at = match index.get(&name) {
+            Some(&i) => {
                 if shapes[i].lengths != lengths || shapes[i].base_angle_deg != angle {
                     return Err(InputError::Invalid {
-                        field: format!("{source} row {}, shape {name}", row.0),
+                        field: format!("{source} row {}, shape {}", row.0, quoted(&name)),
                         value: format!("lengths {lengths:?} at {angle} deg"),
                         allowed: "the same lengths and angle on every row of a shape".into(),
                     });
                 }
                 i
             }
+            None if shapes.len() == MAX_SHAPES => return Err(too_many(source, "shapes", MAX_SHAPES)),
             None => {
+                index.insert(name.clone(), shapes.len());
                 shapes.push(BodyShape {
-                    name: name.clone(),
+                    name,
                     lengths,
                     base_angle_deg: angle,
                     points_a: vec![],
@@ -189,7 +224,7 @@ pub fn read_shapes(text: &str, source: &str) -> Result<Vec<BodyShape>, InputErro
                 shapes.len() - 1
             }
         };
-        let shape = &mut shapes[index];
+        let shape = &mut shapes[at];
         match table.text(row, "chain").as_deref() {
             Some("a") => shape.points_a.push(point),
             Some("b") => shape.points_b.push(point),
@@ -320,9 +355,10 @@ impl Problem<'_> {
 }
 
 fn solve_shape(robot: &Robot, shape: &BodyShape) -> Result<(Body, Vec<f64>), String> {
-    let r = robot.with_base_angle(shape.base_angle_deg).map_err(|e| format!("shape {}: {e}", shape.name))?;
-    let body = r.body(shape.lengths[0], shape.lengths[1]).map_err(|e| format!("shape {}: {e}", shape.name))?;
-    let eq = body.solve(&Solver::default()).map_err(|e| format!("shape {}: {e}", shape.name))?;
+    let name = quoted(&shape.name);
+    let r = robot.with_base_angle(shape.base_angle_deg).map_err(|e| format!("shape {name}: {e}"))?;
+    let body = r.body(shape.lengths[0], shape.lengths[1]).map_err(|e| format!("shape {name}: {e}"))?;
+    let eq = body.solve(&Solver::default()).map_err(|e| format!("shape {name}: {e}"))?;
     Ok((body, eq.q))
 }
 
@@ -333,9 +369,17 @@ fn check_data(robot: &Robot, sag: &[SagTube], shapes: &[BodyShape], parameters: 
         crate::error::non_negative("sag tip_mass_kg", tube.tip_mass)?;
     }
     for shape in shapes {
-        robot.check_tube_length(&format!("shape {} la_m", shape.name), shape.lengths[0])?;
-        robot.check_tube_length(&format!("shape {} lb_m", shape.name), shape.lengths[1])?;
+        let name = quoted(&shape.name);
+        robot.check_tube_length(&format!("shape {name} la_m"), shape.lengths[0])?;
+        robot.check_tube_length(&format!("shape {name} lb_m"), shape.lengths[1])?;
         crate::error::within("shape base_angle_deg", shape.base_angle_deg, -360.0, 360.0)?;
+        // Too few elements for the plate's three constraints is bad data, not a failed fit.
+        robot.body(shape.lengths[0], shape.lengths[1]).map_err(|e| match e {
+            InputError::Invalid { value, allowed, .. } => {
+                InputError::Invalid { field: format!("shape {name} (la_m, lb_m)"), value, allowed }
+            }
+            e => e,
+        })?;
     }
     let points: usize = sag.iter().map(|t| t.points.len()).sum::<usize>()
         + shapes.iter().map(|s| s.points_a.len() + s.points_b.len() + usize::from(s.endpoint.is_some())).sum::<usize>();

@@ -27,6 +27,17 @@ pub enum InputError {
         /// The parser's message with its line, on one line.
         message: String,
     },
+    /// A file a user named that cannot be read or written as asked (see
+    /// [`crate::files`]): missing, a directory, too large, not text.
+    #[error("{field}: {file} {reason}")]
+    Unreadable {
+        /// The flag or field that named it (`--robot`).
+        field: String,
+        /// The path, quoted and clipped (see [`quoted`]).
+        file: String,
+        /// What is wrong and what is expected (`is larger than 1 MiB (the cap for robot files)`).
+        reason: String,
+    },
 }
 
 impl InputError {

@@ -75,6 +75,7 @@ pub mod constant_curvature;
 pub mod cup;
 pub mod dynamics;
 pub mod error;
+pub mod files;
 pub mod geom;
 pub mod inverse_statics;
 pub mod least_squares;

@@ -6,11 +6,11 @@ use std::time::Duration;
 
 use leech::error::{positive, within, Num};
 use leech::prelude::*;
-use leech::scene::{MAX_COORDINATE_M, MAX_SCENE_BYTES};
+use leech::scene::MAX_COORDINATE_M;
 use leech::stride::scenario::MAX_TOLERANCE_M;
 use leech::stride::{Foothold, Goal, PlanOptions, Scenario, BUILTIN_SCENARIOS};
 
-use super::holds::{load_scene, pose, read_at_most};
+use super::holds::{load_scene, pose};
 use super::{tuned, Outputs};
 use crate::failure::Failure;
 use crate::flags;
@@ -97,7 +97,7 @@ pub(super) fn load_scenario(given: &Path, flag: &str) -> Result<(Scenario, Strin
             given.display()
         )));
     }
-    let text = read_at_most(given, flag, MAX_SCENE_BYTES).map_err(Failure::Input)?;
+    let text = leech::files::read_text(given, flag, leech::files::SCENE_FILE)?;
     let scenario = Scenario::parse(&text, &given.display().to_string())?;
     Ok((scenario, text))
 }

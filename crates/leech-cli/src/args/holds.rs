@@ -1,12 +1,12 @@
 //! The holds and the scene of `leech shape` (and the scene of `leech
-//! scene show`): poses checked, scene files read with a size limit, holds
+//! scene show`): poses checked, scene files read by `leech::files`, holds
 //! clear of the solids.
 
 use std::path::Path;
 
 use leech::error::within;
 use leech::prelude::*;
-use leech::scene::{Scene, BUILTIN_SCENES, MAX_COORDINATE_M, MAX_SCENE_BYTES, ON_SURFACE_M};
+use leech::scene::{Scene, BUILTIN_SCENES, MAX_COORDINATE_M, ON_SURFACE_M};
 use leech::stance::{self, Hold, Pose};
 
 use crate::failure::Failure;
@@ -97,18 +97,6 @@ pub(super) fn load_scene(given: &Path, flag: &str) -> Result<(Scene, Option<&'st
             names.join(", ")
         )));
     }
-    let text = read_at_most(given, flag, MAX_SCENE_BYTES).map_err(Failure::Input)?;
+    let text = leech::files::read_text(given, flag, leech::files::SCENE_FILE)?;
     Ok((Scene::from_toml_str(&text, &given.display().to_string())?, None))
-}
-
-/// A text file of at most `limit` bytes, never reading more than one byte past it.
-pub(super) fn read_at_most(path: &Path, flag: &str, limit: usize) -> Result<String, String> {
-    use std::io::Read;
-    let cannot = |e: std::io::Error| format!("{flag}: cannot read '{}': {e}", path.display());
-    let mut bytes = Vec::new();
-    std::fs::File::open(path).and_then(|f| f.take(limit as u64 + 1).read_to_end(&mut bytes)).map_err(cannot)?;
-    if bytes.len() > limit {
-        return Err(format!("{flag}: '{}' has more than {limit} bytes, expected at most {limit}", path.display()));
-    }
-    String::from_utf8(bytes).map_err(|_| format!("{flag}: '{}' is not UTF-8 text", path.display()))
 }

@@ -239,14 +239,15 @@ pub(super) fn drive(a: DriveArgs) -> Result<Drive, Failure> {
     Ok(Drive { port: a.port, min_safety_factor: robot.cup.min_safety_factor, tubes, action, json: a.json })
 }
 
-/// Largest plan file `leech drive run` reads (bytes).
-const MAX_PLAN_BYTES: usize = 16 << 20;
+/// Most steps a plan file may give `leech drive run`: far more than any
+/// climb's (a stride has six), few enough to check at once.
+pub const MAX_PLAN_STEPS: usize = 10_000;
 
 /// The moves of a plan written by `leech climb --json`: a reached plan,
 /// each step's phase known and its lengths within the robot's limits.
 fn plan_moves(path: &std::path::Path, [lo, hi]: [f64; 2]) -> Result<Vec<Move>, Failure> {
-    let text = super::holds::read_at_most(path, "run", MAX_PLAN_BYTES).map_err(Failure::Input)?;
-    let name = path.display();
+    let text = leech::files::read_text(path, "run", leech::files::PLAN_FILE)?;
+    let name = quoted(&path.to_string_lossy());
     let bad = |what: String| Failure::Input(format!("run: {name}: {what}"));
     let v: serde_json::Value = serde_json::from_str(&text)
         .map_err(|e| bad(format!("not JSON ({e}), expected a plan from leech climb --json")))?;
@@ -257,8 +258,8 @@ fn plan_moves(path: &std::path::Path, [lo, hi]: [f64; 2]) -> Result<Vec<Move>, F
         )));
     }
     let steps = v["steps"].as_array().ok_or_else(|| bad("no steps, expected a plan from leech climb --json".into()))?;
-    if steps.is_empty() {
-        return Err(bad("steps: got none, expected at least one step".into()));
+    if steps.is_empty() || steps.len() > MAX_PLAN_STEPS {
+        return Err(bad(format!("steps: got {}, expected 1 to {MAX_PLAN_STEPS} steps", steps.len())));
     }
     steps
         .iter()
