@@ -339,9 +339,19 @@ impl Figure {
             .map_err(|e| PlotError::Write { path: path.display().to_string(), message: e.to_string() })
     }
 
-    /// Writes the figure as PNG.
+    /// Writes the figure as PNG, whatever the path's name: drawn in memory,
+    /// encoded, then written in one go, so a failed write is the system's
+    /// one-line reason (`No space left on device`).
     pub fn write_png(&self, path: &Path) -> Result<(), PlotError> {
-        let root = BitMapBackend::new(path, self.size).into_drawing_area();
-        self.draw(root).map_err(|e| PlotError::Write { path: path.display().to_string(), message: e.to_string() })
+        use image::ImageEncoder;
+        let (w, h) = self.size;
+        let mut rgb = vec![0u8; w as usize * h as usize * 3];
+        self.draw(BitMapBackend::with_buffer(&mut rgb, self.size).into_drawing_area())?;
+        let mut png = Vec::new();
+        image::codecs::png::PngEncoder::new(&mut png)
+            .write_image(&rgb, w, h, image::ColorType::Rgb8)
+            .map_err(|e| PlotError::Draw(e.to_string()))?;
+        std::fs::write(path, png)
+            .map_err(|e| PlotError::Write { path: path.display().to_string(), message: e.to_string() })
     }
 }

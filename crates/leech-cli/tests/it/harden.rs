@@ -124,3 +124,143 @@ fn a_non_string_discretization_lists_the_allowed_values() {
         assert!(e.contains("discretization") && e.contains("paper") && e.contains("midpoint"), "{value}: {e}");
     }
 }
+
+/// Runs `leech` killed after 10 s (a hang fails the test, never a slow
+/// machine's timing): its exit code (`None` when killed) and standard error.
+fn bounded(args: &[&str]) -> (Option<i32>, String) {
+    let out = super::leech().args(args).timeout(std::time::Duration::from_secs(10)).output().unwrap();
+    (out.status.code(), String::from_utf8_lossy(&out.stderr).into_owned())
+}
+
+/// Exit 2 within the bound, one clean line naming `field`; the line.
+fn refused(args: &[&str], field: &str) -> String {
+    let (code, e) = bounded(args);
+    assert_eq!(code, Some(2), "{args:?}: {e}");
+    assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+    assert!(e.contains(field), "{field} in {e}");
+    clean(&e);
+    e
+}
+
+/// A scratch path (not created) under the system's temporary directory.
+fn scratch_path(name: &str) -> std::path::PathBuf {
+    std::env::temp_dir().join(format!("leech-harden-{}-{name}", std::process::id()))
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn device_files_are_read_within_their_caps() {
+    let out = scratch_path("dev-fitted.toml");
+    let out = out.to_str().unwrap();
+    let e = refused(&["robot", "--robot", "/dev/zero"], "--robot");
+    assert!(e.contains("'/dev/zero' is larger than 1 MiB (the cap for robot files)"), "{e}");
+    let e = refused(&["calibrate", "--sag", "/dev/full", "--out", out], "--sag");
+    assert!(e.contains("16 MiB (the cap for measurement files)"), "{e}");
+    refused(&["calibrate", "--sag", "/dev/urandom", "--out", out], "--sag");
+    refused(&["compare", "--shapes", "/dev/zero"], "--shapes");
+    // /dev/null is an empty file: the robot file's parser says what is missing.
+    let e = refused(&["robot", "--robot", "/dev/null"], "name");
+    assert!(e.contains("missing field"), "{e}");
+}
+
+#[test]
+fn directories_missing_files_and_fifos_are_refused_at_once() {
+    let dir = std::env::temp_dir();
+    let e = refused(&["robot", "--robot", dir.to_str().unwrap()], "--robot");
+    assert!(e.contains("is a directory"), "{e}");
+    let e = refused(&["compare", "--shapes", "/nonexistent-leech-shapes.csv"], "--shapes");
+    assert!(e.contains("does not exist"), "{e}");
+    let e = refused(&["shape", "--lengths", "0.3,0.2", "--scene", dir.to_str().unwrap()], "--scene");
+    assert!(e.contains("is a directory"), "{e}");
+    // Opening a FIFO without a writer would wait forever.
+    let fifo = scratch_path("fifo.toml");
+    if std::process::Command::new("mkfifo").arg(&fifo).status().is_ok_and(|s| s.success()) {
+        let e = refused(&["robot", "--robot", fifo.to_str().unwrap()], "--robot");
+        std::fs::remove_file(&fifo).ok();
+        assert!(e.contains("named pipe"), "{e}");
+    }
+}
+
+#[test]
+fn text_files_with_a_bom_are_read_and_bad_bytes_located() {
+    let robot = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../leech/robots/leech.toml")).unwrap();
+    let bom = scratch("bom.toml", &[b"\xef\xbb\xbf".as_slice(), &robot].concat());
+    let (code, e) = bounded(&["robot", "--robot", bom.to_str().unwrap()]);
+    std::fs::remove_file(&bom).ok();
+    assert_eq!(code, Some(0), "{e}");
+    let bad = scratch("latin1.toml", b"name = \"caf\xe9\"\n");
+    let e = refused(&["robot", "--robot", bad.to_str().unwrap()], "--robot");
+    std::fs::remove_file(&bad).ok();
+    assert!(e.contains("not UTF-8") && e.contains("byte offset 11"), "{e}");
+    let nul = scratch("nul.csv", b"tube_length_m,base_angle_deg,x_m,y_m\n0.3,0,0\0,0\n");
+    let e = refused(&["compare", "--shapes", nul.to_str().unwrap()], "--shapes");
+    std::fs::remove_file(&nul).ok();
+    assert!(e.contains("NUL byte at byte offset 44"), "{e}");
+}
+
+#[test]
+fn output_paths_are_checked_before_the_work() {
+    let dir = std::env::temp_dir();
+    let dir = dir.to_str().unwrap();
+    let e = refused(&["shape", "--lengths", "0.3,0.2", "--png", dir], "--png");
+    assert!(e.contains(".png"), "{e}");
+    let e = refused(&["shape", "--lengths", "0.3,0.2", "--png", "/dev/full"], "--png");
+    assert!(!e.contains("ImageError"), "{e}");
+    let e = refused(&["shape", "--lengths", "0.3,0.2", "--png", &format!("{dir}/x.svg")], "--png");
+    assert!(e.contains("expected a name ending in .png"), "{e}");
+    let e = refused(&["shape", "--lengths", "0.3,0.2", "--svg", "/nonexistent-leech-dir/x.svg"], "--svg");
+    assert!(e.contains("does not exist"), "{e}");
+    // The unwritable path is found before the sweep.
+    let e = refused(&["workspace", "--out", "/nonexistent-leech-dir/w.csv"], "--out");
+    assert!(e.contains("/nonexistent-leech-dir"), "{e}");
+    refused(&["workspace", "--out", dir], "--out");
+    refused(&["simulate", "--lengths", "0.3,0.2", "--csv", dir], "--csv");
+    // A command refused for its input leaves an existing output file as it was.
+    let kept = scratch("kept.toml", b"old");
+    let sag = scratch("empty-sag.csv", b"tube_length_m,base_angle_deg,x_m,y_m\n");
+    refused(&["calibrate", "--sag", sag.to_str().unwrap(), "--out", kept.to_str().unwrap()], "measured points");
+    assert_eq!(std::fs::read(&kept).unwrap(), b"old");
+    std::fs::remove_file(&kept).ok();
+    std::fs::remove_file(&sag).ok();
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn a_failed_picture_write_is_one_line_and_exit_1() {
+    for (flag, name) in [("--svg", "full.svg"), ("--png", "full.png")] {
+        let link = scratch_path(name);
+        std::fs::remove_file(&link).ok();
+        std::os::unix::fs::symlink("/dev/full", &link).unwrap();
+        let (code, e) = bounded(&["shape", "--lengths", "0.3,0.2", flag, link.to_str().unwrap()]);
+        std::fs::remove_file(&link).ok();
+        assert_eq!(code, Some(1), "{e}");
+        assert_eq!(e.trim_end().lines().count(), 1, "{e}");
+        assert!(e.contains("No space left on device") && !e.contains("Error("), "{e}");
+    }
+}
+
+#[test]
+fn compare_caps_its_shapes_and_refuses_too_short_tubes() {
+    let mut many = String::from("shape,la_m,lb_m,base_angle_deg,chain,x_m,y_m\n");
+    for i in 0..100_000 {
+        many.push_str(&format!("s{i},0.3,0.3,0,a,0.1,0\n"));
+    }
+    let path = scratch("many.csv", many.as_bytes());
+    let e = refused(&["compare", "--shapes", path.to_str().unwrap()], "at most 1000 shapes");
+    std::fs::remove_file(&path).ok();
+    assert!(e.contains("many.csv"), "{e}");
+    let short = scratch("short.csv", b"shape,la_m,lb_m,base_angle_deg,chain,x_m,y_m\ns,0.01,0.01,0,a,0.005,0\n");
+    let e = refused(&["compare", "--shapes", short.to_str().unwrap()], "shape 's' (la_m, lb_m)");
+    std::fs::remove_file(&short).ok();
+    assert!(e.contains("0.01") && e.contains("at least 4 elements"), "{e}");
+}
+
+#[test]
+fn a_plan_with_too_many_steps_is_refused() {
+    let step = r#"{"phase":"push","lengths_m":[0.2,0.2]}"#;
+    let plan = format!(r#"{{"status":"reached","steps":[{}]}}"#, vec![step; 10_001].join(","));
+    let path = scratch("plan.json", plan.as_bytes());
+    let e = refused(&["drive", "--port", "/nonexistent-leech-port", "run", path.to_str().unwrap()], "steps");
+    std::fs::remove_file(&path).ok();
+    assert!(e.contains("10001") && e.contains("1 to 10000"), "{e}");
+}

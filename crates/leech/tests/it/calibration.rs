@@ -127,3 +127,40 @@ fn comparison_favours_the_model_that_made_the_data() {
     }
     assert!(rows[1].constant_curvature.rms_mm > 10.0 * rows[1].two_chain.rms_mm);
 }
+
+#[test]
+fn rows_group_by_key_and_files_are_capped() {
+    // Interleaved rows of two tubes (one at -0 deg, the same as 0) and of two shapes.
+    let sag = "tube_length_m,base_angle_deg,x_m,y_m\n0.2,0,0.1,0\n0.3,0,0.1,0\n0.2,-0,0.2,0\n0.3,0,0.2,0\n";
+    let tubes = read_sag(sag, "s.csv").unwrap();
+    assert_eq!(tubes.iter().map(|t| (t.length, t.points.len())).collect::<Vec<_>>(), [(0.2, 2), (0.3, 2)]);
+    let header = "shape,la_m,lb_m,base_angle_deg,chain,x_m,y_m\n";
+    let shapes = format!("{header}p,0.3,0.2,0,a,0,0.1\nq,0.3,0.3,0,b,0,0.1\np,0.3,0.2,0,b,0.03,0.1\n");
+    let shapes = read_shapes(&shapes, "b.csv").unwrap();
+    assert_eq!(shapes.len(), 2);
+    assert_eq!((shapes[0].points_a.len(), shapes[0].points_b.len()), (1, 1));
+    let many = |n: usize| {
+        let mut text = header.to_string();
+        (0..n).for_each(|i| text.push_str(&format!("s{i},0.3,0.3,0,a,0.1,0\n")));
+        read_shapes(&text, "many.csv").map(|s| s.len())
+    };
+    assert_eq!(many(leech::calibration::MAX_SHAPES), Ok(leech::calibration::MAX_SHAPES));
+    let e = many(leech::calibration::MAX_SHAPES + 1).unwrap_err().to_string();
+    assert!(e.contains("many.csv") && e.contains("at most 1000 shapes"), "{e}");
+    let rows = format!("{header}{}", "s,0.3,0.3,0,a,0.1,0\n".repeat(leech::calibration::MAX_ROWS + 1));
+    let e = read_shapes(&rows, "rows.csv").unwrap_err().to_string();
+    assert!(e.contains("at most 100000 rows"), "{e}");
+}
+
+#[test]
+fn a_body_too_short_for_its_plate_is_bad_input() {
+    let text = "shape,la_m,lb_m,base_angle_deg,chain,x_m,y_m\nstub\u{1},0.01,0.01,0,a,0.005,0\n";
+    let shapes = read_shapes(text, "short.csv").unwrap();
+    match compare(&Robot::builtin(), &shapes) {
+        Err(CalibrationError::Input(e)) => {
+            let e = e.to_string();
+            assert!(e.starts_with("shape 'stub\\u{1}' (la_m, lb_m): got 0.01, 0.01"), "{e}");
+        }
+        other => panic!("expected bad input, got {other:?}"),
+    }
+}
