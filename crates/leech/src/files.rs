@@ -124,11 +124,7 @@ pub fn read_text(path: &Path, field: &str, cap: Cap) -> Result<String, InputErro
         .and_then(|f| f.take(cap.bytes as u64 + 1).read_to_end(&mut bytes))
         .map_err(|e| unreadable(field, path, why(&e)))?;
     if bytes.len() > cap.bytes {
-        return Err(unreadable(
-            field,
-            path,
-            format!("is larger than {} (the cap for {})", size(cap.bytes), cap.kind),
-        ));
+        return Err(unreadable(field, path, format!("is larger than {} (the cap for {})", size(cap.bytes), cap.kind)));
     }
     text(bytes).map_err(|reason| unreadable(field, path, reason))
 }
@@ -143,7 +139,10 @@ fn text(mut bytes: Vec<u8>) -> Result<String, String> {
         return Err(format!("has a NUL byte at byte offset {}, expected text", at + skipped));
     }
     String::from_utf8(bytes).map_err(|e| {
-        format!("is not UTF-8 text (a bad byte at byte offset {}), expected UTF-8", e.utf8_error().valid_up_to() + skipped)
+        format!(
+            "is not UTF-8 text (a bad byte at byte offset {}), expected UTF-8",
+            e.utf8_error().valid_up_to() + skipped
+        )
     })
 }
 
