@@ -1103,7 +1103,8 @@ fn run_moves(s: &Shared, moves: &[Move], plan: Option<(u64, usize)>) -> Result<(
 
 /// Plans the climb and keeps it for [`Request::Execute`] if it reaches the goal.
 fn plan_reply(s: &Shared, start: Foothold, goal: Goal) -> Reply {
-    let options = stride::PlanOptions { time_limit: Some(Duration::from_secs(PLAN_SECONDS)), ..Default::default() };
+    let deadline = leech::budget::Deadline::after(Duration::from_secs(PLAN_SECONDS));
+    let options = stride::PlanOptions { deadline, ..Default::default() };
     let plan = match stride::plan(&s.robot, &s.scene, start, goal, &options) {
         Ok(plan) => plan,
         Err(e) => return json!({ "type": "plan", "status": "refused", "reason": e.to_string(), "steps": [] }),

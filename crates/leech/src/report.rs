@@ -299,6 +299,10 @@ pub struct SweepRow {
     /// Endpoint plate angle (rad); NaN for a failure.
     #[serde(serialize_with = "decimal")]
     pub endpoint_angle_rad: f64,
+    /// Distance from a fresh solve's endpoint (m): 0 when it agrees, `inf`
+    /// when the fresh solve fails, NaN for a failure (see [`crate::sweep`]).
+    #[serde(serialize_with = "decimal")]
+    pub fresh_difference_m: f64,
 }
 
 impl From<&Point> for SweepRow {
@@ -316,6 +320,7 @@ impl From<&Point> for SweepRow {
             endpoint_x_m: p.endpoint_m[0],
             endpoint_y_m: p.endpoint_m[1],
             endpoint_angle_rad: p.endpoint_angle_rad,
+            fresh_difference_m: p.fresh_difference_m,
         }
     }
 }
@@ -432,11 +437,12 @@ mod tests {
             feasible: true,
             endpoint_m: [f64::NAN, 2.7755575615628914e-17],
             endpoint_angle_rad: 1.0,
+            fresh_difference_m: f64::INFINITY,
         };
         assert_eq!(
             csv_of([SweepRow::from(&point)]),
-            "model,shape_parameter,la_m,lb_m,status,stable,snapped,feasible,min_bend_radius_m,endpoint_x_m,endpoint_y_m,endpoint_angle_rad\n\
-             constant-curvature,,0.05,0.1,failed,true,false,true,0,NaN,0.000000000000000027755575615628914,1\n"
+            "model,shape_parameter,la_m,lb_m,status,stable,snapped,feasible,min_bend_radius_m,endpoint_x_m,endpoint_y_m,endpoint_angle_rad,fresh_difference_m\n\
+             constant-curvature,,0.05,0.1,failed,true,false,true,0,NaN,0.000000000000000027755575615628914,1,inf\n"
         );
     }
 

@@ -2,6 +2,7 @@
 //! targets are reported with the nearest point, never as a solution.
 
 use leech::inverse_statics::{ReachStatus, Reacher};
+use leech::budget::Deadline;
 use leech::prelude::*;
 use leech::sweep::Grid;
 
@@ -13,7 +14,7 @@ fn lcg(seed: &mut u64) -> f64 {
 #[test]
 fn random_reachable_targets_are_reached() {
     let robot = Robot::builtin();
-    let reacher = Reacher::new(&robot, Grid::new(0.05, 0.30, 0.005).unwrap()).unwrap();
+    let reacher = Reacher::new(&robot, Grid::new(0.05, 0.30, 0.005).unwrap(), Deadline::none()).unwrap();
     let solver = Solver::default();
     let mut seed = 7;
     let count = if cfg!(debug_assertions) { 120 } else { 1000 };
@@ -23,7 +24,7 @@ fn random_reachable_targets_are_reached() {
         let eq = body.solve(&solver).unwrap();
         let target = body.endpoint(&eq.q);
         let angle = (k % 2 == 0).then(|| body.endpoint_angle(&eq.q));
-        let answer = reacher.reach(target, angle);
+        let answer = reacher.reach(target, angle).unwrap();
         assert_eq!(answer.status, ReachStatus::Reached, "target {target:?} from {la}, {lb}: {answer:?}");
         // forward(inverse(target)), by a fresh default solve:
         let check = robot.body(answer.lengths_m[0], answer.lengths_m[1]).unwrap();
@@ -40,9 +41,9 @@ fn random_reachable_targets_are_reached() {
 #[test]
 fn unreachable_targets_report_the_nearest_point() {
     let robot = Robot::builtin();
-    let reacher = Reacher::new(&robot, Grid::new(0.05, 0.30, 0.01).unwrap()).unwrap();
+    let reacher = Reacher::new(&robot, Grid::new(0.05, 0.30, 0.01).unwrap(), Deadline::none()).unwrap();
     for target in [[1.0, 1.0], [0.0, -0.5], [0.0, 0.01]] {
-        let answer = reacher.reach(target, None);
+        let answer = reacher.reach(target, None).unwrap();
         assert_eq!(answer.status, ReachStatus::Unreachable, "{target:?}");
         assert!(answer.error_m > 1e-3);
         // The reported point is a real equilibrium at the reported lengths.
