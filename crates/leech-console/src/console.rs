@@ -1148,13 +1148,20 @@ fn reach_reply(s: &Shared, held: &Held, point: Vec2) -> Reply {
     let reacher = s
         .robot
         .with_base_angle(unit.angle_rad.to_degrees())
-        .and_then(|r| leech::inverse_statics::Reacher::new(&r, leech::sweep::Grid::new(lo, hi, WORKSPACE_STEP_M)?));
+        .map_err(leech::inverse_statics::ReachError::from)
+        .and_then(|r| {
+            let grid = leech::sweep::Grid::new(lo, hi, WORKSPACE_STEP_M)?;
+            leech::inverse_statics::Reacher::new(&r, grid, leech::budget::Deadline::none())
+        });
     let reacher = match reacher {
         Ok(r) => r,
         Err(e) => return fail(e.to_string()),
     };
     let target = [endpoint.point_m[0] - unit.point_m[0], endpoint.point_m[1] - unit.point_m[1]];
-    let answer = reacher.reach(target, Some(angle));
+    let answer = match reacher.reach(target, Some(angle)) {
+        Ok(answer) => answer,
+        Err(e) => return fail(e.to_string()),
+    };
     let body =
         stance::solve_among(&s.robot, answer.lengths_m, Hold::Rear(unit), &s.scene, &Solver::default(), FreeCups::Rest);
     let (body, error) = match body {

@@ -1,8 +1,8 @@
 //! Benchmarks of workspace sweeps and inverse statics (divan).
 //! Run with `cargo bench -p leech --bench reach`.
 
-use leech::inverse_statics::Reacher;
 use leech::budget::Deadline;
+use leech::inverse_statics::Reacher;
 use leech::prelude::*;
 use leech::sweep::{sweep, Grid, Model, SweepOptions};
 

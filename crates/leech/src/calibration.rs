@@ -503,10 +503,11 @@ pub fn compare(
         .enumerate()
         .map(|(i, shape)| {
             deadline.guard(i, shapes.len(), "shapes")?;
-            let (body, q) = solve_shape(robot, shape, &solver).map_err(|e| match deadline.guard(i, shapes.len(), "shapes") {
-                Err(stopped) => stopped.into(),
-                Ok(()) => CalibrationError::Model(e),
-            })?;
+            let (body, q) =
+                solve_shape(robot, shape, &solver).map_err(|e| match deadline.guard(i, shapes.len(), "shapes") {
+                    Err(stopped) => stopped.into(),
+                    Ok(()) => CalibrationError::Model(e),
+                })?;
             let (qa, qb) = body.split(&q);
             let two_chain =
                 shape_error(shape, &body.chain_a().points(qa), &body.chain_b().points(qb), body.endpoint(&q));

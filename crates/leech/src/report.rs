@@ -7,6 +7,7 @@ use std::time::Instant;
 use serde::{Serialize, Serializer};
 
 use crate::body::Body;
+use crate::budget::Stopped;
 use crate::cantilever::Cantilever;
 use crate::dynamics::Sample;
 use crate::statics::{Equilibrium, Event, Solver};
@@ -245,18 +246,20 @@ pub struct SolveTiming {
 impl SolveTiming {
     /// Solves `body` from scratch `n` times with `solver` and times each solve.
     /// A failed solve is timed like a converged one: the solve is
-    /// deterministic, so time the body once it is known to converge.
-    pub fn measure(body: &Body, solver: &Solver, n: NonZeroUsize) -> SolveTiming {
-        let mut times: Vec<f64> = (0..n.get())
-            .map(|_| {
-                let start = Instant::now();
-                // black_box: the result is unused, and the solve must not be optimized away.
-                let _ = std::hint::black_box(body.solve(solver));
-                start.elapsed().as_secs_f64()
-            })
-            .collect();
+    /// deterministic, so time the body once it is known to converge. The
+    /// solver's deadline bounds all the solves together: past it the timing
+    /// would time failures, so it stops ([`Stopped`] says how many were done).
+    pub fn measure(body: &Body, solver: &Solver, n: NonZeroUsize) -> Result<SolveTiming, Stopped> {
+        let mut times = Vec::with_capacity(n.get());
+        for done in 0..n.get() {
+            let start = Instant::now();
+            // black_box: the result is unused, and the solve must not be optimized away.
+            let _ = std::hint::black_box(body.solve(solver));
+            times.push(start.elapsed().as_secs_f64());
+            solver.options.deadline.guard(done + 1, n.get(), "repeats")?;
+        }
         times.sort_by(f64::total_cmp);
-        SolveTiming { solves: times.len(), median: times[times.len() / 2], min: times[0] }
+        Ok(SolveTiming { solves: times.len(), median: times[times.len() / 2], min: times[0] })
     }
 }
 

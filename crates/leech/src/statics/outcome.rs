@@ -1,7 +1,7 @@
 //! What a solve returns: equilibria, events on the way, and failures.
 
-use std::fmt;
 use crate::budget::Halt;
+use std::fmt;
 
 /// Which part of a solve something happened in.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]

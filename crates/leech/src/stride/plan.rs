@@ -146,7 +146,14 @@ pub struct PlanOptions {
 
 impl Default for PlanOptions {
     fn default() -> Self {
-        PlanOptions { max_strides: 30, beam: 1, candidates: 2, grid: 11, deadline: Deadline::none(), solver: Solver::default() }
+        PlanOptions {
+            max_strides: 30,
+            beam: 1,
+            candidates: 2,
+            grid: 11,
+            deadline: Deadline::none(),
+            solver: Solver::default(),
+        }
     }
 }
 

@@ -1,7 +1,7 @@
 //! Fitting k (and m) to synthetic measurements with known truth.
 
-use leech::calibration::{calibrate, compare, read_sag, read_shapes, synthetic, CalibrationError, Fit, SagTube};
 use leech::budget::Deadline;
+use leech::calibration::{calibrate, compare, read_sag, read_shapes, synthetic, CalibrationError, Fit, SagTube};
 use leech::prelude::*;
 
 const K: f64 = 0.42;
@@ -84,7 +84,10 @@ fn degenerate_data_is_an_error() {
     let e = calibrate(&robot, &short, &[], Fit::Stiffness, &Deadline::none()).unwrap_err().to_string();
     assert!(e.contains("0.005") && e.contains("one element"), "{e}");
     let sag = synthetic::sag(&truth(), &LENGTHS, 0.0, 0.02, 0.0005, 1);
-    assert_eq!(calibrate(&robot, &sag, &[], Fit::StiffnessAndMass, &Deadline::none()), Err(CalibrationError::MassNotIdentifiable));
+    assert_eq!(
+        calibrate(&robot, &sag, &[], Fit::StiffnessAndMass, &Deadline::none()),
+        Err(CalibrationError::MassNotIdentifiable)
+    );
 }
 
 #[test]

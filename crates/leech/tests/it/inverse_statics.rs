@@ -1,8 +1,8 @@
 //! Inverse statics: forward(inverse(target)) hits the target; unreachable
 //! targets are reported with the nearest point, never as a solution.
 
-use leech::inverse_statics::{ReachStatus, Reacher};
 use leech::budget::Deadline;
+use leech::inverse_statics::{ReachStatus, Reacher};
 use leech::prelude::*;
 use leech::sweep::Grid;
 

@@ -5,7 +5,13 @@ use leech::prelude::*;
 use leech::sweep::{sweep, Grid, Model, SweepOptions};
 
 fn options(models: Vec<Model>, left_longer: bool) -> SweepOptions {
-    SweepOptions { grid: Grid::new(0.05, 0.30, 0.025).unwrap(), shape_parameters: vec![], models, left_longer, deadline: Deadline::none() }
+    SweepOptions {
+        grid: Grid::new(0.05, 0.30, 0.025).unwrap(),
+        shape_parameters: vec![],
+        models,
+        left_longer,
+        deadline: Deadline::none(),
+    }
 }
 
 /// Each grid point equals a solve warm-started from its neighbour's state,
