@@ -54,3 +54,33 @@ fn unreachable_targets_report_the_nearest_point() {
         assert!((e[0] - target[0]).hypot(e[1] - target[1]) - answer.error_m < 1e-12);
     }
 }
+
+/// One reacher for the property test (a 25 mm map: 121 fresh solves).
+fn coarse_reacher() -> &'static Reacher {
+    static REACHER: std::sync::OnceLock<Reacher> = std::sync::OnceLock::new();
+    REACHER.get_or_init(|| {
+        Reacher::new(&Robot::builtin(), Grid::new(0.05, 0.30, 0.025).unwrap(), Deadline::none()).unwrap()
+    })
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::test_runner::Config::with_cases(24))]
+
+    /// For any target, reached or not, the answer's lengths solved fresh the
+    /// way `leech shape` does reproduce its endpoint.
+    #[test]
+    fn any_answer_is_reproduced_by_a_fresh_solve(x in -0.4f64..0.4, y in -0.2f64..0.5) {
+        let answer = coarse_reacher().reach([x, y], None).unwrap();
+        let body = Robot::builtin().body(answer.lengths_m[0], answer.lengths_m[1]).unwrap();
+        let eq = body.solve(&Solver::default()).unwrap();
+        let e = body.endpoint(&eq.q);
+        proptest::prop_assert!((e[0] - answer.endpoint_m[0]).hypot(e[1] - answer.endpoint_m[1]) < 1e-6, "{answer:?}");
+    }
+}
+
+#[test]
+fn a_spent_deadline_stops_the_map() {
+    let spent = Deadline::after(std::time::Duration::ZERO);
+    let e = Reacher::new(&Robot::builtin(), Grid::new(0.05, 0.30, 0.025).unwrap(), spent).err().unwrap();
+    assert!(matches!(e, leech::inverse_statics::ReachError::Stopped(_)), "{e}");
+}
