@@ -10,6 +10,8 @@ use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+use leech::budget::Deadline;
+
 use leech::calibration::{read_sag, read_shapes, BodyShape, Fit, SagTube};
 use leech::chain::Discretization;
 use leech::dynamics::{Actuation, Integrator, SimulationOptions, Start};
@@ -161,6 +163,7 @@ pub struct Reach {
     pub angle: Option<f64>,
     pub grid: Grid,
     pub json: bool,
+    pub deadline: Deadline,
 }
 
 /// A measurement file's contents and its name as the user gave it.
@@ -175,6 +178,7 @@ pub struct Calibrate {
     pub sag: Measured<SagTube>,
     pub shapes: Option<Measured<BodyShape>>,
     pub fit: Fit,
+    pub deadline: Deadline,
     /// The fitted robot file.
     pub out: PathBuf,
     pub outputs: Outputs,
@@ -185,6 +189,7 @@ pub struct Compare {
     pub robot: Robot,
     pub shapes: Vec<BodyShape>,
     pub json: bool,
+    pub deadline: Deadline,
 }
 
 /// `leech simulate`: the animation is `outputs.svg`.
@@ -227,6 +232,7 @@ impl Args {
                 sag: measured(&a.sag, "--sag", read_sag)?,
                 shapes: a.shapes.as_deref().map(|p| measured(p, "--shapes", read_shapes)).transpose()?,
                 fit: a.fit.into(),
+                deadline: deadline(a.time_limit)?,
                 out: a.out,
                 outputs: Outputs { json: a.json, svg: a.svg, ..Outputs::default() },
             }),
@@ -234,6 +240,7 @@ impl Args {
                 robot: tuned(&a.robot, Ok)?,
                 shapes: measured(&a.shapes, "--shapes", read_shapes)?.rows,
                 json: a.json,
+                deadline: deadline(a.time_limit)?,
             }),
             Command::Simulate(a) => Args::Simulate(simulate(a)?),
             Command::Scene(a) => match a.command {
@@ -442,6 +449,7 @@ fn workspace(a: flags::WorkspaceArgs) -> Result<Workspace, Failure> {
         shape_parameters: a.shape_parameter,
         models: models(a.model),
         left_longer: a.left_longer,
+        deadline: deadline(a.time_limit)?,
     };
     for pi in &options.shape_parameters {
         positive("shape parameter", *pi)?;
@@ -454,7 +462,8 @@ fn reach(a: flags::ReachArgs) -> Result<Reach, Failure> {
     let robot = at_base_angle(tuned(&a.robot, Ok)?, a.base_angle)?;
     let target = [check_target("target x", a.target[0])?, check_target("target y", a.target[1])?];
     let angle = a.angle.map(|deg| within("angle (deg)", deg, -720.0, 720.0).map(f64::to_radians)).transpose()?;
-    Ok(Reach { robot, target, angle, grid: Grid::parse(&a.lengths_range)?, json: a.json })
+    let grid = Grid::parse(&a.lengths_range)?;
+    Ok(Reach { robot, target, angle, grid, json: a.json, deadline: deadline(a.time_limit)? })
 }
 
 fn simulate(a: flags::SimulateArgs) -> Result<Simulate, Failure> {
@@ -484,6 +493,7 @@ fn simulate(a: flags::SimulateArgs) -> Result<Simulate, Failure> {
         gravity_ramp: a.ramp,
         sample_interval: (duration / 500.0).max(1e-4),
         rest_rate: a.rest_rate,
+        deadline: deadline(a.time_limit)?,
     };
     let outputs = Outputs { json: a.json, svg: a.svg, csv: a.csv, ..Outputs::default() };
     Ok(Simulate { robot, lengths: a.lengths, start, actuation, options, outputs })
@@ -491,10 +501,20 @@ fn simulate(a: flags::SimulateArgs) -> Result<Simulate, Failure> {
 
 /// The solver with the command line's bounds.
 pub(crate) fn solver(max_iterations: usize, time_limit: f64) -> Result<Solver, Failure> {
-    let seconds = positive("--time-limit (s)", time_limit)?;
-    let time_limit = Duration::try_from_secs_f64(seconds)
-        .map_err(|_| Failure::Input(format!("--time-limit: got {}, expected a number of seconds", Num(seconds))))?;
-    Ok(Solver::new(SolverOptions { max_iterations, time_limit: Some(time_limit), ..SolverOptions::default() }))
+    let deadline = deadline(time_limit)?;
+    Ok(Solver::new(SolverOptions { max_iterations, deadline, ..SolverOptions::default() }))
+}
+
+/// The longest `--time-limit` (s): a day.
+pub(crate) const MAX_TIME_LIMIT_S: f64 = 86_400.0;
+
+/// The command's deadline, `seconds` from now (`--time-limit`).
+pub(crate) fn deadline(seconds: f64) -> Result<Deadline, Failure> {
+    if !(seconds > 0.0 && seconds <= MAX_TIME_LIMIT_S) {
+        let allowed = format!("a number of seconds above 0 and at most {MAX_TIME_LIMIT_S} (a day)");
+        return Err(InputError::invalid("--time-limit (s)", seconds, allowed).into());
+    }
+    Ok(Deadline::after(Duration::from_secs_f64(seconds)))
 }
 
 /// The chosen robot, edited by the command's overrides, then at the shape parameter asked for.

@@ -1,10 +1,13 @@
 //! Why a command stopped, sorted by exit code; the library's errors map here
 //! once, so every command reports them alike.
 
+use leech::budget::Stopped;
 use leech::calibration::CalibrationError;
 use leech::dynamics::SimulationError;
+use leech::inverse_statics::ReachError;
 use leech::prelude::*;
 use leech::stance::StanceError;
+use leech::sweep::SweepError;
 use leech_plot::figures::FigureError;
 use leech_plot::PlotError;
 
@@ -29,8 +32,41 @@ impl From<InputError> for Failure {
 
 impl From<SolveError> for Failure {
     fn from(e: SolveError) -> Self {
-        let message = format!("solve failed: {e}");
+        let hint = if matches!(e, SolveError::Stopped { .. }) { RAISE } else { "" };
+        let message = format!("solve failed: {e}{hint}");
         Failure::Solve(e, message)
+    }
+}
+
+/// How to get further when a job ran out of time.
+const RAISE: &str = "; raise --time-limit to go further";
+
+/// A job stopped by its deadline (exit 3): what was done, how to go further.
+impl From<Stopped> for Failure {
+    fn from(e: Stopped) -> Self {
+        Failure::Unsolved(format!("stopped: {e}{RAISE}"))
+    }
+}
+
+impl From<SweepError> for Failure {
+    fn from(e: SweepError) -> Self {
+        match e {
+            SweepError::Input(e) => e.into(),
+            SweepError::Stopped(e) => Failure::Unsolved(format!(
+                "workspace stopped: {e}, no CSV written{RAISE} or use a coarser --lengths-range"
+            )),
+        }
+    }
+}
+
+impl From<ReachError> for Failure {
+    fn from(e: ReachError) -> Self {
+        match e {
+            ReachError::Input(e) => e.into(),
+            ReachError::Stopped(e) => {
+                Failure::Unsolved(format!("reach stopped: {e}{RAISE} or use a coarser --lengths-range"))
+            }
+        }
     }
 }
 
@@ -70,6 +106,7 @@ impl From<CalibrationError> for Failure {
     fn from(e: CalibrationError) -> Self {
         match e {
             CalibrationError::Model(message) => Failure::Unsolved(format!("fit failed: {message}")),
+            CalibrationError::Stopped(e) => e.into(),
             other => Failure::Input(other.to_string()),
         }
     }
@@ -80,6 +117,9 @@ impl From<SimulationError> for Failure {
         match e {
             SimulationError::Input(e) => e.into(),
             SimulationError::Start(e) => e.into(),
+            SimulationError::Stopped(e) => {
+                Failure::Unsolved(format!("simulation stopped: {e}, nothing written{RAISE}"))
+            }
             other => Failure::Unsolved(format!("simulation failed: {other}")),
         }
     }

@@ -229,7 +229,7 @@ pub struct ClimbArgs {
     pub tolerance: Option<f64>,
     #[command(flatten)]
     pub robot: RobotChoice,
-    /// Wall-clock limit of the whole search (s).
+    /// Wall-clock limit of the whole search (s, at most a day); the built-in scenarios plan in seconds.
     #[arg(long, value_name = "S", default_value_t = 60.0)]
     pub time_limit: f64,
     /// Print the plan as JSON (units in the keys) instead of text.
@@ -387,6 +387,10 @@ pub struct SimulateArgs {
     /// Print a summary as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Wall-clock limit of the run (s, at most a day): a second simulated takes seconds at the
+    /// most; 10 minutes stops a step far too small, and nothing is written.
+    #[arg(long, value_name = "S", default_value_t = 600.0)]
+    pub time_limit: f64,
 }
 
 /// What `leech calibrate` fits.
@@ -424,6 +428,10 @@ pub struct CalibrateArgs {
     /// Print the result as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Wall-clock limit of the fit (s, at most a day): fits take seconds; 5 minutes stops a
+    /// runaway, and no robot file is written.
+    #[arg(long, value_name = "S", default_value_t = 300.0)]
+    pub time_limit: f64,
 }
 
 /// `leech compare`.
@@ -438,6 +446,9 @@ pub struct CompareArgs {
     /// Print the result as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Wall-clock limit of all the shapes' solves (s, at most a day): each takes milliseconds.
+    #[arg(long, value_name = "S", default_value_t = 60.0)]
+    pub time_limit: f64,
 }
 
 /// `leech workspace`.
@@ -471,6 +482,10 @@ pub struct WorkspaceArgs {
     /// Print the summary as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Wall-clock limit of the whole sweep (s, at most a day): the paper's 1 mm sweep takes
+    /// seconds; 10 minutes stops a grid far too fine or a body far too soft, and no CSV is written.
+    #[arg(long, value_name = "S", default_value_t = 600.0)]
+    pub time_limit: f64,
 }
 
 /// `leech reach`.
@@ -494,6 +509,10 @@ pub struct ReachArgs {
     /// Print the answer as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Wall-clock limit of the map and the search together (s, at most a day): the default map
+    /// and a target take about a second; 2 minutes stops a range far too fine.
+    #[arg(long, value_name = "S", default_value_t = 120.0)]
+    pub time_limit: f64,
 }
 
 /// Which model `leech shape` evaluates.
@@ -589,7 +608,8 @@ pub struct ChainArgs {
     /// Newton iterations allowed for the whole solve.
     #[arg(long, value_name = "N", default_value_t = SolverOptions::default().max_iterations)]
     pub max_iterations: usize,
-    /// Wall-clock limit for the solve (s).
+    /// Wall-clock limit of the command (s, at most a day; with --repeat all the solves together):
+    /// a solve takes milliseconds, 60 s only stops a runaway.
     #[arg(long, value_name = "S", default_value_t = 60.0)]
     pub time_limit: f64,
     /// Surroundings the tube rests on (its clamp stays at the origin): a built-in scene's name
@@ -628,7 +648,8 @@ pub struct ShapeArgs {
     /// Newton iterations allowed for the whole solve.
     #[arg(long, value_name = "N", default_value_t = SolverOptions::default().max_iterations)]
     pub max_iterations: usize,
-    /// Wall-clock limit for the solve (s).
+    /// Wall-clock limit of the command (s, at most a day; with --repeat all the solves together):
+    /// a solve takes milliseconds, 60 s only stops a runaway.
     #[arg(long, value_name = "S", default_value_t = 60.0)]
     pub time_limit: f64,
     /// Solve N times (cold each time, N <= 100000) and report the solve time (`solve_time_s` in JSON).

@@ -140,22 +140,24 @@ fn run(args: Args, out: &mut String) -> Result<(), Failure> {
             Ok(())
         }
         Args::Workspace(a) => {
-            let bar = render::progress(leech::sweep::point_count(&a.options) as u64, "points");
+            let bar = render::progress(leech::sweep::work_count(&a.options) as u64, "solves");
             let started = Instant::now();
             let sweep = leech::sweep::sweep(&a.robot, &a.options, &|n| bar.inc(n as u64))?;
             bar.finish_and_clear();
             render::workspace(out, &a, &sweep, started.elapsed().as_secs_f64())
         }
         Args::Reach(a) => {
-            let answer = Reacher::new(&a.robot, a.grid)?.reach(a.target, a.angle);
+            let answer = Reacher::new(&a.robot, a.grid, a.deadline)?.reach(a.target, a.angle)?;
             render::reach(out, &answer, a.json)
         }
         Args::Calibrate(a) => {
             let shapes = a.shapes.as_ref().map_or(&[][..], |s| &s.rows);
-            let result = leech::calibration::calibrate(&a.robot, &a.sag.rows, shapes, a.fit)?;
+            let result = leech::calibration::calibrate(&a.robot, &a.sag.rows, shapes, a.fit, &a.deadline)?;
             render::calibration(out, &a, &result, &fitted(&a.robot, &result)?)
         }
-        Args::Compare(a) => render::comparison(out, &leech::calibration::compare(&a.robot, &a.shapes)?, a.json),
+        Args::Compare(a) => {
+            render::comparison(out, &leech::calibration::compare(&a.robot, &a.shapes, &a.deadline)?, a.json)
+        }
         Args::Simulate(a) => {
             let bar = render::progress((a.options.duration * 1e3) as u64, "ms simulated");
             let started = Instant::now();
@@ -200,7 +202,7 @@ fn solve_shape(a: &Shape, solver: &Solver) -> Result<render::Solved, Failure> {
         return Ok(render::Solved { clamped: None, held });
     }
     let eq = a.body.solve(solver)?;
-    let timing = a.repeat.map(|n| SolveTiming::measure(&a.body, solver, n));
+    let timing = a.repeat.map(|n| SolveTiming::measure(&a.body, solver, n)).transpose()?;
     let rear = a.hold.rear().expect("the clamped body is held by its rear cup");
     let held = stance::rear_held(&a.robot, &a.body, &eq, rear, solver)?;
     let moved = eq.q.iter().zip(&held.equilibrium.q).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max);

@@ -1103,7 +1103,8 @@ fn run_moves(s: &Shared, moves: &[Move], plan: Option<(u64, usize)>) -> Result<(
 
 /// Plans the climb and keeps it for [`Request::Execute`] if it reaches the goal.
 fn plan_reply(s: &Shared, start: Foothold, goal: Goal) -> Reply {
-    let options = stride::PlanOptions { time_limit: Some(Duration::from_secs(PLAN_SECONDS)), ..Default::default() };
+    let deadline = leech::budget::Deadline::after(Duration::from_secs(PLAN_SECONDS));
+    let options = stride::PlanOptions { deadline, ..Default::default() };
     let plan = match stride::plan(&s.robot, &s.scene, start, goal, &options) {
         Ok(plan) => plan,
         Err(e) => return json!({ "type": "plan", "status": "refused", "reason": e.to_string(), "steps": [] }),
@@ -1147,13 +1148,20 @@ fn reach_reply(s: &Shared, held: &Held, point: Vec2) -> Reply {
     let reacher = s
         .robot
         .with_base_angle(unit.angle_rad.to_degrees())
-        .and_then(|r| leech::inverse_statics::Reacher::new(&r, leech::sweep::Grid::new(lo, hi, WORKSPACE_STEP_M)?));
+        .map_err(leech::inverse_statics::ReachError::from)
+        .and_then(|r| {
+            let grid = leech::sweep::Grid::new(lo, hi, WORKSPACE_STEP_M)?;
+            leech::inverse_statics::Reacher::new(&r, grid, leech::budget::Deadline::none())
+        });
     let reacher = match reacher {
         Ok(r) => r,
         Err(e) => return fail(e.to_string()),
     };
     let target = [endpoint.point_m[0] - unit.point_m[0], endpoint.point_m[1] - unit.point_m[1]];
-    let answer = reacher.reach(target, Some(angle));
+    let answer = match reacher.reach(target, Some(angle)) {
+        Ok(answer) => answer,
+        Err(e) => return fail(e.to_string()),
+    };
     let body =
         stance::solve_among(&s.robot, answer.lengths_m, Hold::Rear(unit), &s.scene, &Solver::default(), FreeCups::Rest);
     let (body, error) = match body {

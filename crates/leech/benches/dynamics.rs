@@ -65,6 +65,7 @@ fn settle_options(integrator: Integrator, dt: Option<f64>) -> SimulationOptions 
         gravity_ramp: 0.0,
         sample_interval: 1.0,
         rest_rate: 1e-6,
+        deadline: leech::budget::Deadline::none(),
     }
 }
 

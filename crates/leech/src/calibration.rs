@@ -38,11 +38,12 @@
 use std::collections::{BTreeMap, HashMap};
 
 use crate::body::Body;
+use crate::budget::{Deadline, Stopped};
 use crate::constant_curvature::PlanarBody;
 use crate::error::{quoted, InputError};
 use crate::least_squares::{central_differences, levenberg_marquardt, LeastSquares, Options, Stop, UNBOUNDED};
 use crate::robot::Robot;
-use crate::statics::Solver;
+use crate::statics::{Solver, SolverOptions};
 
 /// Most data rows a measurement file may have.
 pub const MAX_ROWS: usize = 100_000;
@@ -302,6 +303,9 @@ pub enum CalibrationError {
     /// of the model's reach, or the tube is far too soft or stiff to start with).
     #[error("the measured points do not depend on the stiffness here: check the data's units and the starting robot (--shape-parameter)")]
     Insensitive,
+    /// The deadline ran out (or the job was cancelled) first.
+    #[error("stopped: {0}")]
+    Stopped(#[from] Stopped),
     /// The data do not determine the mass.
     #[error("the element mass is not determined by these data (a single tube sags by Pi = k/(m g l) alone): add body shapes (the payload sets the scale) or sag data with tip_mass_kg, or fit the stiffness only")]
     MassNotIdentifiable,
@@ -315,6 +319,8 @@ struct Problem<'a> {
     fit: Fit,
     /// Residual rows: one per measured point.
     points: usize,
+    /// The default solver bounded by the fit's deadline.
+    solver: Solver,
 }
 
 impl Problem<'_> {
@@ -326,12 +332,12 @@ impl Problem<'_> {
     /// Point residuals (m), or why the model could not be solved.
     fn residuals(&self, x: &[f64]) -> Result<Vec<f64>, String> {
         let robot = self.robot_at(x)?;
-        let solver = Solver::default();
+        let solver = &self.solver;
         let mut out = Vec::new();
         for tube in self.sag {
             let r = robot.with_base_angle(tube.base_angle_deg).map_err(|e| e.to_string())?;
             let cantilever = r.cantilever(tube.length, tube.tip_mass).map_err(|e| e.to_string())?;
-            let eq = cantilever.solve(&solver).map_err(|e| e.to_string())?;
+            let eq = cantilever.solve(solver).map_err(|e| e.to_string())?;
             let line = cantilever.chain().points(&eq.q);
             if tube.points.len() == 1 {
                 out.push(distance_to_polyline(tube.points[0], &line[line.len() - 1..]));
@@ -340,7 +346,7 @@ impl Problem<'_> {
             }
         }
         for shape in self.shapes {
-            let (body, q) = solve_shape(&robot, shape)?;
+            let (body, q) = solve_shape(&robot, shape, solver)?;
             let (qa, qb) = body.split(&q);
             let (line_a, line_b) = (body.chain_a().points(qa), body.chain_b().points(qb));
             out.extend(shape.points_a.iter().map(|p| distance_to_polyline(*p, &line_a)));
@@ -354,11 +360,11 @@ impl Problem<'_> {
     }
 }
 
-fn solve_shape(robot: &Robot, shape: &BodyShape) -> Result<(Body, Vec<f64>), String> {
+fn solve_shape(robot: &Robot, shape: &BodyShape, solver: &Solver) -> Result<(Body, Vec<f64>), String> {
     let name = quoted(&shape.name);
     let r = robot.with_base_angle(shape.base_angle_deg).map_err(|e| format!("shape {name}: {e}"))?;
     let body = r.body(shape.lengths[0], shape.lengths[1]).map_err(|e| format!("shape {name}: {e}"))?;
-    let eq = body.solve(&Solver::default()).map_err(|e| format!("shape {name}: {e}"))?;
+    let eq = body.solve(solver).map_err(|e| format!("shape {name}: {e}"))?;
     Ok((body, eq.q))
 }
 
@@ -429,17 +435,25 @@ impl LeastSquares for Problem<'_> {
     }
 }
 
-/// Fits `k` (and `m`) of `robot`'s tube to the measurements.
+/// The default solver bounded by `deadline`.
+fn bounded(deadline: &Deadline) -> Solver {
+    Solver::new(SolverOptions { deadline: deadline.clone(), ..SolverOptions::default() })
+}
+
+/// Fits `k` (and `m`) of `robot`'s tube to the measurements, within
+/// `deadline` (checked by every solve; a fit it stops is
+/// [`CalibrationError::Stopped`]).
 pub fn calibrate(
     robot: &Robot,
     sag: &[SagTube],
     shapes: &[BodyShape],
     fit: Fit,
+    deadline: &Deadline,
 ) -> Result<Calibration, CalibrationError> {
     robot.validate()?;
     let p = if fit == Fit::Stiffness { 1 } else { 2 };
     let n = check_data(robot, sag, shapes, p)?;
-    let mut problem = Problem { robot, sag, shapes, fit, points: n };
+    let mut problem = Problem { robot, sag, shapes, fit, points: n, solver: bounded(deadline) };
     let mut x = vec![robot.tube.joint_stiffness_nm_per_rad.ln()];
     if fit == Fit::StiffnessAndMass {
         x.push(robot.tube.element_mass_kg.ln());
@@ -448,6 +462,8 @@ pub fn calibrate(
     // The covariance needs the curvature at the fit itself.
     let options = Options { jacobian_at_solution: true, ..Options::default() };
     let result = levenberg_marquardt(&mut problem, &x, &[UNBOUNDED; 2][..p], &options);
+    // A solve the deadline stopped fails the evaluation: say so, not why the solve failed.
+    deadline.guard(result.iterations, options.max_iterations, "fit iterations")?;
     if let Stop::EvaluationFailed(e) = result.stop {
         return Err(CalibrationError::Model(e));
     }
@@ -516,14 +532,26 @@ fn shape_error(shape: &BodyShape, line_a: &[[f64; 2]], line_b: &[[f64; 2]], tip:
     ShapeError { rms_mm: 1e3 * rms, max_mm: 1e3 * all.iter().fold(0.0f64, |a, v| a.max(*v)), endpoint_mm }
 }
 
-/// The two-chain and constant-curvature models against measured bodies.
-pub fn compare(robot: &Robot, shapes: &[BodyShape]) -> Result<Vec<ShapeComparison>, CalibrationError> {
+/// The two-chain and constant-curvature models against measured bodies,
+/// within `deadline` (checked by every solve).
+pub fn compare(
+    robot: &Robot,
+    shapes: &[BodyShape],
+    deadline: &Deadline,
+) -> Result<Vec<ShapeComparison>, CalibrationError> {
     robot.validate()?;
     check_data(robot, &[], shapes, 0)?;
+    let solver = bounded(deadline);
     shapes
         .iter()
-        .map(|shape| {
-            let (body, q) = solve_shape(robot, shape).map_err(CalibrationError::Model)?;
+        .enumerate()
+        .map(|(i, shape)| {
+            deadline.guard(i, shapes.len(), "shapes")?;
+            let (body, q) =
+                solve_shape(robot, shape, &solver).map_err(|e| match deadline.guard(i, shapes.len(), "shapes") {
+                    Err(stopped) => stopped.into(),
+                    Ok(()) => CalibrationError::Model(e),
+                })?;
             let (qa, qb) = body.split(&q);
             let two_chain =
                 shape_error(shape, &body.chain_a().points(qa), &body.chain_b().points(qb), body.endpoint(&q));

@@ -23,13 +23,25 @@
 //! within `angle_tolerance_rad`); otherwise it is unreachable and the nearest
 //! endpoint found is reported with its lengths. A false "reached" is not
 //! possible.
+//!
+//! Every answer is reproducible: its endpoint is the fresh solve's at its
+//! lengths, never a fed one. Where the fresh solve at the best lengths fails,
+//! or lands farther from the target than the nearest map point (itself a
+//! fresh solve), the nearest map point is the answer.
+//!
+//! The [`Deadline`] given to [`Reacher::new`] bounds the map and every
+//! [`Reacher::reach`]: both check it at each solve and return [`Stopped`]
+//! (how many map points or descents were done) when it runs out.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crate::body::Body;
+use crate::budget::{Deadline, Stopped};
 use crate::error::InputError;
 use crate::geom::angle_difference;
 use crate::least_squares::{central_differences, levenberg_marquardt, LeastSquares, Options, Scaling};
 use crate::robot::Robot;
-use crate::statics::{Scratch, Solver};
+use crate::statics::{Scratch, Solver, SolverOptions};
 use crate::sweep::{Grid, Seed};
 use rayon::prelude::*;
 
@@ -40,6 +52,17 @@ const MAX_ITERATIONS: usize = 100;
 const STARTS: usize = 32;
 /// Largest map the reacher builds (a 10 mm grid over 0.05..0.3 m has 676).
 pub const MAX_MAP_POINTS: usize = 40_000;
+
+/// Why there is no reacher or no answer.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ReachError {
+    /// Bad robot or range.
+    #[error(transparent)]
+    Input(#[from] InputError),
+    /// The deadline ran out (or the job was cancelled) first.
+    #[error("the inverse solve stopped: {0}")]
+    Stopped(#[from] Stopped),
+}
 
 /// Whether the target was hit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -91,6 +114,9 @@ pub struct Reacher {
     range: [f64; 2],
     map: Vec<(Seed, [f64; 2], f64)>,
     tolerance: ReachTolerance,
+    /// The default solver bounded by the reacher's deadline: every solve,
+    /// warm or fresh, is `leech shape`'s.
+    solver: Solver,
 }
 
 /// One evaluated iterate.
@@ -170,18 +196,21 @@ impl LeastSquares for Descent<'_> {
 
 impl Reacher {
     /// Maps the workspace of `robot` over `grid` (both tubes) with default
-    /// solves. Lengths stay within the grid's range.
+    /// solves, within `deadline` (which also bounds every later
+    /// [`reach`](Self::reach)). Lengths stay within the grid's range.
     ///
     /// ```
+    /// use leech::budget::Deadline;
     /// use leech::prelude::*;
     /// use leech::inverse_statics::{Reacher, ReachStatus};
     /// use leech::sweep::Grid;
-    /// let reacher = Reacher::new(&Robot::builtin(), Grid::new(0.05, 0.3, 0.025).unwrap()).unwrap();
-    /// let answer = reacher.reach([0.12, 0.15], None);
+    /// let grid = Grid::new(0.05, 0.3, 0.025).unwrap();
+    /// let reacher = Reacher::new(&Robot::builtin(), grid, Deadline::none()).unwrap();
+    /// let answer = reacher.reach([0.12, 0.15], None).unwrap();
     /// assert_eq!(answer.status, ReachStatus::Reached);
     /// assert!(answer.error_m < 1e-6);
     /// ```
-    pub fn new(robot: &Robot, grid: Grid) -> Result<Reacher, InputError> {
+    pub fn new(robot: &Robot, grid: Grid, deadline: Deadline) -> Result<Reacher, ReachError> {
         robot.validate()?;
         let values = grid.values();
         robot.check_tube_length("lengths range min", grid.min)?;
@@ -191,25 +220,41 @@ impl Reacher {
                 "lengths range step",
                 grid.step,
                 format!("a step giving at most {MAX_MAP_POINTS} map points"),
-            ));
+            )
+            .into());
         }
+        let solver = Solver::new(SolverOptions { deadline: deadline.clone(), ..SolverOptions::default() });
         // Fresh (default-path) solves, the same equilibria the answer is
         // checked against: where equilibria are not unique the starts then lie
         // on the right branch.
         let pairs: Vec<(f64, f64)> = values.iter().flat_map(|&a| values.iter().map(move |&b| (a, b))).collect();
+        let done = AtomicUsize::new(0);
         let map = pairs
             .par_iter()
             .filter_map(|&(la, lb)| {
+                if deadline.expired() {
+                    return None;
+                }
                 let body = robot.body(la, lb).ok()?;
-                let eq = body.solve(&Solver::default()).ok()?;
+                let eq = body.solve(&solver).ok();
+                done.fetch_add(1, Ordering::Relaxed);
+                let eq = eq?;
                 let (e, a) = (body.endpoint(&eq.q), body.endpoint_angle(&eq.q));
                 Some(((body, eq.q), e, a))
             })
             .collect::<Vec<_>>();
+        // A solve the deadline stopped is missing from the map: not trusted.
+        deadline.guard(done.load(Ordering::Relaxed), pairs.len(), "map points")?;
         if map.is_empty() {
-            return Err(InputError::invalid("lengths range", grid.min, "a range where the body can be solved"));
+            return Err(InputError::invalid("lengths range", grid.min, "a range where the body can be solved").into());
         }
-        Ok(Reacher { robot: robot.clone(), range: [grid.min, grid.max], map, tolerance: ReachTolerance::default() })
+        Ok(Reacher {
+            robot: robot.clone(),
+            range: [grid.min, grid.max],
+            map,
+            tolerance: ReachTolerance::default(),
+            solver,
+        })
     }
 
     /// Changes the tolerances.
@@ -237,11 +282,11 @@ impl Reacher {
         *solves += 1;
         let body: Body = self.robot.body(lengths[0], lengths[1]).ok()?;
         let eq = if cold {
-            body.solve(&Solver::default()).ok()?
+            body.solve(&self.solver).ok()?
         } else {
             let start = body.carry_over(&from.0, &from.1);
             let mut ws = Scratch::for_system(&body);
-            body.solve_from(&Solver::default(), &start, &mut ws).ok()?
+            body.solve_from(&self.solver, &start, &mut ws).ok()?
         };
         Some(Iterate {
             lengths,
@@ -293,8 +338,10 @@ impl Reacher {
     }
 
     /// Tube lengths putting the endpoint on `target` (m), and the plate at
-    /// `angle` (rad) if given. Never a false "reached": see the module doc.
-    pub fn reach(&self, target: [f64; 2], angle: Option<f64>) -> Reach {
+    /// `angle` (rad) if given. Never a false "reached", and reproducible by a
+    /// fresh solve: see the module doc.
+    pub fn reach(&self, target: [f64; 2], angle: Option<f64>) -> Result<Reach, Stopped> {
+        let deadline = &self.solver.options.deadline;
         let mut solves = 0;
         let map_cost = |e: [f64; 2], a: f64| {
             let r = self.residual(e, a, target, angle);
@@ -305,21 +352,26 @@ impl Reacher {
             let (a, b) = (&self.map[i], &self.map[j]);
             map_cost(a.1, a.2).total_cmp(&map_cost(b.1, b.2))
         });
+        let map_point = |i: usize| {
+            let (state, endpoint, a) = &self.map[i];
+            Iterate {
+                lengths: [state.0.chain_a().tube_length(), state.0.chain_b().tube_length()],
+                state: state.clone(),
+                endpoint: *endpoint,
+                angle: *a,
+            }
+        };
         let mut best: Option<Iterate> = None;
         // With an angle the weighted cost can have local minima off the
         // solution; the position alone has none nearby, so its solutions
         // (one per branch of the map) are tried as well, judged by the full cost.
         let modes: &[Option<f64>] = if angle.is_some() { &[angle, None] } else { &[None] };
+        let (mut descents, most) = (0, modes.len() * STARTS.min(order.len()));
         'search: for mode in modes {
             for &i in order.iter().take(STARTS) {
-                let (state, endpoint, a) = &self.map[i];
-                let start = Iterate {
-                    lengths: [state.0.chain_a().tube_length(), state.0.chain_b().tube_length()],
-                    state: state.clone(),
-                    endpoint: *endpoint,
-                    angle: *a,
-                };
-                let found = self.descend(start, target, *mode, false, &mut solves);
+                deadline.guard(descents, most, "descents")?;
+                let found = self.descend(map_point(i), target, *mode, false, &mut solves);
+                descents += 1;
                 let better =
                     best.as_ref().is_none_or(|b| map_cost(found.endpoint, found.angle) < map_cost(b.endpoint, b.angle));
                 if better {
@@ -337,42 +389,42 @@ impl Reacher {
         // Where equilibria are not unique the fed (warm) path and a fresh solve
         // can disagree; the answer must hold for a fresh solve, so finish
         // with fresh solves from the best point when the warm one missed.
-        let fresh_cost = |it: &Iterate| map_cost(it.endpoint, it.angle);
-        if fresh_cost(&best).sqrt() >= 1e-3 * self.tolerance.tolerance_m || !self.fresh_agrees(&best, &mut solves) {
+        let cost = |it: &Iterate| map_cost(it.endpoint, it.angle);
+        if cost(&best).sqrt() >= 1e-3 * self.tolerance.tolerance_m || !self.fresh_agrees(&best, &mut solves) {
             if let Some(start) = self.evaluate(best.lengths, &best.state, true, &mut solves) {
                 let found = self.descend(start, target, angle, true, &mut solves);
-                if angle.is_some() && fresh_cost(&found).sqrt() >= 1e-3 * self.tolerance.tolerance_m {
+                if angle.is_some() && cost(&found).sqrt() >= 1e-3 * self.tolerance.tolerance_m {
                     let position = self.descend(found.clone(), target, None, true, &mut solves);
-                    best = if fresh_cost(&position) < fresh_cost(&found) { position } else { found };
+                    best = if cost(&position) < cost(&found) { position } else { found };
                 } else {
                     best = found;
                 }
             }
         }
-        // The check: a fresh default solve at the lengths found.
-        solves += 1;
-        let checked = self
-            .robot
-            .body(best.lengths[0], best.lengths[1])
-            .ok()
-            .and_then(|b| b.solve(&Solver::default()).ok().map(|eq| (b.endpoint(&eq.q), b.endpoint_angle(&eq.q))));
-        // Without the check there is no answer to vouch for: unreachable.
-        let verified = checked.is_some();
-        let (endpoint, endpoint_angle) = checked.unwrap_or((best.endpoint, best.angle));
-        let error_m = (endpoint[0] - target[0]).hypot(endpoint[1] - target[1]);
-        let angle_error_rad = angle.map(|a| angle_difference(endpoint_angle, a).abs());
-        let reached = verified
-            && error_m <= self.tolerance.tolerance_m
+        // The answer is a fresh default solve: at the lengths found, or the
+        // nearest map point's (a fresh solve too) when that one fails or
+        // lands farther away.
+        let fresh = self.evaluate(best.lengths, &best.state, true, &mut solves);
+        // A solve the deadline stopped is no verdict.
+        deadline.guard(descents, most, "descents")?;
+        let nearest = map_point(order[0]);
+        let answer = match fresh {
+            Some(fresh) if cost(&fresh) <= cost(&nearest) => fresh,
+            _ => nearest,
+        };
+        let error_m = (answer.endpoint[0] - target[0]).hypot(answer.endpoint[1] - target[1]);
+        let angle_error_rad = angle.map(|a| angle_difference(answer.angle, a).abs());
+        let reached = error_m <= self.tolerance.tolerance_m
             && angle_error_rad.is_none_or(|e| e <= self.tolerance.angle_tolerance_rad);
-        Reach {
+        Ok(Reach {
             status: if reached { ReachStatus::Reached } else { ReachStatus::Unreachable },
-            lengths_m: best.lengths,
-            endpoint_m: endpoint,
-            endpoint_angle_rad: endpoint_angle,
+            lengths_m: answer.lengths,
+            endpoint_m: answer.endpoint,
+            endpoint_angle_rad: answer.angle,
             error_m,
             angle_error_rad,
             solves,
-        }
+        })
     }
 }
 

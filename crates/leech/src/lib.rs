@@ -64,10 +64,12 @@
 //! * [`scene`]: floors, walls, steps and thin walls (TOML) and the geometric queries of contact.
 //! * [`report`]: serializable results (what the command line prints and writes).
 //! * [`error`]: input errors.
+//! * [`budget`]: deadlines and cancel flags every long computation checks; what a stopped job did.
 
 #![warn(missing_docs)]
 
 pub mod body;
+pub mod budget;
 pub mod calibration;
 pub mod cantilever;
 pub mod chain;

@@ -7,6 +7,7 @@ use std::time::Instant;
 use serde::{Serialize, Serializer};
 
 use crate::body::Body;
+use crate::budget::Stopped;
 use crate::cantilever::Cantilever;
 use crate::dynamics::Sample;
 use crate::statics::{Equilibrium, Event, Solver};
@@ -245,18 +246,20 @@ pub struct SolveTiming {
 impl SolveTiming {
     /// Solves `body` from scratch `n` times with `solver` and times each solve.
     /// A failed solve is timed like a converged one: the solve is
-    /// deterministic, so time the body once it is known to converge.
-    pub fn measure(body: &Body, solver: &Solver, n: NonZeroUsize) -> SolveTiming {
-        let mut times: Vec<f64> = (0..n.get())
-            .map(|_| {
-                let start = Instant::now();
-                // black_box: the result is unused, and the solve must not be optimized away.
-                let _ = std::hint::black_box(body.solve(solver));
-                start.elapsed().as_secs_f64()
-            })
-            .collect();
+    /// deterministic, so time the body once it is known to converge. The
+    /// solver's deadline bounds all the solves together: past it the timing
+    /// would time failures, so it stops ([`Stopped`] says how many were done).
+    pub fn measure(body: &Body, solver: &Solver, n: NonZeroUsize) -> Result<SolveTiming, Stopped> {
+        let mut times = Vec::with_capacity(n.get());
+        for done in 0..n.get() {
+            let start = Instant::now();
+            // black_box: the result is unused, and the solve must not be optimized away.
+            let _ = std::hint::black_box(body.solve(solver));
+            times.push(start.elapsed().as_secs_f64());
+            solver.options.deadline.guard(done + 1, n.get(), "repeats")?;
+        }
         times.sort_by(f64::total_cmp);
-        SolveTiming { solves: times.len(), median: times[times.len() / 2], min: times[0] }
+        Ok(SolveTiming { solves: times.len(), median: times[times.len() / 2], min: times[0] })
     }
 }
 
@@ -299,6 +302,10 @@ pub struct SweepRow {
     /// Endpoint plate angle (rad); NaN for a failure.
     #[serde(serialize_with = "decimal")]
     pub endpoint_angle_rad: f64,
+    /// Distance from a fresh solve's endpoint (m): 0 when it agrees, `inf`
+    /// when the fresh solve fails, NaN for a failure (see [`crate::sweep`]).
+    #[serde(serialize_with = "decimal")]
+    pub fresh_difference_m: f64,
 }
 
 impl From<&Point> for SweepRow {
@@ -316,6 +323,7 @@ impl From<&Point> for SweepRow {
             endpoint_x_m: p.endpoint_m[0],
             endpoint_y_m: p.endpoint_m[1],
             endpoint_angle_rad: p.endpoint_angle_rad,
+            fresh_difference_m: p.fresh_difference_m,
         }
     }
 }
@@ -432,11 +440,12 @@ mod tests {
             feasible: true,
             endpoint_m: [f64::NAN, 2.7755575615628914e-17],
             endpoint_angle_rad: 1.0,
+            fresh_difference_m: f64::INFINITY,
         };
         assert_eq!(
             csv_of([SweepRow::from(&point)]),
-            "model,shape_parameter,la_m,lb_m,status,stable,snapped,feasible,min_bend_radius_m,endpoint_x_m,endpoint_y_m,endpoint_angle_rad\n\
-             constant-curvature,,0.05,0.1,failed,true,false,true,0,NaN,0.000000000000000027755575615628914,1\n"
+            "model,shape_parameter,la_m,lb_m,status,stable,snapped,feasible,min_bend_radius_m,endpoint_x_m,endpoint_y_m,endpoint_angle_rad,fresh_difference_m\n\
+             constant-curvature,,0.05,0.1,failed,true,false,true,0,NaN,0.000000000000000027755575615628914,1,inf\n"
         );
     }
 

@@ -15,6 +15,25 @@
 //! start fails, the point is retried cold and, failing that, listed as a
 //! failure (never dropped).
 //!
+//! # History dependence
+//!
+//! Where the body has several equilibria, the fed path and a fresh solve
+//! (the default cold solve `leech shape --lengths LA,LB` makes) can land on
+//! different ones. Every point says so: `fresh_difference_m` is the distance
+//! (m) between its endpoint and the fresh solve's, 0 where they agree to
+//! [`FRESH_TOLERANCE_M`], infinite where the fresh solve fails, NaN for a
+//! failed point. Points solved cold (the corner, cold retries) are fresh by
+//! construction; the others are solved fresh again after the walk, all in
+//! parallel (a cold solve of the built-in robot costs about five warm steps).
+//!
+//! # Time and size
+//!
+//! [`SweepOptions::deadline`] bounds the whole sweep: every solve checks it,
+//! every worker stops at its next point, and the sweep returns
+//! [`SweepError::Stopped`] (how many of its solves were done), never a partial
+//! result. A sweep has at most [`MAX_POINTS`] points over all its models and
+//! shape parameters (about 280 bytes each in memory).
+//!
 //! # Metrics (for each model and shape parameter)
 //!
 //! Over the points that converged and are feasible (no tube bent tighter than
@@ -27,14 +46,22 @@
 //! edge exceeds `AREA_EDGE_FACTOR` times the median one (a jump between
 //! neighbours, not a region the endpoint sweeps).
 
+use std::sync::atomic::{AtomicUsize, Ordering};
+
 use rayon::prelude::*;
 
 use crate::body::Body;
+use crate::budget::{Deadline, Stopped};
 use crate::constant_curvature::PlanarBody;
 use crate::error::{positive, InputError};
 use crate::robot::{Robot, MAX_LINKS};
-use crate::statics::{Scratch, Solver};
+use crate::statics::{Scratch, Solver, SolverOptions};
 
+/// Most points of one sweep over all models and shape parameters: two full
+/// grids of 2001 lengths (about 2.3 GB of points).
+pub const MAX_POINTS: usize = 2 * 2001 * 2001;
+/// A point whose endpoint is within this (m) of a fresh solve's agrees with it.
+pub const FRESH_TOLERANCE_M: f64 = 1e-6;
 /// A warm start moving some angle by more than this (rad) is a snap.
 pub const SNAP_RAD: f64 = 0.5;
 /// Raster cell for the reachable area (m).
@@ -128,6 +155,19 @@ pub struct SweepOptions {
     pub models: Vec<Model>,
     /// Only `LA >= LB` (the paper's Fig. 12: left tube longer).
     pub left_longer: bool,
+    /// When the sweep stops (never, by default).
+    pub deadline: Deadline,
+}
+
+/// Why a sweep gave no result.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SweepError {
+    /// Bad options or robot.
+    #[error(transparent)]
+    Input(#[from] InputError),
+    /// The deadline ran out (or the sweep was cancelled) first.
+    #[error("the sweep stopped: {0}")]
+    Stopped(#[from] Stopped),
 }
 
 /// One grid point.
@@ -153,6 +193,10 @@ pub struct Point {
     pub endpoint_m: [f64; 2],
     /// Endpoint plate angle (rad); NaN for a failure.
     pub endpoint_angle_rad: f64,
+    /// Distance (m) from the endpoint a fresh default solve gives at these
+    /// lengths: 0 when within [`FRESH_TOLERANCE_M`], infinite when the fresh
+    /// solve fails, NaN for a failure (see the module doc).
+    pub fresh_difference_m: f64,
 }
 
 /// An extreme endpoint and where it comes from.
@@ -190,6 +234,10 @@ pub struct Summary {
     pub unstable: usize,
     /// Points where the actuation path snapped.
     pub snapped: usize,
+    /// Converged points a fresh solve does not reproduce (history dependence).
+    pub differ_from_fresh: usize,
+    /// The largest finite `fresh_difference_m` (m).
+    pub largest_fresh_difference_m: f64,
     /// Highest endpoint.
     pub highest: Option<Extreme>,
     /// Lowest endpoint.
@@ -209,29 +257,61 @@ pub struct Sweep {
     pub summaries: Vec<Summary>,
 }
 
-/// Number of grid points a sweep evaluates (for progress bars).
+/// Number of grid points a sweep evaluates.
 pub fn point_count(options: &SweepOptions) -> usize {
-    let n = options.grid.values().len();
-    let per = if options.left_longer { n * (n + 1) / 2 } else { n * n };
-    let pis = options.shape_parameters.len().max(1);
+    let (per, pis) = per_model(options);
     options.models.iter().map(|m| if *m == Model::TwoChain { per * pis } else { per }).sum()
 }
 
-/// Runs a sweep. `progress` is called with the number of points just finished
-/// (from several threads).
-pub fn sweep(robot: &Robot, options: &SweepOptions, progress: &(dyn Fn(usize) + Sync)) -> Result<Sweep, InputError> {
+/// Work units of a sweep (for progress bars): a two-chain point counts twice
+/// (its solve along the path and its fresh check), a constant-curvature one once.
+pub fn work_count(options: &SweepOptions) -> usize {
+    let (per, pis) = per_model(options);
+    options.models.iter().map(|m| if *m == Model::TwoChain { 2 * per * pis } else { per }).sum()
+}
+
+/// Grid points per model and shape parameter, and the number of shape parameters.
+fn per_model(options: &SweepOptions) -> (usize, usize) {
+    let n = options.grid.values().len();
+    let per = if options.left_longer { n * (n + 1) / 2 } else { n * n };
+    (per, options.shape_parameters.len().max(1))
+}
+
+/// Runs a sweep. `progress` is called with the number of work units just
+/// finished ([`work_count`]; from several threads).
+pub fn sweep(robot: &Robot, options: &SweepOptions, progress: &(dyn Fn(usize) + Sync)) -> Result<Sweep, SweepError> {
     robot.validate()?;
+    let total = point_count(options);
+    if total > MAX_POINTS {
+        let (per, _) = per_model(options);
+        let most = (MAX_POINTS / per).saturating_sub(usize::from(options.models.contains(&Model::ConstantCurvature)));
+        return Err(InputError::invalid(
+            "shape parameters (count)",
+            options.shape_parameters.len() as f64,
+            format!("at most {MAX_POINTS} points in all (about 280 bytes each): {most} shape parameters on this grid"),
+        )
+        .into());
+    }
     let values = options.grid.values();
     robot.check_tube_length("lengths range min", values[0])?;
     robot.check_tube_length("lengths range max", *values.last().expect("a grid has a value"))?;
     if values.last().copied().unwrap_or(0.0) / robot.tube.element_length_m > MAX_LINKS as f64 {
-        return Err(InputError::invalid("lengths range max", options.grid.max, "fewer elements"));
+        return Err(InputError::invalid("lengths range max", options.grid.max, "fewer elements").into());
     }
     let pis: Vec<Option<f64>> = if options.shape_parameters.is_empty() {
         vec![None]
     } else {
         options.shape_parameters.iter().map(|p| Some(*p)).collect()
     };
+    let solver = Solver::new(SolverOptions { deadline: options.deadline.clone(), ..SolverOptions::default() });
+    let (work, done) = (work_count(options), AtomicUsize::new(0));
+    let tick = |k: usize| {
+        done.fetch_add(k, Ordering::Relaxed);
+        progress(k);
+    };
+    // A solve the deadline stopped is a failed point: a block that ends past
+    // the deadline is not trusted.
+    let finished = || options.deadline.guard(done.load(Ordering::Relaxed), work, "solves (path and fresh check)");
     let mut points = Vec::new();
     let mut summaries = Vec::new();
     for model in &options.models {
@@ -243,20 +323,21 @@ pub fn sweep(robot: &Robot, options: &SweepOptions, progress: &(dyn Fn(usize) + 
                         None => robot.clone(),
                     };
                     let pi_value = Some(tuned.shape_parameter());
-                    let pts = two_chain_points(&tuned, &values, options.left_longer, progress)
+                    let pts = two_chain_points(&tuned, &values, options.left_longer, &solver, &tick)
                         .into_iter()
                         .map(|mut p| {
                             p.shape_parameter = pi_value;
                             p
                         })
                         .collect::<Vec<_>>();
+                    finished()?;
                     summaries.push(summarize(Model::TwoChain, pi_value, &pts, &values, options.left_longer));
                     points.extend(pts);
                 }
             }
             Model::ConstantCurvature => {
                 let pts = constant_curvature_points(robot, &values, options.left_longer);
-                progress(pts.len());
+                tick(pts.len());
                 summaries.push(summarize(Model::ConstantCurvature, None, &pts, &values, options.left_longer));
                 points.extend(pts);
             }
@@ -287,6 +368,7 @@ fn constant_curvature_points(robot: &Robot, values: &[f64], left_longer: bool) -
                 feasible: radius >= robot.tube.min_bend_radius_m,
                 endpoint_m: pose.endpoint,
                 endpoint_angle_rad: pose.endpoint_angle,
+                fresh_difference_m: 0.0,
             }
         })
         .collect()
@@ -298,8 +380,15 @@ struct Solved {
     body: Option<(Body, Vec<f64>)>,
 }
 
-fn solve_point(robot: &Robot, la: f64, lb: f64, seed: Option<&(Body, Vec<f64>)>, ws: &mut Option<Scratch>) -> Solved {
-    let solver = Solver::default();
+/// Solves one point along the path. A warm-started point's
+/// `fresh_difference_m` is NaN until [`check_fresh`] fills it in.
+fn solve_point(
+    robot: &Robot,
+    (la, lb): (f64, f64),
+    seed: Option<&Seed>,
+    solver: &Solver,
+    ws: &mut Option<Scratch>,
+) -> Solved {
     let failed = |reason: String| Solved {
         point: Point {
             model: Model::TwoChain,
@@ -312,6 +401,7 @@ fn solve_point(robot: &Robot, la: f64, lb: f64, seed: Option<&(Body, Vec<f64>)>,
             feasible: false,
             endpoint_m: [f64::NAN; 2],
             endpoint_angle_rad: f64::NAN,
+            fresh_difference_m: f64::NAN,
         },
         body: None,
     };
@@ -323,18 +413,19 @@ fn solve_point(robot: &Robot, la: f64, lb: f64, seed: Option<&(Body, Vec<f64>)>,
         Some(w) if w.fits(&body) => w,
         _ => ws.insert(Scratch::for_system(&body)),
     };
-    let (result, snapped) = match seed {
+    // (result, snapped, warm): a cold solve is the fresh one.
+    let (result, snapped, warm) = match seed {
         Some((previous, q)) => {
             let start = body.carry_over(previous, q);
-            match body.solve_from(&solver, &start, scratch) {
+            match body.solve_from(solver, &start, scratch) {
                 Ok(eq) => {
                     let jump = eq.q.iter().zip(&start).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
-                    (Ok(eq), jump > SNAP_RAD)
+                    (Ok(eq), jump > SNAP_RAD, true)
                 }
-                Err(_) => (body.solve_in(&solver, scratch), false),
+                Err(_) => (body.solve_in(solver, scratch), false, false),
             }
         }
-        None => (body.solve_in(&solver, scratch), false),
+        None => (body.solve_in(solver, scratch), false, false),
     };
     match result {
         Ok(eq) => {
@@ -351,6 +442,7 @@ fn solve_point(robot: &Robot, la: f64, lb: f64, seed: Option<&(Body, Vec<f64>)>,
                     feasible: radius >= robot.tube.min_bend_radius_m,
                     endpoint_m: body.endpoint(&eq.q),
                     endpoint_angle_rad: body.endpoint_angle(&eq.q),
+                    fresh_difference_m: if warm { f64::NAN } else { 0.0 },
                 },
                 body: Some((body, eq.q)),
             }
@@ -359,8 +451,55 @@ fn solve_point(robot: &Robot, la: f64, lb: f64, seed: Option<&(Body, Vec<f64>)>,
     }
 }
 
-fn two_chain_points(robot: &Robot, values: &[f64], left_longer: bool, progress: &(dyn Fn(usize) + Sync)) -> Vec<Point> {
-    walk(robot, values, left_longer, false, progress).into_iter().map(|(p, _)| p).collect()
+fn two_chain_points(
+    robot: &Robot,
+    values: &[f64],
+    left_longer: bool,
+    solver: &Solver,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Vec<Point> {
+    let mut points: Vec<Point> =
+        walk(robot, values, left_longer, false, solver, progress).into_iter().map(|(p, _)| p).collect();
+    check_fresh(robot, &mut points, solver, progress);
+    points
+}
+
+/// Fills in `fresh_difference_m` of the warm-started points: each solved
+/// fresh, all in parallel; one progress unit per point (checked or not).
+fn check_fresh(robot: &Robot, points: &mut [Point], solver: &Solver, progress: &(dyn Fn(usize) + Sync)) {
+    points.par_iter_mut().for_each_init(
+        || None,
+        |ws, p| {
+            if solver.options.deadline.expired() {
+                return;
+            }
+            if p.failure.is_none() && p.fresh_difference_m.is_nan() {
+                p.fresh_difference_m = fresh_difference(robot, p, solver, ws);
+            }
+            progress(1);
+        },
+    );
+}
+
+/// The distance (m) from a point's endpoint to a fresh solve's (see the module doc).
+fn fresh_difference(robot: &Robot, p: &Point, solver: &Solver, ws: &mut Option<Scratch>) -> f64 {
+    let Ok(body) = robot.body(p.lengths_m[0], p.lengths_m[1]) else { return f64::INFINITY };
+    let scratch = match ws {
+        Some(w) if w.fits(&body) => w,
+        _ => ws.insert(Scratch::for_system(&body)),
+    };
+    match body.solve_in(solver, scratch) {
+        Ok(eq) => {
+            let e = body.endpoint(&eq.q);
+            let d = (e[0] - p.endpoint_m[0]).hypot(e[1] - p.endpoint_m[1]);
+            if d <= FRESH_TOLERANCE_M {
+                0.0
+            } else {
+                d
+            }
+        }
+        Err(_) => f64::INFINITY,
+    }
 }
 
 /// A grid point's equilibrium: the body and its angles.
@@ -373,18 +512,24 @@ pub(crate) fn walk(
     values: &[f64],
     left_longer: bool,
     keep: bool,
+    solver: &Solver,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Vec<(Point, Option<Seed>)> {
     let n = values.len();
+    // Past the deadline every loop ends at its next point (the caller then
+    // discards the partial walk); progress counts the points solved in time.
+    let deadline = &solver.options.deadline;
     // The first column, fed upwards in LA from the cold corner.
     let mut column: Vec<Solved> = Vec::with_capacity(n);
     let mut ws = None;
-    for i in 0..n {
+    for &la in values {
+        if deadline.expired() {
+            break;
+        }
         let seed = column.iter().rev().find_map(|s| s.body.as_ref());
-        let solved = solve_point(robot, values[i], values[0], seed, &mut ws);
-        column.push(solved);
+        column.push(solve_point(robot, (la, values[0]), seed, solver, &mut ws));
+        progress(1);
     }
-    progress(n);
     // Each row fed in LB from its first column, rows in parallel.
     let rows: Vec<Vec<(Point, Option<Seed>)>> = column
         .into_par_iter()
@@ -395,15 +540,18 @@ pub(crate) fn walk(
             let mut row = Vec::with_capacity(end);
             let mut seed = first.body;
             row.push((first.point, if keep { seed.clone() } else { None }));
-            for j in 1..end {
-                let solved = solve_point(robot, values[i], values[j], seed.as_ref(), &mut ws);
+            for &lb in &values[1..end] {
+                if deadline.expired() {
+                    break;
+                }
+                let solved = solve_point(robot, (values[i], lb), seed.as_ref(), solver, &mut ws);
                 let kept = if keep { solved.body.clone() } else { None };
                 if solved.body.is_some() {
                     seed = solved.body;
                 }
                 row.push((solved.point, kept));
+                progress(1);
             }
-            progress(end.saturating_sub(1));
             row
         })
         .collect();
@@ -430,6 +578,12 @@ fn summarize(model: Model, pi: Option<f64>, points: &[Point], values: &[f64], le
         infeasible: points.iter().filter(|p| p.failure.is_none() && !p.feasible).count(),
         unstable: points.iter().filter(|p| p.failure.is_none() && !p.stable).count(),
         snapped: points.iter().filter(|p| p.snapped).count(),
+        differ_from_fresh: points.iter().filter(|p| p.fresh_difference_m > 0.0).count(),
+        largest_fresh_difference_m: points
+            .iter()
+            .map(|p| p.fresh_difference_m)
+            .filter(|d| d.is_finite())
+            .fold(0.0, f64::max),
         highest: extreme(&good, |p| p.endpoint_m[1]),
         lowest: extreme(&good, |p| -p.endpoint_m[1]),
         farthest: extreme(&good, |p| p.endpoint_m[0].abs()),

@@ -2,9 +2,8 @@
 //! from a scene and the start and goal flags; the planner's options.
 
 use std::path::Path;
-use std::time::Duration;
 
-use leech::error::{positive, within, Num};
+use leech::error::within;
 use leech::prelude::*;
 use leech::scene::MAX_COORDINATE_M;
 use leech::stride::scenario::MAX_TOLERANCE_M;
@@ -46,10 +45,7 @@ pub(super) fn climb(a: flags::ClimbArgs) -> Result<Climb, Failure> {
         }
         (_, e) => e.into(),
     })?;
-    let seconds = positive("--time-limit (s)", a.time_limit)?;
-    let time_limit = Duration::try_from_secs_f64(seconds)
-        .map_err(|_| Failure::Input(format!("--time-limit: got {}, expected a number of seconds", Num(seconds))))?;
-    let options = PlanOptions { time_limit: Some(time_limit), ..PlanOptions::default() };
+    let options = PlanOptions { deadline: super::deadline(a.time_limit)?, ..PlanOptions::default() };
     let outputs = Outputs { json: a.json, csv: a.csv, svg: a.svg, ..Outputs::default() };
     Ok(Climb { robot, scenario, options, outputs })
 }

@@ -10,6 +10,7 @@ mod text;
 use std::path::Path;
 
 use anyhow::Context;
+use leech::budget::Halt;
 use leech::calibration::{Calibration, ShapeComparison};
 use leech::constant_curvature::PlanarBody;
 use leech::dynamics::Simulation;
@@ -48,8 +49,9 @@ pub fn solve_failure(e: &SolveError) -> String {
             "status": "not_converged", "stage": stage, "iterations": iterations,
             "residual": residual, "reason": reason,
         }),
-        SolveError::TimeLimit { iterations, residual, .. } => json!({
-            "status": "time_limit", "iterations": iterations, "residual": residual,
+        SolveError::Stopped { halt, iterations, residual } => json!({
+            "status": match halt { Halt::TimeLimit(_) => "time_limit", Halt::Cancelled => "cancelled" },
+            "iterations": iterations, "residual": residual,
         }),
         SolveError::BadStart { .. } => json!({ "status": "bad_start", "reason": e.to_string() }),
     };

@@ -232,9 +232,9 @@ pub fn workspace(out: &mut String, sweep: &Sweep, failures: usize, elapsed_s: f6
         let pi = s.shape_parameter.map_or("-".to_string(), |p| format!("{p:.0}"));
         say!(
             out,
-            "{:<18} Pi {:>7}: highest y {:7.1} mm, lowest y {:7.1} mm, farthest |x| {:6.1} mm, area {:7.0} mm^2; infeasible {}, unstable {}, snapped {}, failures {}",
+            "{:<18} Pi {:>7}: highest y {:7.1} mm, lowest y {:7.1} mm, farthest |x| {:6.1} mm, area {:7.0} mm^2; infeasible {}, unstable {}, snapped {}, failures {}, differ from a fresh solve {} (up to {:.1} mm)",
             s.model.name(), pi, mm(&s.highest, 1), mm(&s.lowest, 1), mm(&s.farthest, 0).abs(), s.area_m2 * 1e6,
-            s.infeasible, s.unstable, s.snapped, s.failures.len()
+            s.infeasible, s.unstable, s.snapped, s.failures.len(), s.differ_from_fresh, s.largest_fresh_difference_m * 1e3
         );
         for f in &s.failures {
             say!(out, "  failed at LA = {} m, LB = {} m: {}", f.lengths_m[0], f.lengths_m[1], f.reason);

@@ -264,3 +264,81 @@ fn a_plan_with_too_many_steps_is_refused() {
     std::fs::remove_file(&path).ok();
     assert!(e.contains("10001") && e.contains("1 to 10000"), "{e}");
 }
+
+         assert!(e.contains("discretization") && e.contains("paper") && e.contains("midpoint"), "{value}: {e}");
+     }
+ }
+
+/// Runs a job that cannot finish within `--time-limit 1`, killed (and the
+/// test failed) if it outlives a generous process timeout; returns stderr,
+/// checking exit code 3 and one line.
+fn stopped(args: &[&str]) -> String {
+    let out = super::leech()
+        .args(args)
+        .args(["--time-limit", "1"])
+        .timeout(std::time::Duration::from_secs(60))
+        .output()
+        .unwrap();
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(out.status.code(), Some(3), "{args:?} should exit 3 (killed if None): {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+    assert!(err.contains("time limit of 1 s reached after") && err.contains("--time-limit"), "{err}");
+    err
+}
+
+#[test]
+fn a_workspace_far_too_fine_stops_at_its_time_limit_and_writes_no_csv() {
+    let csv = std::env::temp_dir().join(format!("leech-harden-{}-fine.csv", std::process::id()));
+    let out = csv.to_str().unwrap();
+    let e = stopped(&["workspace", "--lengths-range", "0.05:100:0.05", "--out", out]);
+    assert!(e.contains("solves") && e.contains("no CSV written"), "{e}");
+    assert!(!csv.exists(), "a partial CSV was written");
+}
+
+#[test]
+fn a_workspace_of_absurd_shape_parameters_stops_at_its_time_limit() {
+    let csv = std::env::temp_dir().join(format!("leech-harden-{}-soft.csv", std::process::id()));
+    let e = stopped(&["workspace", "--shape-parameter", "8.2e-06,1.5e-11,5.8e13", "--out", csv.to_str().unwrap()]);
+    assert!(e.contains("workspace stopped"), "{e}");
+    assert!(!csv.exists(), "a partial CSV was written");
+}
+
+#[test]
+fn reach_over_a_huge_range_stops_at_its_time_limit() {
+    let e = stopped(&["reach", "--target", "1,1", "--lengths-range", "0.05:100:5"]);
+    assert!(e.contains("reach stopped") && e.contains("map points"), "{e}");
+}
+
+#[test]
+fn shape_repeat_stops_at_its_time_limit() {
+    let e = stopped(&["shape", "--lengths", "0.2,0.2", "--repeat", "100000"]);
+    assert!(e.contains("repeats"), "{e}");
+}
+
+#[test]
+fn time_limits_are_checked() {
+    for bad in ["0", "-1", "inf", "NaN", "1e9"] {
+        let e = rejected(&["reach", "--target", "0.1,0.1", "--time-limit", bad]);
+        assert!(e.contains("--time-limit (s)") && e.contains("86400"), "{e}");
+    }
+}
+
+#[test]
+fn too_many_workspace_shape_parameters_are_refused_naming_the_cap() {
+    let many = vec!["100"; 17].join(",");
+    let e = rejected(&["workspace", "--lengths-range", "0.05:100:0.05", "--shape-parameter", &many, "--out", "x.csv"]);
+    assert!(e.contains("shape parameters") && e.contains("8008002 points"), "{e}");
+}
+
+/// The lengths `reach` answers with reproduce its endpoint through `shape`.
+#[test]
+fn reach_answers_with_lengths_shape_reproduces() {
+    let answer = super::json_of(&["reach", "--target", "0.19326,0.30155"]);
+    let l = &answer["lengths_m"];
+    let lengths = format!("{},{}", l[0], l[1]);
+    let shape = super::json_of(&["shape", "--lengths", &lengths]);
+    for k in 0..2 {
+        let (a, b) = (answer["endpoint_m"][k].as_f64().unwrap(), shape["endpoint_m"][k].as_f64().unwrap());
+        assert!((a - b).abs() < 1e-6, "{answer} against {shape}");
+    }
+}

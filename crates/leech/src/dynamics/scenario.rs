@@ -53,6 +53,9 @@ pub struct SimulationOptions {
     pub sample_interval: f64,
     /// At rest when every rate is below this (rad/s), see [`Simulator::at_rest`].
     pub rest_rate: f64,
+    /// When the run stops ([`SimulationError::Stopped`]): checked by the
+    /// starting solve and at every time step.
+    pub deadline: crate::budget::Deadline,
 }
 
 /// A recorded instant.
@@ -104,6 +107,9 @@ pub enum SimulationError {
     /// The starting equilibrium could not be solved.
     #[error("starting shape: {0}")]
     Start(#[from] crate::statics::SolveError),
+    /// The deadline ran out (or the run was cancelled) first.
+    #[error("the run stopped: {0}")]
+    Stopped(#[from] crate::budget::Stopped),
     /// A step failed.
     #[error("at t = {time:.4} s: {source}")]
     Step {
@@ -195,16 +201,17 @@ pub fn simulate(
     options: &SimulationOptions,
     progress: &dyn Fn(f64),
 ) -> Result<Simulation, SimulationError> {
-    use crate::statics::Solver;
+    use crate::statics::{Solver, SolverOptions};
+    let solver = Solver::new(SolverOptions { deadline: options.deadline.clone(), ..SolverOptions::default() });
     let target = checked_target(robot, lengths, actuation, options)?;
     let mut body = robot.body(lengths[0], lengths[1])?;
     let q0 = match start {
         Start::Unloaded => {
             let mut unloaded = robot.clone();
             unloaded.world.gravity_m_per_s2 = 0.0;
-            unloaded.body(lengths[0], lengths[1])?.solve(&Solver::default())?.q
+            unloaded.body(lengths[0], lengths[1])?.solve(&solver)?.q
         }
-        Start::Static => body.solve(&Solver::default())?.q,
+        Start::Static => body.solve(&solver)?.q,
     };
     let mut motion = Motion { v: vec![0.0; q0.len()], q: q0 };
     let dt = step_size(&body, &motion.q, options)?;
@@ -224,7 +231,10 @@ pub fn simulate(
     let mut current = [body.chain_a().tube_length(), body.chain_b().tube_length()];
     let mut time_to_rest = None;
     let max_steps = (options.duration / dt).ceil() as usize;
+    // Simulated time in whole milliseconds, for the message of a stopped run.
+    let ms = |t: f64| (t * 1e3).round() as usize;
     while steps < max_steps {
+        options.deadline.guard(ms(t), ms(options.duration), "ms simulated")?;
         let fail = |time: f64| move |source| SimulationError::Step { time, source };
         if let Actuation::Feed { speed, .. } = actuation {
             let mut next = current;

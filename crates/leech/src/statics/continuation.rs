@@ -72,10 +72,8 @@ impl Solver {
             }
             // An unstable landing counts as a failure too: halving the step
             // then brackets the fold or bifurcation to within `min_step`.
-            if let Some(limit) = self.options.time_limit {
-                if it.started.elapsed() > limit {
-                    return Err(SolveError::TimeLimit { limit, iterations: it.iterations, residual: out.residual });
-                }
+            if let Some(halt) = self.options.deadline.check() {
+                return Err(SolveError::Stopped { halt, iterations: it.iterations, residual: out.residual });
             }
             it.q.copy_from_slice(&ws.q_saved);
             it.lambda.copy_from_slice(&ws.lambda_saved);

@@ -1,7 +1,5 @@
 //! The state the solver carries between its stages.
 
-use std::time::Instant;
-
 use super::outcome::Event;
 use super::system::{Row, RowKind};
 
@@ -24,7 +22,6 @@ pub struct Iterate {
     pub events: Vec<Event>,
     /// The last converged point, while `q` has not moved since.
     pub(super) verdict: Option<Verdict>,
-    pub(super) started: Instant,
 }
 
 /// What the solver knows about a converged point without evaluating again.
@@ -49,7 +46,6 @@ impl Iterate {
             steps: 0,
             events: Vec::new(),
             verdict: None,
-            started: Instant::now(),
         }
     }
 

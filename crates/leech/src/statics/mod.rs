@@ -59,8 +59,8 @@
 //! negative curvature, to the side the [`BranchRule`] picks, and reports an
 //! [`Event::Bifurcation`].
 //!
-//! Everything is bounded by iteration counts (and an optional wall-clock
-//! limit): the solver never hangs, and a failure is an error carrying the
+//! Everything is bounded by iteration counts (and an optional
+//! [`Deadline`](crate::budget::Deadline)): the solver never hangs, and a failure is an error carrying the
 //! residual, the iteration count and a [`StopReason`], never a silent wrong
 //! shape.
 //!
@@ -106,9 +106,9 @@ impl Solver {
 
     /// The error for a Newton run that stopped for `reason`.
     fn fail(&self, stage: Stage, it: &Iterate, residual: f64, reason: StopReason) -> SolveError {
-        match self.options.time_limit {
-            Some(limit) if reason == StopReason::TimeLimit => {
-                SolveError::TimeLimit { limit, iterations: it.iterations, residual }
+        match self.options.deadline.check() {
+            Some(halt) if reason == StopReason::TimeLimit => {
+                SolveError::Stopped { halt, iterations: it.iterations, residual }
             }
             _ => SolveError::NotConverged { stage, iterations: it.iterations, residual, reason },
         }

@@ -153,8 +153,8 @@ impl Solver {
         }
     }
 
-    fn out_of_time(&self, it: &Iterate) -> bool {
-        self.options.time_limit.is_some_and(|limit| it.started.elapsed() > limit)
+    fn out_of_time(&self) -> bool {
+        self.options.deadline.expired()
     }
 
     /// Newton's method from `it` at parameter `t` on the working set, then
@@ -281,7 +281,7 @@ impl Solver {
             if iter >= max_iter || it.iterations >= self.options.max_iterations {
                 return Newton::failed(res, StopReason::IterationLimit);
             }
-            if self.out_of_time(it) {
+            if self.out_of_time() {
                 return Newton::failed(res, StopReason::TimeLimit);
             }
             iter += 1;

@@ -1,6 +1,6 @@
 //! The solver's bounds, tolerances and tuning knobs.
 
-use std::time::Duration;
+use crate::budget::Deadline;
 
 /// Which way the solver leaves a symmetric bifurcation (an unstable
 /// equilibrium on a path, such as a vertical tube past its buckling load).
@@ -48,8 +48,9 @@ pub struct SolverOptions {
     pub snap_threshold: f64,
     /// Which way to leave a symmetric bifurcation.
     pub branch: BranchRule,
-    /// Optional wall-clock limit for one solve.
-    pub time_limit: Option<Duration>,
+    /// When to stop (checked at every Newton iteration and continuation
+    /// step); one deadline may bound many solves. Never, by default.
+    pub deadline: Deadline,
     /// The algorithm's internal constants.
     pub tuning: Tuning,
 }
@@ -69,7 +70,7 @@ impl Default for SolverOptions {
             rounding_slack: 1e3,
             snap_threshold: 0.05,
             branch: BranchRule::Right,
-            time_limit: None,
+            deadline: Deadline::none(),
             tuning: Tuning::default(),
         }
     }

@@ -1,7 +1,7 @@
 //! What a solve returns: equilibria, events on the way, and failures.
 
+use crate::budget::Halt;
 use std::fmt;
-use std::time::Duration;
 
 /// Which part of a solve something happened in.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -181,11 +181,11 @@ pub enum SolveError {
         /// What stopped it.
         reason: StopReason,
     },
-    /// The wall-clock limit ran out.
-    #[error("time limit of {limit:?} exceeded after {iterations} iterations (residual {residual:.3e})")]
-    TimeLimit {
-        /// The limit that was set.
-        limit: Duration,
+    /// The deadline ran out or the job was cancelled.
+    #[error("{halt} after {iterations} iterations (residual {residual:.3e})")]
+    Stopped {
+        /// Why it stopped.
+        halt: Halt,
         /// Iterations spent.
         iterations: usize,
         /// Scaled residual when it stopped.

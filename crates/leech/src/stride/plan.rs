@@ -37,11 +37,10 @@
 //! has the fewest strides the beam finds. A stride must bring the rear cup at
 //! least [`MIN_PROGRESS_M`] closer to the goal.
 
-use std::time::{Duration, Instant};
-
 use serde::Serialize;
 
 use super::machine::{Command, Cup, Phase, StrideMachine};
+use crate::budget::Deadline;
 use crate::error::InputError;
 use crate::geom::{angle_difference, norm, sub, Vec2};
 use crate::robot::Robot;
@@ -137,15 +136,24 @@ pub struct PlanOptions {
     pub candidates: usize,
     /// Seeds per side of the tube-length grid of a touchdown search.
     pub grid: usize,
-    /// Wall-clock limit of the whole search.
-    pub time_limit: Option<Duration>,
+    /// When the whole search stops (the plan then ends with a
+    /// [`Blocking::TimeLimit`] rejection); it replaces the deadline of
+    /// [`solver`](Self::solver), so a solve under way stops too.
+    pub deadline: Deadline,
     /// The statics solver.
     pub solver: Solver,
 }
 
 impl Default for PlanOptions {
     fn default() -> Self {
-        PlanOptions { max_strides: 30, beam: 1, candidates: 2, grid: 11, time_limit: None, solver: Solver::default() }
+        PlanOptions {
+            max_strides: 30,
+            beam: 1,
+            candidates: 2,
+            grid: 11,
+            deadline: Deadline::none(),
+            solver: Solver::default(),
+        }
     }
 }
 
@@ -306,7 +314,6 @@ struct Planner<'a> {
     scene: &'a Scene,
     goal: Goal,
     options: &'a PlanOptions,
-    started: Instant,
     solves: usize,
 }
 
@@ -366,13 +373,15 @@ pub fn plan_with_progress(
     options: &PlanOptions,
     progress: &mut dyn FnMut(Progress),
 ) -> Result<Plan, InputError> {
-    let mut planner = Planner { robot, scene, goal, options, started: Instant::now(), solves: 0 };
+    let mut options = options.clone();
+    options.solver.options.deadline = options.deadline.clone();
+    let mut planner = Planner { robot, scene, goal, options: &options, solves: 0 };
     planner.search(start, progress)
 }
 
 impl Planner<'_> {
     fn out_of_time(&self) -> bool {
-        self.options.time_limit.is_some_and(|limit| self.started.elapsed() > limit)
+        self.options.deadline.expired()
     }
 
     fn search(&mut self, start: Foothold, progress: &mut dyn FnMut(Progress)) -> Result<Plan, InputError> {
@@ -436,11 +445,11 @@ impl Planner<'_> {
                 at: None,
             }
         } else if self.out_of_time() {
-            let limit = self.options.time_limit.unwrap_or_default().as_secs_f64();
+            let halt = self.options.deadline.check().map_or_else(String::new, |h| h.to_string());
             Rejection {
                 blocking: Blocking::TimeLimit,
                 phase: Phase::Push,
-                detail: format!("the search ran out of its time limit ({limit} s) before reaching the goal"),
+                detail: format!("the search stopped ({halt}) before reaching the goal"),
                 at: None,
             }
         } else {

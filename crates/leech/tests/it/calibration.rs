@@ -1,5 +1,6 @@
 //! Fitting k (and m) to synthetic measurements with known truth.
 
+use leech::budget::Deadline;
 use leech::calibration::{calibrate, compare, read_sag, read_shapes, synthetic, CalibrationError, Fit, SagTube};
 use leech::prelude::*;
 
@@ -24,14 +25,14 @@ fn recovers_stiffness_and_mass_for_twenty_seeds() {
     let (mut covered_k, mut covered_both) = (0, 0);
     for seed in 0..20 {
         let sag = synthetic::sag(&truth, &LENGTHS, 0.0, 0.02, 0.0005, seed);
-        let fit = calibrate(&start_k, &sag, &[], Fit::Stiffness).unwrap();
+        let fit = calibrate(&start_k, &sag, &[], Fit::Stiffness, &Deadline::none()).unwrap();
         let error = fit.stiffness_nm_per_rad - K;
         assert!(error.abs() < 0.02 * K, "seed {seed}: k = {}", fit.stiffness_nm_per_rad);
         assert!((fit.rms_residual_mm - 0.5).abs() < 0.2, "seed {seed}: rms {} mm", fit.rms_residual_mm);
         covered_k += usize::from(error.abs() <= 2.0 * fit.stiffness_std_error_nm_per_rad);
 
         let shapes = synthetic::shapes(&truth, &[[0.2, 0.17], [0.3, 0.24], [0.25, 0.25]], 90.0, 0.02, 0.0005, seed);
-        let both = calibrate(&start_both, &sag, &shapes, Fit::StiffnessAndMass).unwrap();
+        let both = calibrate(&start_both, &sag, &shapes, Fit::StiffnessAndMass, &Deadline::none()).unwrap();
         assert!((both.stiffness_nm_per_rad - K).abs() < 0.02 * K, "seed {seed}: k = {}", both.stiffness_nm_per_rad);
         assert!((both.element_mass_kg - M).abs() < 0.05 * M, "seed {seed}: m = {}", both.element_mass_kg);
         let se_m = both.element_mass_std_error_kg.unwrap();
@@ -51,13 +52,13 @@ fn point_order_and_tip_only_data_do_not_matter() {
     let mut start = Robot::builtin();
     start.tube.element_mass_kg = M;
     let sag = synthetic::sag(&truth, &LENGTHS, 0.0, 0.02, 0.0005, 3);
-    let fit = calibrate(&start, &sag, &[], Fit::Stiffness).unwrap();
+    let fit = calibrate(&start, &sag, &[], Fit::Stiffness, &Deadline::none()).unwrap();
     let mut shuffled: Vec<SagTube> = sag.iter().rev().cloned().collect();
     for (i, tube) in shuffled.iter_mut().enumerate() {
         tube.points.rotate_left(i + 1);
         tube.points.reverse();
     }
-    let again = calibrate(&start, &shuffled, &[], Fit::Stiffness).unwrap();
+    let again = calibrate(&start, &shuffled, &[], Fit::Stiffness, &Deadline::none()).unwrap();
     assert!((fit.stiffness_nm_per_rad - again.stiffness_nm_per_rad).abs() < 1e-9 * K);
     // The same tubes measured at their tips only.
     let tips: Vec<SagTube> =
@@ -65,9 +66,9 @@ fn point_order_and_tip_only_data_do_not_matter() {
     let exact = synthetic::sag(&truth, &LENGTHS, 0.0, 0.001, 0.0, 0);
     let tips_exact: Vec<SagTube> =
         exact.iter().map(|t| SagTube { points: vec![*t.points.last().unwrap()], ..t.clone() }).collect();
-    let from_tips = calibrate(&start, &tips_exact, &[], Fit::Stiffness).unwrap();
+    let from_tips = calibrate(&start, &tips_exact, &[], Fit::Stiffness, &Deadline::none()).unwrap();
     assert!((from_tips.stiffness_nm_per_rad - K).abs() < 1e-4 * K, "{}", from_tips.stiffness_nm_per_rad);
-    let noisy_tips = calibrate(&start, &tips, &[], Fit::Stiffness).unwrap();
+    let noisy_tips = calibrate(&start, &tips, &[], Fit::Stiffness, &Deadline::none()).unwrap();
     assert!((noisy_tips.stiffness_nm_per_rad - K).abs() < 0.05 * K);
 }
 
@@ -75,15 +76,18 @@ fn point_order_and_tip_only_data_do_not_matter() {
 fn degenerate_data_is_an_error() {
     let robot = Robot::builtin();
     let one = vec![SagTube { length: 0.2, base_angle_deg: 0.0, tip_mass: 0.0, points: vec![[0.19, -0.02]] }];
-    assert!(matches!(calibrate(&robot, &one, &[], Fit::Stiffness), Err(CalibrationError::Input(_))));
+    assert!(matches!(calibrate(&robot, &one, &[], Fit::Stiffness, &Deadline::none()), Err(CalibrationError::Input(_))));
     let clamp = vec![SagTube { length: 0.2, base_angle_deg: 0.0, tip_mass: 0.0, points: vec![[0.0, 0.0]; 5] }];
-    let e = calibrate(&robot, &clamp, &[], Fit::Stiffness).unwrap_err().to_string();
+    let e = calibrate(&robot, &clamp, &[], Fit::Stiffness, &Deadline::none()).unwrap_err().to_string();
     assert!(e.contains("clamp"), "{e}");
     let short = vec![SagTube { length: 0.005, base_angle_deg: 0.0, tip_mass: 0.0, points: vec![[0.004, 0.0]; 3] }];
-    let e = calibrate(&robot, &short, &[], Fit::Stiffness).unwrap_err().to_string();
+    let e = calibrate(&robot, &short, &[], Fit::Stiffness, &Deadline::none()).unwrap_err().to_string();
     assert!(e.contains("0.005") && e.contains("one element"), "{e}");
     let sag = synthetic::sag(&truth(), &LENGTHS, 0.0, 0.02, 0.0005, 1);
-    assert_eq!(calibrate(&robot, &sag, &[], Fit::StiffnessAndMass), Err(CalibrationError::MassNotIdentifiable));
+    assert_eq!(
+        calibrate(&robot, &sag, &[], Fit::StiffnessAndMass, &Deadline::none()),
+        Err(CalibrationError::MassNotIdentifiable)
+    );
 }
 
 #[test]
@@ -121,7 +125,7 @@ fn malformed_files_name_row_and_column() {
 fn comparison_favours_the_model_that_made_the_data() {
     let truth = truth();
     let shapes = synthetic::shapes(&truth, &[[0.1, 0.09], [0.3, 0.24]], 90.0, 0.02, 0.0005, 2);
-    let rows = compare(&truth, &shapes).unwrap();
+    let rows = compare(&truth, &shapes, &Deadline::none()).unwrap();
     for r in &rows {
         assert!(r.two_chain.rms_mm < 1.0, "{r:?}");
     }

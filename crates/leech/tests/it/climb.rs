@@ -1,6 +1,7 @@
 //! The climb planner: its plans replayed through the holds-and-contacts
 //! statics, independently of the planner, and impossible climbs reported so.
 
+use leech::budget::Deadline;
 use leech::prelude::*;
 use leech::scene::Scene;
 use leech::stance::{self, FreeCups, Held};
@@ -142,7 +143,8 @@ fn a_search_out_of_time_says_so() {
     let floor = Scene::builtin("floor").unwrap();
     let start = Foothold { centre_m: [0.0, 0.0], direction_rad: 0.0 };
     let goal = Goal { point_m: [2.0, 0.0], tolerance_m: 0.03 };
-    let options = PlanOptions { time_limit: Some(std::time::Duration::from_millis(100)), ..PlanOptions::default() };
+    let options =
+        PlanOptions { deadline: Deadline::after(std::time::Duration::from_millis(100)), ..PlanOptions::default() };
     let plan = stride::plan(&robot, &floor, start, goal, &options).unwrap();
     assert_eq!(plan.status, Status::Impossible);
     assert_eq!(plan.reason.unwrap().blocking, stride::Blocking::TimeLimit);

@@ -297,6 +297,7 @@ fn a_body_of_2000_links_per_chain_steps_on_its_constraints() {
         gravity_ramp: 0.0,
         sample_interval: 2e-3,
         rest_rate: 1e-6,
+        deadline: leech::budget::Deadline::none(),
     };
     let run = simulate(&robot, [0.30, 0.30], Start::Unloaded, Actuation::Hold, &options, &|_| {}).unwrap();
     let last = run.samples.last().unwrap();

@@ -1,6 +1,7 @@
 //! Inverse statics: forward(inverse(target)) hits the target; unreachable
 //! targets are reported with the nearest point, never as a solution.
 
+use leech::budget::Deadline;
 use leech::inverse_statics::{ReachStatus, Reacher};
 use leech::prelude::*;
 use leech::sweep::Grid;
@@ -13,7 +14,7 @@ fn lcg(seed: &mut u64) -> f64 {
 #[test]
 fn random_reachable_targets_are_reached() {
     let robot = Robot::builtin();
-    let reacher = Reacher::new(&robot, Grid::new(0.05, 0.30, 0.005).unwrap()).unwrap();
+    let reacher = Reacher::new(&robot, Grid::new(0.05, 0.30, 0.005).unwrap(), Deadline::none()).unwrap();
     let solver = Solver::default();
     let mut seed = 7;
     let count = if cfg!(debug_assertions) { 120 } else { 1000 };
@@ -23,7 +24,7 @@ fn random_reachable_targets_are_reached() {
         let eq = body.solve(&solver).unwrap();
         let target = body.endpoint(&eq.q);
         let angle = (k % 2 == 0).then(|| body.endpoint_angle(&eq.q));
-        let answer = reacher.reach(target, angle);
+        let answer = reacher.reach(target, angle).unwrap();
         assert_eq!(answer.status, ReachStatus::Reached, "target {target:?} from {la}, {lb}: {answer:?}");
         // forward(inverse(target)), by a fresh default solve:
         let check = robot.body(answer.lengths_m[0], answer.lengths_m[1]).unwrap();
@@ -40,9 +41,9 @@ fn random_reachable_targets_are_reached() {
 #[test]
 fn unreachable_targets_report_the_nearest_point() {
     let robot = Robot::builtin();
-    let reacher = Reacher::new(&robot, Grid::new(0.05, 0.30, 0.01).unwrap()).unwrap();
+    let reacher = Reacher::new(&robot, Grid::new(0.05, 0.30, 0.01).unwrap(), Deadline::none()).unwrap();
     for target in [[1.0, 1.0], [0.0, -0.5], [0.0, 0.01]] {
-        let answer = reacher.reach(target, None);
+        let answer = reacher.reach(target, None).unwrap();
         assert_eq!(answer.status, ReachStatus::Unreachable, "{target:?}");
         assert!(answer.error_m > 1e-3);
         // The reported point is a real equilibrium at the reported lengths.
@@ -52,4 +53,34 @@ fn unreachable_targets_report_the_nearest_point() {
         assert!((e[0] - answer.endpoint_m[0]).abs() < 1e-12 && (e[1] - answer.endpoint_m[1]).abs() < 1e-12);
         assert!((e[0] - target[0]).hypot(e[1] - target[1]) - answer.error_m < 1e-12);
     }
+}
+
+/// One reacher for the property test (a 25 mm map: 121 fresh solves).
+fn coarse_reacher() -> &'static Reacher {
+    static REACHER: std::sync::OnceLock<Reacher> = std::sync::OnceLock::new();
+    REACHER.get_or_init(|| {
+        Reacher::new(&Robot::builtin(), Grid::new(0.05, 0.30, 0.025).unwrap(), Deadline::none()).unwrap()
+    })
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::test_runner::Config::with_cases(24))]
+
+    /// For any target, reached or not, the answer's lengths solved fresh the
+    /// way `leech shape` does reproduce its endpoint.
+    #[test]
+    fn any_answer_is_reproduced_by_a_fresh_solve(x in -0.4f64..0.4, y in -0.2f64..0.5) {
+        let answer = coarse_reacher().reach([x, y], None).unwrap();
+        let body = Robot::builtin().body(answer.lengths_m[0], answer.lengths_m[1]).unwrap();
+        let eq = body.solve(&Solver::default()).unwrap();
+        let e = body.endpoint(&eq.q);
+        proptest::prop_assert!((e[0] - answer.endpoint_m[0]).hypot(e[1] - answer.endpoint_m[1]) < 1e-6, "{answer:?}");
+    }
+}
+
+#[test]
+fn a_spent_deadline_stops_the_map() {
+    let spent = Deadline::after(std::time::Duration::ZERO);
+    let e = Reacher::new(&Robot::builtin(), Grid::new(0.05, 0.30, 0.025).unwrap(), spent).err().unwrap();
+    assert!(matches!(e, leech::inverse_statics::ReachError::Stopped(_)), "{e}");
 }

@@ -1,5 +1,6 @@
 //! The solver's contract: honest status, bounded work, warm starts.
 
+use leech::budget::Deadline;
 use leech::prelude::*;
 use leech::statics::Scratch;
 
@@ -21,8 +22,9 @@ fn time_limit_is_honoured() {
     let mut robot = Robot::builtin();
     robot.tube.joint_stiffness_nm_per_rad = 50.0 * 0.001 * 9.81 * 0.01;
     let body = robot.body(0.15, 0.15).unwrap();
-    let solver = Solver::new(SolverOptions { time_limit: Some(std::time::Duration::ZERO), ..SolverOptions::default() });
-    assert!(matches!(body.solve(&solver), Err(SolveError::TimeLimit { .. })));
+    let deadline = Deadline::after(std::time::Duration::ZERO);
+    let solver = Solver::new(SolverOptions { deadline, ..SolverOptions::default() });
+    assert!(matches!(body.solve(&solver), Err(SolveError::Stopped { .. })));
 }
 
 #[test]

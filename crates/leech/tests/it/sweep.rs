@@ -1,10 +1,17 @@
 //! Workspace sweeps follow the actuation path and agree with single solves.
 
+use leech::budget::Deadline;
 use leech::prelude::*;
 use leech::sweep::{sweep, Grid, Model, SweepOptions};
 
 fn options(models: Vec<Model>, left_longer: bool) -> SweepOptions {
-    SweepOptions { grid: Grid::new(0.05, 0.30, 0.025).unwrap(), shape_parameters: vec![], models, left_longer }
+    SweepOptions {
+        grid: Grid::new(0.05, 0.30, 0.025).unwrap(),
+        shape_parameters: vec![],
+        models,
+        left_longer,
+        deadline: Deadline::none(),
+    }
 }
 
 /// Each grid point equals a solve warm-started from its neighbour's state,
@@ -108,4 +115,46 @@ fn bad_grids_are_rejected() {
     let mut o = options(vec![Model::TwoChain], false);
     o.grid = Grid::new(0.001, 0.3, 0.05).unwrap();
     assert!(sweep(&robot, &o, &|_| {}).is_err(), "shorter than one element");
+}
+
+/// Every point of a soft robot's sweep (where the path and fresh solves
+/// differ) either agrees with a fresh solve to 1e-6 m or says by how much it
+/// does not.
+#[test]
+fn every_point_reports_its_difference_from_a_fresh_solve() {
+    let robot = Robot::builtin().with_shape_parameter(10.0).unwrap();
+    let mut options = options(vec![Model::TwoChain], false);
+    options.grid = Grid::new(0.05, 0.30, 0.05).unwrap();
+    let result = sweep(&robot, &options, &|_| {}).unwrap();
+    let mut differing = 0;
+    for p in result.points.iter().filter(|p| p.failure.is_none()) {
+        let body = robot.body(p.lengths_m[0], p.lengths_m[1]).unwrap();
+        let Ok(eq) = body.solve(&Solver::default()) else {
+            assert!(p.fresh_difference_m.is_infinite(), "{p:?}");
+            continue;
+        };
+        let e = body.endpoint(&eq.q);
+        let d = (e[0] - p.endpoint_m[0]).hypot(e[1] - p.endpoint_m[1]);
+        if d <= 1e-6 {
+            assert_eq!(p.fresh_difference_m, 0.0, "{p:?}");
+        } else {
+            assert!((p.fresh_difference_m - d).abs() < 1e-9, "{p:?}: {d}");
+            differing += 1;
+        }
+    }
+    assert!(differing > 0, "the soft robot's path and fresh solves differ somewhere on this grid");
+    assert_eq!(result.summaries[0].differ_from_fresh, differing);
+}
+
+#[test]
+fn a_spent_deadline_stops_the_sweep_and_too_many_points_are_refused() {
+    let mut spent = options(vec![Model::TwoChain], false);
+    spent.deadline = Deadline::after(std::time::Duration::ZERO);
+    let e = sweep(&Robot::builtin(), &spent, &|_| {}).unwrap_err();
+    assert!(matches!(e, leech::sweep::SweepError::Stopped(_)), "{e}");
+    let mut huge = options(vec![Model::TwoChain], false);
+    huge.grid = Grid::new(0.05, 100.0, 0.05).unwrap();
+    huge.shape_parameters = vec![100.0; 3];
+    let e = sweep(&Robot::builtin(), &huge, &|_| {}).unwrap_err();
+    assert!(e.to_string().contains(&leech::sweep::MAX_POINTS.to_string()), "{e}");
 }
