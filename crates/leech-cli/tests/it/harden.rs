@@ -124,3 +124,23 @@ fn a_non_string_discretization_lists_the_allowed_values() {
         assert!(e.contains("discretization") && e.contains("paper") && e.contains("midpoint"), "{value}: {e}");
     }
 }
+
+/// A simulation whose step is far too long for its scheme: the values that
+/// overflow are stopped where they do, and the one line says when, in
+/// which iteration, what went non-finite and the residual reached (not a
+/// mass matrix that lost definiteness at some link).
+#[test]
+fn a_diverging_simulation_says_what_went_non_finite_and_when() {
+    for integrator in ["midpoint", "explicit"] {
+        let args =
+            ["simulate", "--lengths", "0.3,0.2", "--integrator", integrator, "--dt", "0.005", "--duration", "0.5"];
+        let out = super::leech().args(args).timeout(std::time::Duration::from_secs(120)).output().unwrap();
+        let err = String::from_utf8(out.stderr).unwrap();
+        assert_eq!(out.status.code(), Some(3), "{integrator}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+        for part in ["simulation failed", "at t = ", "non-finite", "iteration", "residual", "--dt"] {
+            assert!(err.contains(part), "{integrator}: no {part:?} in {err}");
+        }
+        assert!(!err.contains("mass matrix"), "{err}");
+    }
+}

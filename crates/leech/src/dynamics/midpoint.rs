@@ -20,6 +20,9 @@ impl MidpointScratch {
     }
 }
 
+/// Most fixed-point iterations of one step.
+const MAX_ITERATIONS: usize = 50;
+
 impl<S: Multibody> Simulator<'_, S> {
     pub(super) fn midpoint(&mut self, motion: &mut Motion, dt: f64) -> Result<(), StepError> {
         let mut sc = std::mem::take(&mut self.midpoint);
@@ -38,7 +41,20 @@ impl<S: Multibody> Simulator<'_, S> {
             sc.vm[i] = sc.v0[i] + 0.5 * dt * sc.a[i];
         }
         let mut residual = f64::INFINITY;
-        for _ in 0..50 {
+        for iteration in 0..MAX_ITERATIONS {
+            // A diverging iteration overflows in the velocity first (the
+            // guess counts as iteration 0): stop it before the evaluation
+            // meets non-finite angles.
+            if !super::all_finite(&sc.vm) {
+                let what = "midpoint velocity";
+                return Err(StepError::NonFinite {
+                    integrator: Integrator::Midpoint,
+                    dt,
+                    what,
+                    iterations: iteration,
+                    residual,
+                });
+            }
             for i in 0..n {
                 sc.qm[i] = sc.q0[i] + 0.5 * dt * sc.vm[i];
             }
@@ -63,6 +79,6 @@ impl<S: Multibody> Simulator<'_, S> {
                 return Ok(());
             }
         }
-        Err(StepError::NotConverged { integrator: Integrator::Midpoint, dt, residual })
+        Err(StepError::NotConverged { integrator: Integrator::Midpoint, dt, iterations: MAX_ITERATIONS, residual })
     }
 }
