@@ -68,9 +68,17 @@ impl<S: Multibody> Simulator<'_, S> {
                 sc.vm[i] = next;
             }
             let scale = 1.0 + largest;
-            // Converged, or stalled at rounding (no longer contracting).
-            let done = change < 1e-13 * scale || (change < 1e-10 * scale && change >= 0.5 * residual);
-            residual = change;
+            // Converged, or stalled at rounding (no longer contracting, nor
+            // growing: a diverging iteration is small relative to its own
+            // growing iterates, and must run on to its overflow or limit).
+            let stalled = change >= 0.5 * residual && change <= 2.0 * residual;
+            // `f64::max` drops a NaN from `change`: the next iteration's
+            // check stops it, with the last finite residual.
+            let finite = super::all_finite(&sc.vm);
+            let done = finite && (change < 1e-13 * scale || (change < 1e-10 * scale && stalled));
+            if finite {
+                residual = change;
+            }
             if done {
                 for i in 0..n {
                     motion.q[i] = sc.q0[i] + dt * sc.vm[i];

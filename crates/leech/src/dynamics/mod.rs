@@ -178,7 +178,9 @@ pub enum StepError {
         residual: f64,
     },
     /// The projection onto the constraints did not converge.
-    #[error("projection onto the constraints failed after {iterations} iterations (residual: violation {violation:.3e} m or rad)")]
+    #[error(
+        "projection onto the constraints failed after {iterations} iterations (residual: violation {violation:.3e} m or rad): the step left them too far; use a smaller --dt"
+    )]
     Projection {
         /// Newton iterations used.
         iterations: usize,
