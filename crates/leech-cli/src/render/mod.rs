@@ -329,6 +329,7 @@ pub fn simulation(out: &mut String, a: &Simulate, result: &Simulation, wall_s: f
             "real_time_factor": real_time_factor,
             "time_to_rest_s": result.time_to_rest,
             "max_constraint_violation": result.max_violation,
+            "max_energy_gain_j": result.max_energy_gain_j,
             "final": {
                 "lengths_m": last.lengths_m,
                 "endpoint_m": last.endpoint_m,

@@ -342,3 +342,27 @@ fn reach_answers_with_lengths_shape_reproduces() {
         assert!((a - b).abs() < 1e-6, "{answer} against {shape}");
     }
 }
+
+/// A simulation whose step is far too long for its scheme: values that
+/// overflow are stopped where they do, and the one line says when, in
+/// which iteration, what failed and the residual reached (not a mass
+/// matrix that lost definiteness at some link, nor a NaN).
+#[test]
+fn a_diverging_simulation_says_what_went_non_finite_and_when() {
+    for integrator in ["midpoint", "explicit"] {
+        let args =
+            ["simulate", "--lengths", "0.3,0.2", "--integrator", integrator, "--dt", "0.005", "--duration", "0.5"];
+        let out = super::leech().args(args).timeout(std::time::Duration::from_secs(120)).output().unwrap();
+        let err = String::from_utf8(out.stderr).unwrap();
+        assert_eq!(out.status.code(), Some(3), "{integrator}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
+        for part in ["simulation failed", "at t = ", "iteration", "residual", "--dt"] {
+            assert!(err.contains(part), "{integrator}: no {part:?} in {err}");
+        }
+        // The midpoint's iteration diverges and overflows within the step;
+        // RK4 lands far off the constraints, which the projection reports.
+        let what = if integrator == "midpoint" { "non-finite" } else { "projection" };
+        assert!(err.contains(what) && !err.contains("NaN"), "{integrator}: {err}");
+        assert!(!err.contains("mass matrix"), "{err}");
+    }
+}

@@ -99,7 +99,8 @@ impl<S: Multibody> Simulator<'_, S> {
                 self.iteration_matrix(dt, true, &mut sc.diag, &mut sc.off);
                 let (cos, sin) = (&self.ev.cos, &self.ev.sin);
                 if self.factors.factor_iteration(&self.chains, cos, sin, &sc.diag, &sc.off).is_err() {
-                    return Err(StepError::NotConverged { integrator: Integrator::Implicit, dt, residual });
+                    let iterations = 0;
+                    return Err(StepError::NotConverged { integrator: Integrator::Implicit, dt, iterations, residual });
                 }
                 self.schur();
             }
@@ -112,7 +113,15 @@ impl<S: Multibody> Simulator<'_, S> {
             self.enforce(&mut sc.dv);
             sc.v1.iter_mut().zip(&sc.dv).for_each(|(v, d)| *v += d);
             let scale = 1.0 + sc.v1.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-            residual = sc.dv.iter().fold(0.0f64, |m, x| m.max(x.abs())) / scale;
+            let next = sc.dv.iter().fold(0.0f64, |m, x| m.max(x.abs())) / scale;
+            // `fold` with `max` drops NaN: check the vectors themselves,
+            // before the next evaluation meets non-finite angles.
+            if !(next.is_finite() && super::all_finite(&sc.v1)) {
+                let what = "velocity correction";
+                let iterations = iteration + 1;
+                return Err(StepError::NonFinite { integrator: Integrator::Implicit, dt, what, iterations, residual });
+            }
+            residual = next;
             if stop.converged(residual) {
                 // q1 from the corrected v1, not the point last evaluated:
                 // dt times the last correction there, in the stiff
@@ -126,7 +135,7 @@ impl<S: Multibody> Simulator<'_, S> {
                 return Ok(());
             }
         }
-        Err(StepError::NotConverged { integrator: Integrator::Implicit, dt, residual })
+        Err(StepError::NotConverged { integrator: Integrator::Implicit, dt, iterations: MAX_ITERATIONS, residual })
     }
 
     /// The tridiagonal part `dt D + dt^2 H` of the backward-Euler matrix

@@ -20,6 +20,9 @@ impl MidpointScratch {
     }
 }
 
+/// Most fixed-point iterations of one step.
+const MAX_ITERATIONS: usize = 50;
+
 impl<S: Multibody> Simulator<'_, S> {
     pub(super) fn midpoint(&mut self, motion: &mut Motion, dt: f64) -> Result<(), StepError> {
         let mut sc = std::mem::take(&mut self.midpoint);
@@ -38,7 +41,20 @@ impl<S: Multibody> Simulator<'_, S> {
             sc.vm[i] = sc.v0[i] + 0.5 * dt * sc.a[i];
         }
         let mut residual = f64::INFINITY;
-        for _ in 0..50 {
+        for iteration in 0..MAX_ITERATIONS {
+            // A diverging iteration overflows in the velocity first (the
+            // guess counts as iteration 0): stop it before the evaluation
+            // meets non-finite angles.
+            if !super::all_finite(&sc.vm) {
+                let what = "midpoint velocity";
+                return Err(StepError::NonFinite {
+                    integrator: Integrator::Midpoint,
+                    dt,
+                    what,
+                    iterations: iteration,
+                    residual,
+                });
+            }
             for i in 0..n {
                 sc.qm[i] = sc.q0[i] + 0.5 * dt * sc.vm[i];
             }
@@ -52,9 +68,17 @@ impl<S: Multibody> Simulator<'_, S> {
                 sc.vm[i] = next;
             }
             let scale = 1.0 + largest;
-            // Converged, or stalled at rounding (no longer contracting).
-            let done = change < 1e-13 * scale || (change < 1e-10 * scale && change >= 0.5 * residual);
-            residual = change;
+            // Converged, or stalled at rounding (no longer contracting, nor
+            // growing: a diverging iteration is small relative to its own
+            // growing iterates, and must run on to its overflow or limit).
+            let stalled = change >= 0.5 * residual && change <= 2.0 * residual;
+            // `f64::max` drops a NaN from `change`: the next iteration's
+            // check stops it, with the last finite residual.
+            let finite = super::all_finite(&sc.vm);
+            let done = finite && (change < 1e-13 * scale || (change < 1e-10 * scale && stalled));
+            if finite {
+                residual = change;
+            }
             if done {
                 for i in 0..n {
                     motion.q[i] = sc.q0[i] + dt * sc.vm[i];
@@ -63,6 +87,6 @@ impl<S: Multibody> Simulator<'_, S> {
                 return Ok(());
             }
         }
-        Err(StepError::NotConverged { integrator: Integrator::Midpoint, dt, residual })
+        Err(StepError::NotConverged { integrator: Integrator::Midpoint, dt, iterations: MAX_ITERATIONS, residual })
     }
 }

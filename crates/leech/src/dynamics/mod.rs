@@ -66,6 +66,35 @@
 //!   dampers off it keeps the energy to `O(dt^2)` without drift. Needs
 //!   `dt omega_max < 1` for the iteration to converge.
 //!
+//! # Energy
+//!
+//! With `E = T + V`, `T = v^T M v / 2`, the exact motion loses energy at the
+//! rate `dE/dt = -v^T D v <= 0` (the constraint forces do no work since
+//! `J v = 0`). What each scheme keeps of that, for one step `q0 -> q1 =
+//! q0 + dt v1` (backward Euler), multiplying its velocity equation by `v1`
+//! and using `J(q1) v1 = 0`:
+//!
+//! ```text
+//! E1 - E0 = -dt v1^T D v1 - |v1 - v0|^2_M / 2 - B + R,
+//! B = V(q0) - V(q1) - grad V(q1) . (q0 - q1)   (= dt^2 v1^T H v1 / 2 + O(dt^3))
+//! ```
+//!
+//! where `R` collects what a constant mass matrix would not have (`M(q1)`
+//! against `M(q0)`, the velocity terms `h`) and the projection's
+//! correction. The springs' energy is convex (`B >= 0` from them), gravity's
+//! is not: where it destabilizes, `B` and `R` may be negative, of order
+//! `dt^2 |v|^2`, and a long step on a fast, gravity-driven motion can gain
+//! energy. The numerical damping `|v1 - v0|^2_M / 2` and the dampers
+//! oppose it and dominate near rest; [`Simulation::max_energy_gain_j`]
+//! measures the largest gain between samples while the inputs are
+//! settled, and the tests hold it to round-off on soft and stiff bodies at
+//! the default step. The implicit midpoint rule with the dampers on
+//! satisfies the same balance with the midpoint velocity and without the
+//! numerical damping; RK4 keeps energy to `O(dt^4)` per unit time at its
+//! stability limit and otherwise promises nothing about its sign. While
+//! the tubes are fed or gravity ramps up, the inputs do work and the energy
+//! may rise.
+//!
 //! Energies are in J, times in s.
 
 mod backward_euler;
@@ -77,7 +106,9 @@ mod scenario;
 mod simulator;
 mod stability;
 
-pub use scenario::{simulate, Actuation, Sample, Simulation, SimulationError, SimulationOptions, Start, MAX_STEPS};
+pub use scenario::{
+    energy_gain, simulate, Actuation, Sample, Simulation, SimulationError, SimulationOptions, Start, MAX_STEPS,
+};
 pub use simulator::{Multibody, Simulator};
 
 /// Time-stepping scheme.
@@ -101,35 +132,79 @@ pub struct Motion {
     pub v: Vec<f64>,
 }
 
-/// Why a step failed.
+/// Why a step failed. Each message names the iterations the step's solve
+/// used and the residual it had reached (the simulation adds the time), so
+/// that a failure says how far the solve got.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum StepError {
-    /// The mass matrix lost positive definiteness (it cannot; a NaN got in).
-    #[error("mass matrix not positive definite at link {index}")]
+    /// The mass matrix lost positive definiteness: it cannot at finite
+    /// angles, and the integrators stop non-finite values at their source
+    /// ([`StepError::NonFinite`]), so only a degenerate chain gets here.
+    #[error("mass matrix not positive definite at link {index} (0 iterations, no residual: a degenerate chain)")]
     NonPositivePivot {
         /// The failing row.
         index: usize,
     },
+    /// A quantity of the step overflowed to infinity or NaN: the step is
+    /// far too long for the motion (an iteration that diverges, or RK4
+    /// beyond its stability limit).
+    #[error(
+        "{integrator:?} step of {dt:e} s: the {what} went non-finite in iteration {iterations} ({}); use a smaller --dt",
+        residual_phrase(*.residual)
+    )]
+    NonFinite {
+        /// The scheme.
+        integrator: Integrator,
+        /// The step tried (s).
+        dt: f64,
+        /// What went non-finite.
+        what: &'static str,
+        /// The iteration (RK4: the stage) where it did.
+        iterations: usize,
+        /// The iteration's last finite residual (relative), infinite where
+        /// there was none (RK4 does not iterate).
+        residual: f64,
+    },
     /// The implicit solve did not converge within its iterations.
-    #[error("{integrator:?} step of {dt} s did not converge (residual {residual:.3e}); use a smaller --dt")]
+    #[error("{integrator:?} step of {dt:e} s did not converge in {iterations} iterations (residual {residual:.3e}); use a smaller --dt")]
     NotConverged {
         /// The scheme.
         integrator: Integrator,
         /// The step tried (s).
         dt: f64,
+        /// Iterations used.
+        iterations: usize,
         /// What was left.
         residual: f64,
     },
     /// The projection onto the constraints did not converge.
-    #[error("projection onto the constraints failed (violation {violation:.3e})")]
+    #[error(
+        "projection onto the constraints failed after {iterations} iterations (residual: violation {violation:.3e} m or rad): the step left them too far; use a smaller --dt"
+    )]
     Projection {
+        /// Newton iterations used.
+        iterations: usize,
         /// The remaining violation.
         violation: f64,
     },
     /// An initial state that does not satisfy the constraints.
-    #[error("initial state violates the constraints by {violation:.3e} (m or rad); start from a static solution")]
+    #[error("initial state violates the constraints (0 iterations, residual: violation {violation:.3e} m or rad); start from a static solution")]
     Inconsistent {
         /// The violation.
         violation: f64,
     },
+}
+
+/// The residual of [`StepError::NonFinite`] in words.
+fn residual_phrase(residual: f64) -> String {
+    if residual.is_finite() {
+        format!("last finite residual {residual:.3e}")
+    } else {
+        "no residual: the scheme does not iterate".into()
+    }
+}
+
+/// Whether every entry of `x` is finite.
+pub(super) fn all_finite(x: &[f64]) -> bool {
+    x.iter().all(|v| v.is_finite())
 }

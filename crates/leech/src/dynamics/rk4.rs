@@ -1,6 +1,6 @@
 //! Classical RK4 on the constrained accelerations.
 
-use super::{Motion, Multibody, Simulator, StepError};
+use super::{Integrator, Motion, Multibody, Simulator, StepError};
 
 /// The stages of one RK4 step, kept between steps.
 #[derive(Clone, Debug, Default)]
@@ -48,6 +48,13 @@ impl<S: Multibody> Simulator<'_, S> {
             }
             sc.kv[stage].copy_from_slice(&sc.v);
             self.accelerations(&sc.q, &sc.v, &mut sc.ka[stage])?;
+            // Beyond the stability limit the motion grows until it
+            // overflows: stop at the stage where it does, before the next
+            // stage evaluates at non-finite angles.
+            if !super::all_finite(&sc.ka[stage]) {
+                let (what, iterations, residual) = ("acceleration", stage + 1, f64::INFINITY);
+                return Err(StepError::NonFinite { integrator: Integrator::Explicit, dt, what, iterations, residual });
+            }
         }
         let (kv, ka) = (&sc.kv, &sc.ka);
         for i in 0..n {

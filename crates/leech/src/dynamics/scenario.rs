@@ -96,6 +96,27 @@ pub struct Simulation {
     pub dt: f64,
     /// Largest constraint violation over the run (m or rad).
     pub max_violation: f64,
+    /// Largest increase of the total energy from one sample to the next
+    /// while the inputs are settled (J): see [`energy_gain`]. A damped
+    /// body loses energy; a gain above round-off says the step is too long
+    /// for the motion (see the module's energy balance). `None` if no two
+    /// samples were taken with the inputs settled.
+    pub max_energy_gain_j: Option<f64>,
+}
+
+/// The largest increase of kinetic plus potential energy (J) between
+/// consecutive samples taken with the inputs settled: the lengths those of
+/// the last sample (the feeding done) and gravity fully on (at or after
+/// `gravity_ramp`, s). While the inputs move, the motors and the rising
+/// gravity do work, and the energy may rise legitimately.
+pub fn energy_gain(samples: &[Sample], gravity_ramp: f64) -> Option<f64> {
+    let last = samples.last()?.lengths_m;
+    let settled = |s: &Sample| s.lengths_m == last && s.time_s >= gravity_ramp;
+    samples
+        .windows(2)
+        .filter(|w| settled(&w[0]) && settled(&w[1]))
+        .map(|w| (w[1].kinetic_j + w[1].potential_j) - (w[0].kinetic_j + w[0].potential_j))
+        .reduce(f64::max)
 }
 
 /// Why a simulation failed.
@@ -268,5 +289,6 @@ pub fn simulate(
             break;
         }
     }
-    Ok(Simulation { samples, time_to_rest, steps, dt, max_violation })
+    let max_energy_gain_j = energy_gain(&samples, options.gravity_ramp);
+    Ok(Simulation { samples, time_to_rest, steps, dt, max_violation, max_energy_gain_j })
 }

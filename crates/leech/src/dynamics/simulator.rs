@@ -95,6 +95,9 @@ fn solve_small(s: &[f64], b: &mut [f64], ldl: &mut DenseLdl) {
     solve_symmetric(s, b.len(), b, ldl, 0.0);
 }
 
+/// Most Newton iterations of the position projection.
+const PROJECTION_ITERATIONS: usize = 20;
+
 impl<'a, S: Multibody> Simulator<'a, S> {
     /// A simulator for `sys`.
     pub fn new(sys: &'a S) -> Simulator<'a, S> {
@@ -225,10 +228,15 @@ impl<'a, S: Multibody> Simulator<'a, S> {
         Ok(())
     }
 
-    /// Largest constraint violation at `q` (m or rad).
+    /// Largest constraint violation at `q` (m or rad); NaN if a constraint is
+    /// not finite (`f64::max` alone would drop a NaN).
     pub fn violation(&mut self, q: &[f64]) -> f64 {
         self.evaluate(q);
-        self.ev.constraints[..self.m].iter().fold(0.0f64, |a, c| a.max(c.abs()))
+        let c = &self.ev.constraints[..self.m];
+        match super::all_finite(c) {
+            true => c.iter().fold(0.0f64, |a, c| a.max(c.abs())),
+            false => f64::NAN,
+        }
     }
 
     /// Projects positions onto `C = 0` and velocities onto `J v = 0` by the
@@ -243,7 +251,8 @@ impl<'a, S: Multibody> Simulator<'a, S> {
         }
         let mut violation = f64::INFINITY;
         let mut current = false;
-        for _ in 0..20 {
+        let mut iterations = 0;
+        for iteration in 1..=PROJECTION_ITERATIONS {
             violation = self.violation(&motion.q);
             current = true;
             if violation < 1e-13 {
@@ -251,10 +260,12 @@ impl<'a, S: Multibody> Simulator<'a, S> {
             }
             self.gauss.target.copy_from_slice(&self.ev.constraints[..m]);
             self.least_change(&mut motion.q);
+            iterations = iteration;
             current = false;
         }
-        if violation >= 1e-10 {
-            return Err(StepError::Projection { violation });
+        // Written so that a NaN violation fails too.
+        if !(violation < 1e-10) {
+            return Err(StepError::Projection { iterations, violation });
         }
         // The loop usually ends having just evaluated at the projected point.
         if !current {

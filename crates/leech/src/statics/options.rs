@@ -29,7 +29,11 @@ pub struct SolverOptions {
     pub max_iterations: usize,
     /// Newton iterations allowed for one continuation corrector.
     pub max_corrector_iterations: usize,
-    /// Newton iterations allowed for a free minimization (snap, escape, warm start).
+    /// Newton iterations allowed for one free minimization (snap, escape,
+    /// warm start), within [`SolverOptions::max_iterations`]. No bound of its
+    /// own by default (`usize::MAX`), so that the whole solve's bound, the
+    /// one a user sets, governs; set it lower to cap one minimization (the
+    /// adaptive feeding of [`crate::stance`] does).
     pub max_minimization_iterations: usize,
     /// Continuation steps allowed for one path.
     pub max_steps: usize,
@@ -62,7 +66,7 @@ impl Default for SolverOptions {
             path_tolerance: 1e-6,
             max_iterations: 20000,
             max_corrector_iterations: 8,
-            max_minimization_iterations: 5000,
+            max_minimization_iterations: usize::MAX,
             max_steps: 500,
             min_step: 1e-4,
             jump_tolerance: 0.5,

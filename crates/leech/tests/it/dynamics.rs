@@ -386,3 +386,79 @@ fn backward_euler_takes_long_steps_to_rest() {
         }
     }
 }
+
+/// The largest energy gain between samples, relative to the body's energy
+/// scale, allowed as round-off. The energies are sums of about a hundred
+/// terms (relative rounding 1e-16 each, on J-sized partial sums), the
+/// backward-Euler velocities are converged to 1e-10 relative and the
+/// positions projected to 1e-13 m: each changes the energy between two
+/// samples by far less than 1e-11 of the potential's scale (the payload
+/// lifted by the tubes' length, about 0.1 J), which leaves a margin of
+/// ten over what round-off can do and none for a real gain (those seen
+/// on a long step grow with dt^2 |v|^2, 1e-3 J and more).
+const ROUND_OFF: f64 = 1e-10;
+
+/// Soft (Pi = 1, 30) and stiff (the built-in robot, Pi about 5e3) bodies
+/// settling from the unloaded shape at base angles 0, 90 and 270 deg, with
+/// backward Euler at the command line's default 5 ms step and the implicit
+/// midpoint rule at its own: the damped body's total energy never rises
+/// between samples by more than round-off.
+#[test]
+fn the_damped_simulation_never_gains_energy() {
+    let robots = [None, Some(30.0), Some(1.0)];
+    for (integrator, dt, duration) in [(Integrator::Implicit, Some(5e-3), 3.0), (Integrator::Midpoint, None, 2e-3)] {
+        for pi in robots {
+            for angle in [0.0, 90.0, 270.0] {
+                let mut robot = Robot::builtin().with_base_angle(angle).unwrap();
+                if let Some(pi) = pi {
+                    robot = robot.with_shape_parameter(pi).unwrap();
+                }
+                let options = SimulationOptions {
+                    integrator,
+                    dt,
+                    duration,
+                    until_rest: false,
+                    gravity_ramp: 0.0,
+                    sample_interval: duration / 300.0,
+                    rest_rate: 1e-6,
+                };
+                let run = simulate(&robot, [0.3, 0.2], Start::Unloaded, Actuation::Hold, &options, &|_| ()).unwrap();
+                let scale = run.samples.iter().map(|s| s.kinetic_j + s.potential_j.abs()).fold(0.0, f64::max);
+                let gain = run.max_energy_gain_j.unwrap();
+                let case = format!("{integrator:?} Pi {pi:?} at {angle} deg");
+                assert!(gain <= ROUND_OFF * scale, "{case}: gained {gain:e} J of {scale:e} J");
+                // The measure itself: the largest difference of the samples' totals.
+                let totals: Vec<f64> = run.samples.iter().map(|s| s.kinetic_j + s.potential_j).collect();
+                let largest = totals.windows(2).map(|w| w[1] - w[0]).fold(f64::NEG_INFINITY, f64::max);
+                assert_eq!(gain, largest, "{case}");
+                // And it fell: the body started away from its equilibrium.
+                assert!(totals.last().unwrap() < &totals[0], "{case}");
+            }
+        }
+    }
+}
+
+/// The measure counts only pairs of samples with the inputs settled: the
+/// lengths those of the end and gravity fully on.
+#[test]
+fn an_energy_gain_is_measured_between_settled_samples() {
+    let sample = |t: f64, e: f64, la: f64| leech::dynamics::Sample {
+        time_s: t,
+        lengths_m: [la, 0.2],
+        angles_a_rad: vec![],
+        angles_b_rad: vec![],
+        points_a_m: vec![],
+        points_b_m: vec![],
+        endpoint_m: [0.0; 2],
+        kinetic_j: e / 2.0,
+        potential_j: e / 2.0,
+        violation: 0.0,
+    };
+    // Fed from 0.25 m to 0.3 m (the inputs do work: 1 J gained, not counted),
+    // then 0.5 J gained while settled.
+    let samples = [sample(0.0, 1.0, 0.25), sample(0.1, 2.0, 0.3), sample(0.2, 1.5, 0.3), sample(0.3, 2.0, 0.3)];
+    assert_eq!(leech::dynamics::energy_gain(&samples, 0.0), Some(0.5));
+    // Gravity still rising until 0.25 s: no two samples after it.
+    assert_eq!(leech::dynamics::energy_gain(&samples, 0.25), None);
+    assert_eq!(leech::dynamics::energy_gain(&samples[..3], 0.0), Some(-0.5));
+}
