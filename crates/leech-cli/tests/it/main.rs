@@ -267,7 +267,17 @@ fn workspace_writes_every_point_and_a_summary() {
     let summaries = v["summaries"].as_array().unwrap();
     assert_eq!(summaries.len(), 3);
     for s in summaries {
-        for key in ["model", "points", "failures", "infeasible", "highest", "lowest", "farthest", "area_m2"] {
+        for key in [
+            "model",
+            "points",
+            "failures",
+            "infeasible",
+            "highest",
+            "lowest",
+            "farthest",
+            "area_m2",
+            "differ_from_fresh",
+        ] {
             assert!(s.get(key).is_some(), "missing {key}");
         }
     }
@@ -276,7 +286,7 @@ fn workspace_writes_every_point_and_a_summary() {
     let header = lines.next().unwrap();
     assert_eq!(
         header,
-        "model,shape_parameter,la_m,lb_m,status,stable,snapped,feasible,min_bend_radius_m,endpoint_x_m,endpoint_y_m,endpoint_angle_rad"
+        "model,shape_parameter,la_m,lb_m,status,stable,snapped,feasible,min_bend_radius_m,endpoint_x_m,endpoint_y_m,endpoint_angle_rad,fresh_difference_m"
     );
     assert_eq!(lines.count(), 63);
     assert!(std::fs::read_to_string(&svg).unwrap().starts_with("<svg"));
