@@ -20,10 +20,12 @@
 //!   or invisible formatting character, which
 //!   - names the field: a `--flag`, a key spelled with `_`, `.` or `[`
 //!     (`tube.element_length_m`, `lengths[1]`), a backquoted key, the
-//!     FIELD of the house format `FIELD: got VALUE, expected ALLOWED`; or,
-//!     strictly, the case's `field=`;
-//!   - quotes the value: `got ...`, a `'...'` or backquoted excerpt, or the
-//!     case's `value=`; a missing field has none, and says `not provided`,
+//!     FIELD of the house format `FIELD: got VALUE, expected ALLOWED` (or
+//!     `FIELD: 'VALUE' ...`, `FIELD: PATH ...`), clap's `<NAME>` of a
+//!     positional argument; or, strictly, the case's `field=`. Paths are
+//!     taken out first, so that a file's name does not pass for a key;
+//!   - quotes the value: `got ...`, a quoted or backquoted excerpt, one of
+//!     the case's own arguments verbatim, or the case's `value=`; a missing field has none, and says `not provided`,
 //!     `missing`, `needed` or `give` instead;
 //!   - says what is allowed: one of [`ALLOWED`]'s words, or a `<VALUE>`
 //!     placeholder for a missing flag.
@@ -325,7 +327,7 @@ fn run(case: &Case, tmp: &Path, index: usize) -> Option<String> {
     }
     let verdict = match code {
         1 => one_clean_line(&stderr, tmp).and_then(no_debug_text),
-        2 => one_clean_line(&stderr, tmp).and_then(|line| names_field_value_allowed(line, case)),
+        2 => one_clean_line(&stderr, tmp).and_then(|line| names_field_value_allowed(line, case, tmp)),
         3 => says_status(&stderr),
         _ => Ok(()),
     };
@@ -370,15 +372,27 @@ fn no_debug_text(line: &str) -> Result<(), String> {
     }
 }
 
-fn names_field_value_allowed(line: &str, case: &Case) -> Result<(), String> {
-    let text = line.trim_start_matches("leech: ");
+fn names_field_value_allowed(line: &str, case: &Case, tmp: &Path) -> Result<(), String> {
+    // Paths out: a scratch file's name must not pass for a key.
+    let text: String = line
+        .trim_start_matches("leech: ")
+        .replace(tmp.to_str().unwrap_or("{tmp}"), "/tmp")
+        .split(' ')
+        .map(|w| if w.trim_start_matches(['\'', '"']).starts_with('/') { "FILE" } else { w })
+        .collect::<Vec<_>>()
+        .join(" ");
+    let text = text.as_str();
+    let given = |w: &&OsString| w.len() > 1 && !w.to_string_lossy().starts_with("--");
     let field = match &case.field {
         Some(f) => text.contains(f.as_str()),
         // The house format `FIELD: got VALUE, expected ALLOWED` names its field.
         None => {
             text.contains("--")
                 || text.contains('`')
-                || text.split(": got ").next().is_some_and(|f| f != text && !f.is_empty())
+                || (text.contains('<') && text.contains('>'))
+                || [": got ", ": '", ": FILE"]
+                    .iter()
+                    .any(|s| text.split(s).next().is_some_and(|f| f != text && !f.is_empty()))
                 || text.split(|c: char| c.is_whitespace() || c == ':').any(key_like)
         }
     };
@@ -389,13 +403,17 @@ fn names_field_value_allowed(line: &str, case: &Case) -> Result<(), String> {
     // A missing field's value is its absence.
     let value = match &case.value {
         Some(v) => text.contains(v.as_str()),
-        None => ["got ", "'", "`", "not provided", "missing", "needed", "give "].iter().any(|w| text.contains(w)),
+        None => {
+            ["got ", "'", "`", "\"", "not provided", "missing", "needed", "give "].iter().any(|w| text.contains(w))
+                || case.args.iter().filter(given).any(|a| line.contains(a.to_string_lossy().as_ref()))
+        }
     };
     if !value {
         let wanted = case.value.as_ref().map(|v| format!(" ({v})")).unwrap_or_default();
         return Err(format!("message: quotes no value{wanted}"));
     }
-    if !ALLOWED.iter().any(|w| text.contains(w)) && !(text.contains('<') && text.contains('>')) {
+    let placeholder = text.contains('<') && text.contains('>');
+    if !(placeholder || ALLOWED.iter().any(|w| text.contains(w))) {
         return Err("message: says nothing of what is allowed".into());
     }
     Ok(())
@@ -404,7 +422,8 @@ fn names_field_value_allowed(line: &str, case: &Case) -> Result<(), String> {
 /// Words that say what is allowed, or the rule broken (`cannot be used with`,
 /// `is not UTF-8 text`, a required field `missing`, the system's reason a
 /// file cannot be opened).
-const ALLOWED: [&str; 15] = [
+const ALLOWED: [&str; 16] = [
+    "needs",
     "expected",
     "allowed",
     "possible values",
@@ -445,10 +464,9 @@ fn says_status(stderr: &str) -> Result<(), String> {
             false => Err("exit 3: a time limit without what was done".into()),
         };
     }
-    if line.contains("solve") || line.contains("not converged") {
-        if !(line.contains("residual") && line.contains("iteration")) {
-            return Err("exit 3: a failed solve without its residual and iterations".into());
-        }
+    let solve = line.contains("solve") || line.contains("not converged");
+    if solve && !(line.contains("residual") && line.contains("iteration")) {
+        return Err("exit 3: a failed solve without its residual and iterations".into());
     }
     Ok(())
 }
