@@ -322,6 +322,9 @@ fn run(case: &Case, tmp: &Path, index: usize) -> Option<String> {
     if code == 101 || stderr.contains("panicked") {
         return Some(format!("panic: exit {code}; stderr {}", excerpt(&stderr)));
     }
+    if case.new_flag && stderr.contains("unexpected argument '--") {
+        return Some(format!("new flag: not accepted yet: stderr {}", excerpt(&stderr)));
+    }
     if !case.expect.contains(&code) {
         return Some(format!("exit {code}, expected {:?}: stderr {}", case.expect, excerpt(&stderr)));
     }
@@ -413,7 +416,9 @@ fn names_field_value_allowed(line: &str, case: &Case, tmp: &Path) -> Result<(), 
         return Err(format!("message: quotes no value{wanted}"));
     }
     let placeholder = text.contains('<') && text.contains('>');
-    if !(placeholder || ALLOWED.iter().any(|w| text.contains(w))) {
+    // `unexpected` is not `expected`.
+    let plain = text.replace("unexpected", "");
+    if !(placeholder || ALLOWED.iter().any(|w| plain.contains(w))) {
         return Err("message: says nothing of what is allowed".into());
     }
     Ok(())
