@@ -414,6 +414,7 @@ fn simulate_writes_series_animation_and_summary() {
 }
 
 mod climb;
+mod corpus;
 mod drive;
 mod harden;
 mod holds;
