@@ -293,14 +293,23 @@ fn constant_curvature_points(robot: &Robot, values: &[f64], left_longer: bool) -
 }
 
 /// A solved point and its state, the seed of its neighbours.
-struct Solved {
-    point: Point,
-    body: Option<(Body, Vec<f64>)>,
+pub(crate) struct Solved {
+    /// The point's result.
+    pub point: Point,
+    /// Its body and angles when it converged.
+    pub body: Option<Seed>,
 }
 
-fn solve_point(robot: &Robot, la: f64, lb: f64, seed: Option<&(Body, Vec<f64>)>, ws: &mut Option<Scratch>) -> Solved {
-    let solver = Solver::default();
-    let failed = |reason: String| Solved {
+fn solve_point(robot: &Robot, la: f64, lb: f64, seed: Option<&Seed>, ws: &mut Option<Scratch>) -> Solved {
+    match robot.body(la, lb) {
+        Ok(body) => solve_body(robot, body, seed, ws),
+        Err(e) => failed(la, lb, e.to_string()),
+    }
+}
+
+/// A grid point that did not converge.
+fn failed(la: f64, lb: f64, reason: String) -> Solved {
+    Solved {
         point: Point {
             model: Model::TwoChain,
             shape_parameter: None,
@@ -314,11 +323,14 @@ fn solve_point(robot: &Robot, la: f64, lb: f64, seed: Option<&(Body, Vec<f64>)>,
             endpoint_angle_rad: f64::NAN,
         },
         body: None,
-    };
-    let body = match robot.body(la, lb) {
-        Ok(b) => b,
-        Err(e) => return failed(e.to_string()),
-    };
+    }
+}
+
+/// Solves `body` (of `robot`), warm-started from `seed` when given (a cold
+/// retry if that fails), cold otherwise; `ws` is reused between calls.
+pub(crate) fn solve_body(robot: &Robot, body: Body, seed: Option<&Seed>, ws: &mut Option<Scratch>) -> Solved {
+    let solver = Solver::default();
+    let [la, lb] = [body.chain_a().tube_length(), body.chain_b().tube_length()];
     let scratch = match ws {
         Some(w) if w.fits(&body) => w,
         _ => ws.insert(Scratch::for_system(&body)),
@@ -355,7 +367,7 @@ fn solve_point(robot: &Robot, la: f64, lb: f64, seed: Option<&(Body, Vec<f64>)>,
                 body: Some((body, eq.q)),
             }
         }
-        Err(e) => failed(e.to_string()),
+        Err(e) => failed(la, lb, e.to_string()),
     }
 }
 
