@@ -35,6 +35,8 @@ from . import _leech
 from ._leech import CHUNK, STATUS_NAMES, WARM_STEP_M, CalibrationError, InputError, SolveError
 
 __all__ = [
+    "write_csv",
+    "WORKSPACE_COLUMNS",
     "Robot",
     "Reacher",
     "Result",
@@ -117,16 +119,24 @@ class Result:
         return f"Result({', '.join(self._data)})"
 
 
+def _floats(values: Any) -> np.ndarray:
+    """Values as the one-dimensional, contiguous, aligned float64 array the
+    native half reads in place (arrays unpickled by Dask may be misaligned)."""
+    return np.require(np.asarray(values, dtype=np.float64).reshape(-1), requirements=["C", "A"])
+
+
 def _result(text: str) -> Result:
     return Result(json.loads(text))
 
 
 class Shapes:
     """The outcome of :meth:`Robot.shapes`, one entry per input, as arrays:
-    ``endpoint_m`` (N x 2, m), ``endpoint_angle_rad``, ``min_bend_radius_m``,
-    ``status`` (codes, see :data:`STATUS_NAMES`), ``stable``, ``warm`` (warm-
-    started from the previous entry), ``snapped``; ``failures`` lists
-    ``(index, status, reason)`` for every entry that did not converge."""
+    ``endpoint_m`` (N x 2, m), ``endpoint_angle_rad``, ``min_bend_radius_m``
+    (NaN where an entry did not converge), ``status`` (codes, see
+    :data:`STATUS_NAMES`), ``stable``, ``warm`` (warm-started from the
+    previous entry), ``snapped``. Each entry that did not converge has a
+    reason: ``failure_index`` (entries, ascending) and ``failure_reason``
+    (indices into ``reasons``, each distinct reason once), or :meth:`reason`."""
 
     def __init__(self, columns: dict):
         self.endpoint_m: np.ndarray = columns["endpoint_m"]
@@ -136,7 +146,24 @@ class Shapes:
         self.stable: np.ndarray = columns["stable"]
         self.warm: np.ndarray = columns["warm"]
         self.snapped: np.ndarray = columns["snapped"]
-        self.failures: list = columns["failures"]
+        self.failure_index: np.ndarray = columns["failure_index"]
+        self.failure_reason: np.ndarray = columns["failure_reason"]
+        self.reasons: list = columns["reasons"]
+
+    def reason(self, i: int) -> Optional[str]:
+        """Why entry `i` did not converge (None when it did)."""
+        k = int(np.searchsorted(self.failure_index, i))
+        if k < len(self.failure_index) and self.failure_index[k] == i:
+            return self.reasons[self.failure_reason[k]]
+        return None
+
+    @property
+    def failures(self) -> list:
+        """``(index, status name, reason)`` of every entry that did not converge."""
+        return [
+            (int(i), STATUS_NAMES[self.status[i]], self.reasons[r])
+            for i, r in zip(self.failure_index, self.failure_reason)
+        ]
 
     def __len__(self) -> int:
         return len(self.status)
@@ -369,10 +396,9 @@ class Robot:
         workspace sweep); 0 solves every entry cold, as :meth:`shape` does.
         Bad entries (NaN, out of range) and failed solves are reported per
         entry, never raised."""
-        la = np.ascontiguousarray(la, dtype=np.float64).reshape(-1)
-        lb = np.ascontiguousarray(lb, dtype=np.float64).reshape(-1)
+        la, lb = _floats(la), _floats(lb)
         if base_angle_deg is not None:
-            base_angle_deg = np.ascontiguousarray(base_angle_deg, dtype=np.float64).reshape(-1)
+            base_angle_deg = _floats(base_angle_deg)
         return Shapes(self._native.shapes(la, lb, base_angle_deg, float(warm_step_m)))
 
     def workspace(

@@ -14,6 +14,7 @@
 //! unwraps user input; a panic would reach Python as pyo3's PanicException,
 //! never unwind across the interpreter.
 
+use std::collections::HashMap;
 use std::path::PathBuf;
 
 use leech::batch::{self, BatchOptions, Outcome, Query};
@@ -349,7 +350,8 @@ impl Robot {
         to_json(&ConstantCurvatureReport::new(&PlanarBody::of(&self.inner), la, lb, samples))
     }
 
-    /// The batch solve ([`leech::batch`]): arrays of outcomes and the failures.
+    /// The batch solve ([`leech::batch`]): arrays of outcomes; the failed
+    /// entries' indices, each with the index of its reason in `reasons`.
     #[pyo3(signature = (la, lb, base_angle_deg=None, warm_step_m=batch::WARM_STEP_M))]
     #[allow(clippy::type_complexity)]
     fn shapes<'py>(
@@ -370,7 +372,8 @@ impl Robot {
         let min_radius = PyArray1::<f64>::zeros(py, n, false);
         let status = PyArray1::<u8>::zeros(py, n, false);
         let [stable, warm, snapped] = [0; 3].map(|_| PyArray1::<bool>::zeros(py, n, false));
-        let mut failures = Vec::new();
+        let mut reasons: HashMap<String, u32> = HashMap::new();
+        let (mut failure_index, mut failure_reason) = (Vec::new(), Vec::new());
         // Blocks of whole chunks: the results of one solve of the whole
         // batch, with one block of outcomes in memory beside the arrays.
         let block = 64 * batch::CHUNK;
@@ -384,7 +387,13 @@ impl Robot {
             };
             let out = &mut outcomes[..end - start];
             let found = py.detach(|| batch::solve(&self.inner, &piece, &options, out)).map_err(input_error)?;
-            failures.extend(found.into_iter().map(|f| (start + f.index, f.status.name(), f.reason)));
+            for f in found {
+                // Reasons repeat (every NaN LA reads alike): each is kept once.
+                let next = reasons.len() as u32;
+                let code = *reasons.entry(f.reason).or_insert(next);
+                failure_index.push((start + f.index) as u64);
+                failure_reason.push(code);
+            }
             // The arrays are this call's own, not yet shared: writing is safe.
             let mut e = endpoint.readwrite();
             let e = e.as_slice_mut()?;
@@ -412,7 +421,13 @@ impl Robot {
         d.set_item("stable", stable)?;
         d.set_item("warm", warm)?;
         d.set_item("snapped", snapped)?;
-        d.set_item("failures", failures)?;
+        let mut texts = vec![String::new(); reasons.len()];
+        for (text, code) in reasons {
+            texts[code as usize] = text;
+        }
+        d.set_item("failure_index", PyArray1::from_vec(py, failure_index))?;
+        d.set_item("failure_reason", PyArray1::from_vec(py, failure_reason))?;
+        d.set_item("reasons", texts)?;
         Ok(d)
     }
 

@@ -23,7 +23,8 @@
 //! # Warm starts
 //!
 //! A cold solve follows the robot's history from straight, equal tubes
-//! ([`Body::solve`](crate::body::Body::solve)); it is what `leech shape` prints. When consecutive
+//! ([`Body::solve`](crate::body::Body::solve)); it is what `leech shape`
+//! prints, bit for bit. When consecutive
 //! entries lie within `warm_step_m` of each other in both lengths (and share
 //! the base angle), the batch reads them as an actuation path, as the
 //! workspace sweep does ([`crate::sweep`]): the entry is warm-started from
@@ -247,7 +248,8 @@ fn solve_chunk(robot: &Robot, query: &Query, start: usize, step: f64, out: &mut 
             }
         };
         let seed = previous.as_ref().filter(|(lengths, a, _)| {
-            a.map(f64::to_bits) == angle.map(f64::to_bits)
+            step > 0.0
+                && a.map(f64::to_bits) == angle.map(f64::to_bits)
                 && (lengths[0] - la).abs() <= step
                 && (lengths[1] - lb).abs() <= step
         });
