@@ -135,38 +135,39 @@ fn read_text(path: &PathBuf, what: &str) -> PyResult<String> {
     Ok(text)
 }
 
-/// A built-in scene by name, else a scene file.
-fn load_scene(given: &str) -> PyResult<Scene> {
-    if let Ok(scene) = Scene::builtin(given) {
-        return Ok(scene);
+/// A built-in item by name (`builtin`), else a file read with `parse`;
+/// `field` and `names` (the built-in names) say what was expected.
+fn load_named<T>(
+    given: &str,
+    field: &str,
+    builtin: impl Fn(&str) -> Result<T, LibInputError>,
+    names: Vec<&str>,
+    parse: impl Fn(&str, &str) -> Result<T, LibInputError>,
+) -> PyResult<T> {
+    if let Ok(item) = builtin(given) {
+        return Ok(item);
     }
     let path = PathBuf::from(given);
     if !path.exists() {
-        let names: Vec<&str> = Scene::builtin_names().map(|(n, _)| n).collect();
         return Err(input_error(LibInputError::Invalid {
-            field: "scene".into(),
+            field: field.into(),
             value: given.into(),
-            allowed: format!("a scene file or one of {}", names.join(", ")),
+            allowed: format!("a {field} file or one of {}", names.join(", ")),
         }));
     }
-    Scene::from_toml_str(&read_text(&path, "scene")?, given).map_err(input_error)
+    parse(&read_text(&path, field)?, given).map_err(input_error)
+}
+
+/// A built-in scene by name, else a scene file.
+fn load_scene(given: &str) -> PyResult<Scene> {
+    let names = Scene::builtin_names().map(|(n, _)| n).collect();
+    load_named(given, "scene", Scene::builtin, names, Scene::from_toml_str)
 }
 
 /// A built-in scenario by name, else a scenario file.
 fn load_scenario(given: &str) -> PyResult<Scenario> {
-    if let Ok(s) = Scenario::builtin(given) {
-        return Ok(s);
-    }
-    let path = PathBuf::from(given);
-    if !path.exists() {
-        let names: Vec<&str> = Scenario::builtin_names().map(|(n, _)| n).collect();
-        return Err(input_error(LibInputError::Invalid {
-            field: "scenario".into(),
-            value: given.into(),
-            allowed: format!("a scenario file or one of {}", names.join(", ")),
-        }));
-    }
-    Scenario::parse(&read_text(&path, "scenario")?, given).map_err(input_error)
+    let names = Scenario::builtin_names().map(|(n, _)| n).collect();
+    load_named(given, "scenario", Scenario::builtin, names, Scenario::parse)
 }
 
 fn pose(field: &str, p: [f64; 3]) -> PyResult<Pose> {
@@ -380,11 +381,8 @@ impl Robot {
         let mut outcomes = vec![Outcome::default(); block.min(n)];
         for start in (0..n).step_by(block) {
             let end = (start + block).min(n);
-            let piece = Query {
-                la_m: &la[start..end],
-                lb_m: &lb[start..end],
-                base_angle_deg: angles.map(|a| &a[start..end]),
-            };
+            let piece =
+                Query { la_m: &la[start..end], lb_m: &lb[start..end], base_angle_deg: angles.map(|a| &a[start..end]) };
             let out = &mut outcomes[..end - start];
             let found = py.detach(|| batch::solve(&self.inner, &piece, &options, out)).map_err(input_error)?;
             for f in found {
@@ -467,7 +465,10 @@ impl Robot {
         d.set_item("shape_parameter", column(&|x| x.shape_parameter.unwrap_or(f64::NAN)))?;
         d.set_item("la_m", column(&|x| x.lengths_m[0]))?;
         d.set_item("lb_m", column(&|x| x.lengths_m[1]))?;
-        d.set_item("status", p.iter().map(|x| if x.failure.is_none() { "converged" } else { "failed" }).collect::<Vec<_>>())?;
+        d.set_item(
+            "status",
+            p.iter().map(|x| if x.failure.is_none() { "converged" } else { "failed" }).collect::<Vec<_>>(),
+        )?;
         d.set_item("stable", flag(&|x| x.stable))?;
         d.set_item("snapped", flag(&|x| x.snapped))?;
         d.set_item("feasible", flag(&|x| x.feasible))?;
@@ -501,10 +502,10 @@ impl Robot {
     fn climb_json(&self, py: Python<'_>, scenario: &str, time_limit_s: f64) -> PyResult<String> {
         let s = load_scenario(scenario)?;
         let limit = leech::error::within("time_limit_s", time_limit_s, 1e-3, 86_400.0).map_err(input_error)?;
-        let options = PlanOptions { time_limit: Some(std::time::Duration::from_secs_f64(limit)), ..PlanOptions::default() };
-        let plan = py
-            .detach(|| leech::stride::plan(&self.inner, &s.scene, s.start, s.goal, &options))
-            .map_err(input_error)?;
+        let options =
+            PlanOptions { time_limit: Some(std::time::Duration::from_secs_f64(limit)), ..PlanOptions::default() };
+        let plan =
+            py.detach(|| leech::stride::plan(&self.inner, &s.scene, s.start, s.goal, &options)).map_err(input_error)?;
         to_json(&ClimbReport::new(&s.name, &self.inner, &plan, s.goal.point_m, s.goal.tolerance_m))
     }
 
@@ -533,7 +534,10 @@ impl Reacher {
     #[pyo3(signature = (x, y, angle_deg=None))]
     fn reach_json(&self, py: Python<'_>, x: f64, y: f64, angle_deg: Option<f64>) -> PyResult<String> {
         let within = leech::error::within;
-        let target = [within("target x", x, -1e3, 1e3).map_err(input_error)?, within("target y", y, -1e3, 1e3).map_err(input_error)?];
+        let target = [
+            within("target x", x, -1e3, 1e3).map_err(input_error)?,
+            within("target y", y, -1e3, 1e3).map_err(input_error)?,
+        ];
         let angle = angle_deg
             .map(|d| within("angle (deg)", d, -720.0, 720.0).map(f64::to_radians))
             .transpose()
