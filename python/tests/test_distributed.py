@@ -1,6 +1,8 @@
 """The Dask adapter on a local two-worker cluster (loopback only) gives the
 single-process results exactly."""
 
+import signal
+
 import numpy as np
 import pytest
 
@@ -8,6 +10,20 @@ import leech
 from leech import distributed
 
 pytest.importorskip("dask.distributed")
+
+
+@pytest.fixture(autouse=True)
+def bounded():
+    """Each test here ends within 300 s, whatever the cluster does."""
+
+    def expire(*_):
+        raise TimeoutError("a distributed test ran past 300 s")
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.alarm(300)
+    yield
+    signal.alarm(0)
+    signal.signal(signal.SIGALRM, previous)
 
 
 @pytest.fixture(scope="module")
