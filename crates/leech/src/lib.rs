@@ -48,6 +48,7 @@
 //! * [`geom`]: plane vectors, unit vectors and normals.
 //! * [`chain`]: one tube as a chain of links; discretizations, kinematics, energy.
 //! * [`cantilever`]: a single clamped tube under gravity.
+//! * [`batch`]: many clamped bodies at once (lengths and base angles as arrays), on all cores.
 //! * [`body`]: the two-chain body and its endpoint weld.
 //! * [`calibration`]: fitting `k` (and `m`) to measured tubes and bodies; model comparison.
 //! * [`constant_curvature`]: the kinematic constant-curvature model, planar and tri-tube.
@@ -68,6 +69,7 @@
 
 #![warn(missing_docs)]
 
+pub mod batch;
 pub mod body;
 pub mod budget;
 pub mod calibration;

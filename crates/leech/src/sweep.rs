@@ -375,9 +375,11 @@ fn constant_curvature_points(robot: &Robot, values: &[f64], left_longer: bool) -
 }
 
 /// A solved point and its state, the seed of its neighbours.
-struct Solved {
-    point: Point,
-    body: Option<(Body, Vec<f64>)>,
+pub(crate) struct Solved {
+    /// The point's result.
+    pub point: Point,
+    /// Its body and angles when it converged.
+    pub body: Option<Seed>,
 }
 
 /// Solves one point along the path. A warm-started point's
@@ -389,7 +391,15 @@ fn solve_point(
     solver: &Solver,
     ws: &mut Option<Scratch>,
 ) -> Solved {
-    let failed = |reason: String| Solved {
+    match robot.body(la, lb) {
+        Ok(body) => solve_body(robot, body, seed, solver, ws),
+        Err(e) => failed(la, lb, e.to_string()),
+    }
+}
+
+/// A grid point that did not converge.
+fn failed(la: f64, lb: f64, reason: String) -> Solved {
+    Solved {
         point: Point {
             model: Model::TwoChain,
             shape_parameter: None,
@@ -404,11 +414,21 @@ fn solve_point(
             fresh_difference_m: f64::NAN,
         },
         body: None,
-    };
-    let body = match robot.body(la, lb) {
-        Ok(b) => b,
-        Err(e) => return failed(e.to_string()),
-    };
+    }
+}
+
+/// Solves `body` (of `robot`), warm-started from `seed` when given (a cold
+/// retry if that fails), cold otherwise; `ws` is reused between calls. A
+/// warm-started point's `fresh_difference_m` is NaN (not yet checked), a
+/// cold one's 0 (it is the fresh solve).
+pub(crate) fn solve_body(
+    robot: &Robot,
+    body: Body,
+    seed: Option<&Seed>,
+    solver: &Solver,
+    ws: &mut Option<Scratch>,
+) -> Solved {
+    let [la, lb] = [body.chain_a().tube_length(), body.chain_b().tube_length()];
     let scratch = match ws {
         Some(w) if w.fits(&body) => w,
         _ => ws.insert(Scratch::for_system(&body)),
@@ -447,7 +467,7 @@ fn solve_point(
                 body: Some((body, eq.q)),
             }
         }
-        Err(e) => failed(e.to_string()),
+        Err(e) => failed(la, lb, e.to_string()),
     }
 }
 

@@ -160,7 +160,7 @@ fn rows_group_by_key_and_files_are_capped() {
 fn a_body_too_short_for_its_plate_is_bad_input() {
     let text = "shape,la_m,lb_m,base_angle_deg,chain,x_m,y_m\nstub\u{1},0.01,0.01,0,a,0.005,0\n";
     let shapes = read_shapes(text, "short.csv").unwrap();
-    match compare(&Robot::builtin(), &shapes) {
+    match compare(&Robot::builtin(), &shapes, &Deadline::none()) {
         Err(CalibrationError::Input(e)) => {
             let e = e.to_string();
             assert!(e.starts_with("shape 'stub\\u{1}' (la_m, lb_m): got 0.01, 0.01"), "{e}");

@@ -421,6 +421,7 @@ fn the_damped_simulation_never_gains_energy() {
                     gravity_ramp: 0.0,
                     sample_interval: duration / 300.0,
                     rest_rate: 1e-6,
+                    deadline: leech::budget::Deadline::none(),
                 };
                 let run = simulate(&robot, [0.3, 0.2], Start::Unloaded, Actuation::Hold, &options, &|_| ()).unwrap();
                 let scale = run.samples.iter().map(|s| s.kinetic_j + s.potential_j.abs()).fold(0.0, f64::max);
