@@ -33,7 +33,7 @@ pub enum InputError {
     Unreadable {
         /// The flag or field that named it (`--robot`).
         field: String,
-        /// The path, quoted and clipped (see [`quoted`]).
+        /// The path, quoted, escaped and clipped (see [`clip`]).
         file: String,
         /// What is wrong and what is expected (`is larger than 1 MiB (the cap for robot files)`).
         reason: String,

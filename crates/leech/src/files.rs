@@ -34,7 +34,7 @@
 use std::io::Read;
 use std::path::Path;
 
-use crate::error::{quoted, InputError};
+use crate::error::{clip, InputError, MESSAGE_CHARS};
 
 /// The size cap of one kind of file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -66,8 +66,14 @@ fn size(bytes: usize) -> String {
     }
 }
 
+/// A path as messages quote it: escaped, and clipped only at
+/// [`MESSAGE_CHARS`], since the user typed it and its end names the file.
+fn shown(path: &Path) -> String {
+    format!("'{}'", clip(&path.to_string_lossy(), MESSAGE_CHARS).replace('\'', "\\'"))
+}
+
 fn unreadable(field: &str, path: &Path, reason: impl Into<String>) -> InputError {
-    InputError::Unreadable { field: field.into(), file: quoted(&path.to_string_lossy()), reason: reason.into() }
+    InputError::Unreadable { field: field.into(), file: shown(path), reason: reason.into() }
 }
 
 /// Whether `path` names a descriptor this process already has open (a
@@ -181,7 +187,7 @@ pub fn check_output(path: &Path, field: &str, extension: Option<&str>) -> Result
                 return Err(unreadable(
                     field,
                     path,
-                    format!("cannot be written: its directory {} does not exist", quoted(&parent.to_string_lossy())),
+                    format!("cannot be written: its directory {} does not exist", shown(parent)),
                 ));
             }
             std::fs::OpenOptions::new().write(true).create_new(true).open(path).map_err(cannot)?;
@@ -225,7 +231,7 @@ mod tests {
         std::fs::write(&big, vec![b'#'; 2049]).unwrap();
         let cap = Cap { bytes: 2048, kind: "tests" };
         let e = read_text(&big, "--x", cap).unwrap_err().to_string();
-        assert_eq!(e, format!("--x: {} is larger than 2 KiB (the cap for tests)", quoted(&big.to_string_lossy())));
+        assert_eq!(e, format!("--x: {} is larger than 2 KiB (the cap for tests)", shown(&big)));
         assert!(read_text(&big, "--x", Cap { bytes: 2049, kind: "tests" }).is_ok());
         let e = read_text(&d, "--x", cap).unwrap_err().to_string();
         assert!(e.ends_with("is a directory, expected a file"), "{e}");

@@ -115,8 +115,9 @@ fn a_climb_cut_short_still_draws_its_steps_and_an_unwritable_svg_is_one_line() {
     assert_eq!(v["status"], "impossible");
     assert_one_frame_per_step(&std::fs::read_to_string(&svg).unwrap(), v["steps"].as_array().unwrap().len());
 
+    // An unwritable path is bad input, found before the planning.
     let out = leech().args(args).arg(dir.join("no/such/dir/climb.svg")).output().unwrap();
-    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8(out.stderr).unwrap();
     assert_eq!(err.trim_end().lines().count(), 1, "one line: {err}");
     assert!(err.contains("climb.svg"), "{err}");

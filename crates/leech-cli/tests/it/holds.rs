@@ -161,7 +161,7 @@ fn bad_holds_and_scenes_exit_2_naming_the_flag() {
     let e = shape(&["--scene", broken.to_str().unwrap()]);
     assert!(e.contains("broken.toml") && e.contains("normal"), "{e}");
     let e = shape(&["--scene", big.to_str().unwrap()]);
-    assert!(e.contains("--scene") && e.contains("bytes"), "{e}");
+    assert!(e.contains("--scene") && e.contains("larger than 1 MiB"), "{e}");
     std::fs::remove_dir_all(&dir).ok();
 }
 
