@@ -102,8 +102,12 @@ impl Default for Options {
 /// Why the link or a command failed.
 #[derive(Debug, thiserror::Error)]
 pub enum LinkError {
-    /// The serial port could not be opened.
-    #[error("cannot open the serial port {path}: {source}")]
+    /// The serial port could not be opened. Said as a value a user gave (the
+    /// caller puts its flag before it): what is allowed is a serial device.
+    #[error(
+        "got {}, which cannot be opened as a serial port ({source}); expected a serial device (a terminal) such as /dev/ttyACM0",
+        leech::files::shown(path)
+    )]
     Open {
         /// The port's path.
         path: PathBuf,

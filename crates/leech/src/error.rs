@@ -29,14 +29,16 @@ pub enum InputError {
     },
     /// A file a user named that cannot be read or written as asked (see
     /// [`crate::files`]): missing, a directory, too large, not text.
-    #[error("{field}: {file} {reason}")]
+    #[error("{field}: got {file}, {problem}; expected {allowed}")]
     Unreadable {
         /// The flag or field that named it (`--robot`).
         field: String,
         /// The path, quoted, escaped and clipped (see [`clip`]).
         file: String,
-        /// What is wrong and what is expected (`is larger than 1 MiB (the cap for robot files)`).
-        reason: String,
+        /// What is wrong, as a clause on the path (`which is larger than 1 MiB`).
+        problem: String,
+        /// What is allowed (`a robot file of at most 1 MiB`).
+        allowed: String,
     },
 }
 

@@ -104,7 +104,7 @@ fn bad_drives_exit_2_with_one_line() {
     let e = rejected(&["drive", "--port", "/nonexistent-leech-port", "jog", "4", "1"]);
     assert!(e.contains("tube 4"), "{e}");
     let e = rejected(&["drive", "--port", "/nonexistent-leech-port", "run", "/nonexistent-plan.json"]);
-    assert!(e.contains("run: '/nonexistent-plan.json' does not exist"), "{e}");
+    assert!(e.contains("run: got '/nonexistent-plan.json', which does not exist"), "{e}");
     let e = rejected(&["drive", "--port", "/nonexistent-leech-port", "stride", "push"]);
     assert!(e.contains("--lengths"), "{e}");
     let e = rejected(&["drive", "--port", "/nonexistent-leech-port", "stride", "release_front"]);

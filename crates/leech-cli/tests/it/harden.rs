@@ -153,9 +153,9 @@ fn device_files_are_read_within_their_caps() {
     let out = scratch_path("dev-fitted.toml");
     let out = out.to_str().unwrap();
     let e = refused(&["robot", "--robot", "/dev/zero"], "--robot");
-    assert!(e.contains("'/dev/zero' is larger than 1 MiB (the cap for robot files)"), "{e}");
+    assert!(e.contains("got '/dev/zero', which is larger than 1 MiB; expected a robot file of at most 1 MiB"), "{e}");
     let e = refused(&["calibrate", "--sag", "/dev/full", "--out", out], "--sag");
-    assert!(e.contains("16 MiB (the cap for measurement files)"), "{e}");
+    assert!(e.contains("expected a measurement file of at most 16 MiB"), "{e}");
     refused(&["calibrate", "--sag", "/dev/urandom", "--out", out], "--sag");
     refused(&["compare", "--shapes", "/dev/zero"], "--shapes");
     // /dev/null is an empty file: the robot file's parser says what is missing.
