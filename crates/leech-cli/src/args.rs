@@ -553,7 +553,9 @@ fn measured<T>(
     parse: impl FnOnce(&str, &str) -> Result<Vec<T>, InputError>,
 ) -> Result<Measured<T>, Failure> {
     let name = path.display().to_string();
-    let rows = parse(&read_text(path, flag, files::MEASUREMENT_FILE)?, &name)?;
+    // The library names its errors by `source`: the flag typed, then the file.
+    let source = format!("{flag} {}", files::shown(path));
+    let rows = parse(&read_text(path, flag, files::MEASUREMENT_FILE)?, &source)?;
     Ok(Measured { name, rows })
 }
 
