@@ -15,7 +15,7 @@ use leech::budget::Deadline;
 use leech::calibration::{read_sag, read_shapes, BodyShape, Fit, SagTube};
 use leech::chain::Discretization;
 use leech::dynamics::{Actuation, Integrator, SimulationOptions, Start};
-use leech::error::{positive, within, Num};
+use leech::error::{non_negative, positive, within, InputError, Num};
 use leech::files::{self, check_output, read_text};
 use leech::inverse_statics::check_target;
 use leech::prelude::*;
@@ -227,21 +227,29 @@ impl Args {
             }),
             Command::Workspace(a) => Args::Workspace(workspace(a)?),
             Command::Reach(a) => Args::Reach(reach(a)?),
-            Command::Calibrate(a) => Args::Calibrate(Calibrate {
-                robot: tuned(&a.robot, Ok)?,
-                sag: measured(&a.sag, "--sag", read_sag)?,
-                shapes: a.shapes.as_deref().map(|p| measured(p, "--shapes", read_shapes)).transpose()?,
-                fit: a.fit.into(),
-                deadline: deadline(a.time_limit)?,
-                out: a.out,
-                outputs: Outputs { json: a.json, svg: a.svg, ..Outputs::default() },
-            }),
-            Command::Compare(a) => Args::Compare(Compare {
-                robot: tuned(&a.robot, Ok)?,
-                shapes: measured(&a.shapes, "--shapes", read_shapes)?.rows,
-                json: a.json,
-                deadline: deadline(a.time_limit)?,
-            }),
+            Command::Calibrate(a) => {
+                // Flags before files, as compare.
+                let deadline = deadline(a.time_limit)?;
+                Args::Calibrate(Calibrate {
+                    robot: tuned(&a.robot, Ok)?,
+                    sag: measured(&a.sag, "--sag", read_sag)?,
+                    shapes: a.shapes.as_deref().map(|p| measured(p, "--shapes", read_shapes)).transpose()?,
+                    fit: a.fit.into(),
+                    deadline,
+                    out: a.out,
+                    outputs: Outputs { json: a.json, svg: a.svg, ..Outputs::default() },
+                })
+            }
+            Command::Compare(a) => {
+                // Flags before files: a bad --time-limit is found without reading the file.
+                let deadline = deadline(a.time_limit)?;
+                Args::Compare(Compare {
+                    robot: tuned(&a.robot, Ok)?,
+                    shapes: measured(&a.shapes, "--shapes", read_shapes)?.rows,
+                    json: a.json,
+                    deadline,
+                })
+            }
             Command::Simulate(a) => Args::Simulate(simulate(a)?),
             Command::Scene(a) => match a.command {
                 SceneCommand::List { json } => Args::Scenes { json },
@@ -319,7 +327,7 @@ fn chain(a: flags::ChainArgs) -> Result<Chain, Failure> {
     let stiffness = match (a.stiffness, a.shape_parameter) {
         (Some(k), _) => k,
         (None, pi) => {
-            let pi = positive("shape parameter", pi.unwrap_or(f64::NAN))?;
+            let pi = positive("--shape-parameter", pi.unwrap_or(f64::NAN))?;
             positive("gravity_m_per_s2 (the shape parameter needs gravity)", a.gravity)?;
             pi * a.element_mass * a.gravity * a.element_length
         }
@@ -403,14 +411,14 @@ fn shape(a: flags::ShapeArgs) -> Result<Shape, Failure> {
     let robot = tuned(&a.robot, |robot| {
         let mut robot = at_base_angle(robot, base_angle)?;
         if let Some(g) = a.gravity {
-            robot = robot.with_gravity(g)?;
+            robot = robot.with_gravity(g).flag("--gravity")?;
         }
         if let Some(d) = a.discretization {
             robot = robot.with_discretization(d.into());
         }
         Ok(robot)
     })?;
-    let [la, lb] = a.lengths;
+    let [la, lb] = tube_lengths(&robot, "--lengths", a.lengths)?;
     // The body checks the lengths for both models.
     let body = robot.body(la, lb)?;
     let models = models(a.model);
@@ -445,14 +453,14 @@ fn repeat(n: usize) -> Result<NonZeroUsize, Failure> {
 fn workspace(a: flags::WorkspaceArgs) -> Result<Workspace, Failure> {
     let robot = at_base_angle(load_robot_or_builtin(a.robot.as_deref())?, a.base_angle)?;
     let options = SweepOptions {
-        grid: Grid::parse(&a.lengths_range)?,
+        grid: Grid::parse(&a.lengths_range).flag("--lengths-range")?,
         shape_parameters: a.shape_parameter,
         models: models(a.model),
         left_longer: a.left_longer,
         deadline: deadline(a.time_limit)?,
     };
     for pi in &options.shape_parameters {
-        positive("shape parameter", *pi)?;
+        positive("--shape-parameter", *pi)?;
     }
     let outputs = Outputs { json: a.json, svg: a.svg, ..Outputs::default() };
     Ok(Workspace { robot, options, range: a.lengths_range, csv: a.out, outputs })
@@ -460,14 +468,19 @@ fn workspace(a: flags::WorkspaceArgs) -> Result<Workspace, Failure> {
 
 fn reach(a: flags::ReachArgs) -> Result<Reach, Failure> {
     let robot = at_base_angle(tuned(&a.robot, Ok)?, a.base_angle)?;
-    let target = [check_target("target x", a.target[0])?, check_target("target y", a.target[1])?];
-    let angle = a.angle.map(|deg| within("angle (deg)", deg, -720.0, 720.0).map(f64::to_radians)).transpose()?;
-    let grid = Grid::parse(&a.lengths_range)?;
+    let target = [check_target("--target x", a.target[0])?, check_target("--target y", a.target[1])?];
+    let angle = a.angle.map(|deg| within("--angle (deg)", deg, -720.0, 720.0).map(f64::to_radians)).transpose()?;
+    let grid = Grid::parse(&a.lengths_range).flag("--lengths-range")?;
     Ok(Reach { robot, target, angle, grid, json: a.json, deadline: deadline(a.time_limit)? })
 }
 
 fn simulate(a: flags::SimulateArgs) -> Result<Simulate, Failure> {
     let robot = tuned(&a.robot, Ok)?;
+    // The library checks these again as it runs; here each is named by its flag.
+    tube_lengths(&robot, "--lengths", a.lengths)?;
+    a.to.map(|to| tube_lengths(&robot, "--to", to)).transpose()?;
+    positive("--rest-rate (rad/s)", a.rest_rate)?;
+    non_negative("--ramp (s)", a.ramp)?;
     let actuation = match (a.to, a.step) {
         (None, _) => Actuation::Hold,
         (Some(to), true) => Actuation::Step { to },
@@ -524,15 +537,36 @@ pub(crate) fn tuned(
 ) -> Result<Robot, Failure> {
     let robot = edit(load_robot_or_builtin(choice.file.as_deref())?)?;
     match choice.shape_parameter {
-        Some(pi) => Ok(robot.with_shape_parameter(pi)?),
+        Some(pi) => Ok(robot.with_shape_parameter(pi).flag("--shape-parameter")?),
         None => Ok(robot),
     }
+}
+
+/// A library result whose error names the flag that gave the value
+/// ([`InputError::for_flag`]): every value the command line resolves
+/// through the library goes through here.
+pub(crate) trait Flagged<T> {
+    fn flag(self, flag: &str) -> Result<T, InputError>;
+}
+
+impl<T> Flagged<T> for Result<T, InputError> {
+    fn flag(self, flag: &str) -> Result<T, InputError> {
+        self.map_err(|e| e.for_flag(flag))
+    }
+}
+
+/// The two tube lengths `flag` gives, checked against the robot.
+fn tube_lengths(robot: &Robot, flag: &str, [la, lb]: [f64; 2]) -> Result<[f64; 2], InputError> {
+    Ok([
+        robot.check_tube_length("lengths[0] (LA)", la).flag(flag)?,
+        robot.check_tube_length("lengths[1] (LB)", lb).flag(flag)?,
+    ])
 }
 
 /// The robot with the clamp angle the command line asks for, if it does.
 fn at_base_angle(robot: Robot, angle: Option<f64>) -> Result<Robot, InputError> {
     match angle {
-        Some(angle) => robot.with_base_angle(angle),
+        Some(angle) => robot.with_base_angle(angle).flag("--base-angle"),
         None => Ok(robot),
     }
 }

@@ -47,6 +47,55 @@ impl InputError {
     pub fn invalid(field: impl Into<String>, value: f64, allowed: impl Into<String>) -> InputError {
         InputError::Invalid { field: field.into(), value: Num(value).to_string(), allowed: allowed.into() }
     }
+
+    /// This error as the flag `flag` (`--lengths`) gave the value: a user
+    /// must find the flag they typed, not only the library's name for the
+    /// field. A field spelling the flag's words (`lengths[0] (LA)`, `shape
+    /// parameter`, `angle (deg)`) takes the flag's spelling (`--lengths[0]
+    /// (LA)`); another keeps its name after the flag (`--base-angle
+    /// (world.base_angle_deg)`). Parse errors of files are left as they are.
+    ///
+    /// ```
+    /// use leech::error::InputError;
+    /// let named = |field: &str, flag| InputError::invalid(field, 1.0, "x").for_flag(flag).to_string();
+    /// assert_eq!(named("lengths[0] (LA)", "--lengths"), "--lengths[0] (LA): got 1, expected x");
+    /// assert_eq!(named("shape parameter", "--shape-parameter"), "--shape-parameter: got 1, expected x");
+    /// assert_eq!(named("world.base_angle_deg", "--base-angle"), "--base-angle (world.base_angle_deg): got 1, expected x");
+    /// assert_eq!(named("lengths range", "--lengths"), "--lengths (lengths range): got 1, expected x");
+    /// assert_eq!(named("--ramp", "--ramp"), "--ramp: got 1, expected x");
+    /// ```
+    pub fn for_flag(self, flag: &str) -> InputError {
+        match self {
+            InputError::Invalid { field, value, allowed } => {
+                InputError::Invalid { field: flag_field(flag, &field), value, allowed }
+            }
+            InputError::Unreadable { field, file, problem, allowed } => {
+                InputError::Unreadable { field: flag_field(flag, &field), file, problem, allowed }
+            }
+            other => other,
+        }
+    }
+}
+
+/// `field` named by `flag` (see [`InputError::for_flag`]).
+fn flag_field(flag: &str, field: &str) -> String {
+    if field.starts_with(flag) {
+        return field.to_string();
+    }
+    // The flag's words, `-` between them, against the field's, ` ` or `_` between them.
+    let words = flag.trim_start_matches('-');
+    let mut rest = field.chars();
+    let spelt = words.chars().all(|w| match rest.next() {
+        Some(f) => f == w || (w == '-' && (f == ' ' || f == '_')),
+        None => false,
+    });
+    let rest = rest.as_str();
+    // Only where the field's name ends: `lengths range` is not `--lengths`.
+    if spelt && (rest.is_empty() || rest.starts_with('[') || rest.starts_with(" (")) {
+        format!("{flag}{rest}")
+    } else {
+        format!("{flag} ({field})")
+    }
 }
 
 /// A number as messages print it: the shortest text that reads back to it
