@@ -391,6 +391,12 @@ fn tube_scene(path: &Path, diameter: Option<f64>, tube: &Cantilever) -> Result<(
 }
 
 fn shape(a: flags::ShapeArgs) -> Result<Shape, Failure> {
+    if a.free_cups.is_some() && a.scene.is_none() {
+        return Err(Failure::Input(
+            "--free-cups: --scene not provided, expected --scene <NAME|FILE> with it (the solids the cups rest on)"
+                .into(),
+        ));
+    }
     // --rear's angle is the clamp direction: it sets the base angle.
     let rear = a.rear.map(|p| pose("--rear", p, 360.0)).transpose()?;
     let scene = a.scene.as_deref().map(|p| load_scene(p, "--scene")).transpose()?.map(|(scene, _)| scene);
@@ -475,6 +481,11 @@ fn reach(a: flags::ReachArgs) -> Result<Reach, Failure> {
 }
 
 fn simulate(a: flags::SimulateArgs) -> Result<Simulate, Failure> {
+    if a.step && a.to.is_none() {
+        return Err(Failure::Input(
+            "--step: --to not provided, expected --to <LA2,LB2> with it (the lengths to step to)".into(),
+        ));
+    }
     let robot = tuned(&a.robot, Ok)?;
     // The library checks these again as it runs; here each is named by its flag.
     tube_lengths(&robot, "--lengths", a.lengths)?;

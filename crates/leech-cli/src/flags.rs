@@ -104,10 +104,10 @@ pub struct SimRobotArgs {
     #[arg(long, value_name = "SPEC")]
     pub faults: Option<String>,
     /// Print the simulated robot's state as one JSON line every S seconds (0: never).
-    #[arg(long, value_name = "S", default_value_t = 0.0)]
+    #[arg(long, value_name = "S", default_value_t = 0.0, allow_hyphen_values = true)]
     pub status_every: f64,
     /// Stop after S seconds (default: until interrupted).
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_hyphen_values = true)]
     pub duration: Option<f64>,
 }
 
@@ -171,10 +171,10 @@ pub enum DriveAction {
         /// The phase: push, attach_front, release_rear, pull, attach_rear or release_front.
         phase: String,
         /// For push and pull: the tube lengths LA,LB in m (L1 = LA, L2 = L3 = LB).
-        #[arg(long, value_name = "LA,LB", value_parser = parse_pair)]
+        #[arg(long, value_name = "LA,LB", value_parser = parse_pair, allow_hyphen_values = true)]
         lengths: Option<[f64; 2]>,
         /// For a release: the safety factor of the cup that will hold alone after it.
-        #[arg(long, value_name = "SF")]
+        #[arg(long, value_name = "SF", allow_hyphen_values = true)]
         safety_factor: Option<f64>,
     },
     /// Carry out a climb step by step, each confirmed by telemetry, behind the stride interlock: a
@@ -225,12 +225,12 @@ pub struct ClimbArgs {
     #[arg(long, value_name = "X,Y", value_parser = parse_pair, allow_hyphen_values = true, requires = "scene")]
     pub goal: Option<[f64; 2]>,
     /// With --scene: how close to the goal the rear cup must land (m).
-    #[arg(long, value_name = "M", requires = "scene")]
+    #[arg(long, value_name = "M", requires = "scene", allow_hyphen_values = true)]
     pub tolerance: Option<f64>,
     #[command(flatten)]
     pub robot: RobotChoice,
     /// Wall-clock limit of the whole search (s, at most a day); the built-in scenarios plan in seconds.
-    #[arg(long, value_name = "S", default_value_t = 60.0)]
+    #[arg(long, value_name = "S", default_value_t = 60.0, allow_hyphen_values = true)]
     pub time_limit: f64,
     /// Print the plan as JSON (units in the keys) instead of text.
     #[arg(long)]
@@ -352,19 +352,19 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "LA2,LB2", value_parser = parse_pair, allow_hyphen_values = true)]
     pub to: Option<[f64; 2]>,
     /// Feeding speed of each motor (mm/s), as the paper's robot.
-    #[arg(long, value_name = "MM_PER_S", default_value_t = 20.0)]
+    #[arg(long, value_name = "MM_PER_S", default_value_t = 20.0, allow_hyphen_values = true)]
     pub speed: f64,
     /// Change the lengths at once instead of feeding them.
-    #[arg(long, requires = "to")]
+    #[arg(long)]
     pub step: bool,
     /// Start shape (default: unloaded without --to, static with it).
     #[arg(long, value_enum)]
     pub start: Option<StartArg>,
     /// Simulated time (s); the longest run with --until-rest.
-    #[arg(long, value_name = "S", default_value_t = 5.0)]
+    #[arg(long, value_name = "S", default_value_t = 5.0, allow_hyphen_values = true)]
     pub duration: f64,
     /// Time step (s); default 5 ms implicit, the stability limit otherwise.
-    #[arg(long, value_name = "S")]
+    #[arg(long, value_name = "S", allow_hyphen_values = true)]
     pub dt: Option<f64>,
     /// Time-stepping scheme.
     #[arg(long, value_enum, default_value_t = IntegratorArg::Implicit)]
@@ -373,10 +373,10 @@ pub struct SimulateArgs {
     #[arg(long)]
     pub until_rest: bool,
     /// Rates counting as rest (rad/s).
-    #[arg(long, value_name = "RAD_PER_S", default_value_t = 1e-6)]
+    #[arg(long, value_name = "RAD_PER_S", default_value_t = 1e-6, allow_hyphen_values = true)]
     pub rest_rate: f64,
     /// Raise gravity over this time (s) instead of at once.
-    #[arg(long, value_name = "S", default_value_t = 0.0)]
+    #[arg(long, value_name = "S", default_value_t = 0.0, allow_hyphen_values = true)]
     pub ramp: f64,
     /// CSV time series (time, lengths, endpoint, energies, violation, angles).
     #[arg(long, value_name = "FILE")]
@@ -389,7 +389,7 @@ pub struct SimulateArgs {
     pub json: bool,
     /// Wall-clock limit of the run (s, at most a day): a second simulated takes seconds at the
     /// most; 10 minutes stops a step far too small, and nothing is written.
-    #[arg(long, value_name = "S", default_value_t = 600.0)]
+    #[arg(long, value_name = "S", default_value_t = 600.0, allow_hyphen_values = true)]
     pub time_limit: f64,
 }
 
@@ -430,7 +430,7 @@ pub struct CalibrateArgs {
     pub json: bool,
     /// Wall-clock limit of the fit (s, at most a day): fits take seconds; 5 minutes stops a
     /// runaway, and no robot file is written.
-    #[arg(long, value_name = "S", default_value_t = 300.0)]
+    #[arg(long, value_name = "S", default_value_t = 300.0, allow_hyphen_values = true)]
     pub time_limit: f64,
 }
 
@@ -447,7 +447,7 @@ pub struct CompareArgs {
     #[arg(long)]
     pub json: bool,
     /// Wall-clock limit of all the shapes' solves (s, at most a day): each takes milliseconds.
-    #[arg(long, value_name = "S", default_value_t = 60.0)]
+    #[arg(long, value_name = "S", default_value_t = 60.0, allow_hyphen_values = true)]
     pub time_limit: f64,
 }
 
@@ -471,7 +471,7 @@ pub struct WorkspaceArgs {
     #[arg(long)]
     pub left_longer: bool,
     /// Clamp direction (deg), overriding the robot file.
-    #[arg(long, value_name = "DEG")]
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
     pub base_angle: Option<f64>,
     /// CSV file for every grid point.
     #[arg(long, value_name = "FILE.csv")]
@@ -484,7 +484,7 @@ pub struct WorkspaceArgs {
     pub json: bool,
     /// Wall-clock limit of the whole sweep (s, at most a day): the paper's 1 mm sweep takes
     /// seconds; 10 minutes stops a grid far too fine or a body far too soft, and no CSV is written.
-    #[arg(long, value_name = "S", default_value_t = 600.0)]
+    #[arg(long, value_name = "S", default_value_t = 600.0, allow_hyphen_values = true)]
     pub time_limit: f64,
 }
 
@@ -498,20 +498,20 @@ pub struct ReachArgs {
     #[arg(long, value_name = "X,Y", value_parser = parse_pair, allow_hyphen_values = true)]
     pub target: [f64; 2],
     /// Target plate angle (deg from +x), for the front cup to land flat.
-    #[arg(long, value_name = "DEG")]
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
     pub angle: Option<f64>,
     /// Allowed tube lengths and the grid of the starting map, MIN:MAX:STEP in m.
     #[arg(long, value_name = "MIN:MAX:STEP", default_value = "0.05:0.3:0.01")]
     pub lengths_range: String,
     /// Clamp direction (deg), overriding the robot file.
-    #[arg(long, value_name = "DEG")]
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
     pub base_angle: Option<f64>,
     /// Print the answer as JSON.
     #[arg(long)]
     pub json: bool,
     /// Wall-clock limit of the map and the search together (s, at most a day): the default map
     /// and a target take about a second; 2 minutes stops a range far too fine.
-    #[arg(long, value_name = "S", default_value_t = 120.0)]
+    #[arg(long, value_name = "S", default_value_t = 120.0, allow_hyphen_values = true)]
     pub time_limit: f64,
 }
 
@@ -594,13 +594,13 @@ pub struct ChainArgs {
     #[arg(long, value_name = "P", conflicts_with = "stiffness")]
     pub shape_parameter: Option<f64>,
     /// Point mass at the tip (kg).
-    #[arg(long, value_name = "KG", default_value_t = 0.0)]
+    #[arg(long, value_name = "KG", default_value_t = 0.0, allow_hyphen_values = true)]
     pub tip_mass: f64,
     /// Clamp direction (deg from +x; 90 points up).
-    #[arg(long, value_name = "DEG", default_value_t = 0.0)]
+    #[arg(long, value_name = "DEG", default_value_t = 0.0, allow_hyphen_values = true)]
     pub base_angle: f64,
     /// Gravity (m/s^2).
-    #[arg(long, value_name = "M_PER_S2", default_value_t = 9.81)]
+    #[arg(long, value_name = "M_PER_S2", default_value_t = 9.81, allow_hyphen_values = true)]
     pub gravity: f64,
     /// How the tube is cut into links.
     #[arg(long, value_enum, default_value_t = DiscretizationArg::Paper)]
@@ -610,7 +610,7 @@ pub struct ChainArgs {
     pub max_iterations: usize,
     /// Wall-clock limit of the command (s, at most a day; with --repeat all the solves together):
     /// a solve takes milliseconds, 60 s only stops a runaway.
-    #[arg(long, value_name = "S", default_value_t = 60.0)]
+    #[arg(long, value_name = "S", default_value_t = 60.0, allow_hyphen_values = true)]
     pub time_limit: f64,
     /// Surroundings the tube rests on (its clamp stays at the origin): a built-in scene's name
     /// (`leech scene list`) or a scene file.
@@ -618,7 +618,7 @@ pub struct ChainArgs {
     pub scene: Option<PathBuf>,
     /// The tube's outer diameter (m), its clearance from the scene (default: the built-in robot's
     /// `[tube] outer_diameter_m`).
-    #[arg(long, value_name = "M", requires = "scene")]
+    #[arg(long, value_name = "M", requires = "scene", allow_hyphen_values = true)]
     pub outer_diameter: Option<f64>,
     #[command(flatten)]
     pub output: Output,
@@ -634,10 +634,10 @@ pub struct ShapeArgs {
     #[arg(long, value_name = "LA,LB", value_parser = parse_pair, allow_hyphen_values = true)]
     pub lengths: [f64; 2],
     /// Clamp direction (deg), overriding the robot file.
-    #[arg(long, value_name = "DEG")]
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
     pub base_angle: Option<f64>,
     /// Gravity (m/s^2), overriding the robot file.
-    #[arg(long, value_name = "M_PER_S2")]
+    #[arg(long, value_name = "M_PER_S2", allow_hyphen_values = true)]
     pub gravity: Option<f64>,
     /// Discretization, overriding the robot file.
     #[arg(long, value_enum)]
@@ -650,7 +650,7 @@ pub struct ShapeArgs {
     pub max_iterations: usize,
     /// Wall-clock limit of the command (s, at most a day; with --repeat all the solves together):
     /// a solve takes milliseconds, 60 s only stops a runaway.
-    #[arg(long, value_name = "S", default_value_t = 60.0)]
+    #[arg(long, value_name = "S", default_value_t = 60.0, allow_hyphen_values = true)]
     pub time_limit: f64,
     /// Solve N times (cold each time, N <= 100000) and report the solve time (`solve_time_s` in JSON).
     #[arg(long, value_name = "N")]
@@ -669,7 +669,7 @@ pub struct ShapeArgs {
     #[arg(long, value_name = "X,Y,DEG", value_parser = parse_pose, allow_hyphen_values = true)]
     pub front: Option<[f64; 3]>,
     /// With --scene: whether the free cups' faces rest on the solids (default pass-through).
-    #[arg(long, value_enum, value_name = "MODE", requires = "scene")]
+    #[arg(long, value_enum, value_name = "MODE")]
     pub free_cups: Option<FreeCupsArg>,
     #[command(flatten)]
     pub output: Output,

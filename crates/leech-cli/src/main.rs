@@ -74,9 +74,11 @@ fn exit_code(failure: Failure, json: bool) -> ExitCode {
     }
 }
 
-/// Help and version on standard output; a parse error as one line, exit 2.
+/// Help and version on standard output; a parse error as one line, exit 2,
+/// naming what was wrong and what is allowed (clap's own text says the
+/// first but often not the second, and runs over several lines).
 fn clap_failure(e: &clap::Error) -> ExitCode {
-    use clap::error::ErrorKind;
+    use clap::error::{ContextKind, ContextValue, ErrorKind};
     if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion) {
         // `leech --help | head` closes the pipe early: not an error.
         return match render::emit(&e.to_string()) {
@@ -87,31 +89,80 @@ fn clap_failure(e: &clap::Error) -> ExitCode {
             }
         };
     }
-    if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
-        // `leech` (or `leech drive`) alone: say what is missing, on one line.
-        let help = e.to_string();
-        let usage = help.lines().find_map(|l| l.strip_prefix("Usage: ")).unwrap_or("leech <COMMAND>");
-        let commands: Vec<&str> = help
-            .lines()
-            .skip_while(|l| l.trim() != "Commands:")
-            .skip(1)
-            .take_while(|l| !l.trim().is_empty())
-            .filter_map(|l| l.split_whitespace().next())
-            .filter(|name| *name != "help")
-            .collect();
-        eprintln!("leech: a subcommand is needed ({usage}), one of {}; see --help", commands.join(", "));
-        return ExitCode::from(2);
-    }
-    // One line: clap's message without its usage and help hints.
     let rendered = e.to_string();
-    let message: Vec<&str> = rendered
-        .lines()
-        .map(str::trim)
-        .take_while(|l| !l.starts_with("Usage:") && !l.starts_with("For more information"))
-        .filter(|l| !l.is_empty())
-        .collect();
-    eprintln!("leech: {}", message.join(" ").trim_start_matches("error: "));
+    // `leech shape` of `Usage: leech shape [OPTIONS] --lengths <LA,LB>`: the command that failed.
+    let usage = rendered.lines().find_map(|l| l.trim().strip_prefix("Usage: ")).unwrap_or("leech <COMMAND>");
+    let command: Vec<&str> = usage.split(' ').take_while(|w| !w.starts_with(['[', '-', '<'])).collect();
+    let command = command.join(" ");
+    let context = |kind| match e.get(kind) {
+        Some(ContextValue::String(s)) => Some(s.clone()),
+        Some(ContextValue::Strings(s)) => s.first().cloned(),
+        Some(ContextValue::StyledStr(s)) => Some(s.to_string()),
+        _ => None,
+    };
+    let suggested = |kind| context(kind).map(|s| format!("; did you mean '{s}'?")).unwrap_or_default();
+    let message = match e.kind() {
+        ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand | ErrorKind::MissingSubcommand => {
+            // `leech` or `leech drive` alone.
+            format!("a subcommand is needed ({usage}), one of {}; see {command} --help", subcommands(&command))
+        }
+        ErrorKind::InvalidSubcommand => format!(
+            "{command} <COMMAND>: got {}, expected one of {}{}",
+            leech::error::quoted(&context(ContextKind::InvalidSubcommand).unwrap_or_default()),
+            subcommands(&command),
+            suggested(ContextKind::SuggestedSubcommand)
+        ),
+        ErrorKind::UnknownArgument => format!(
+            "unexpected argument {}, expected one of the flags of '{command}' (see {command} --help){}",
+            leech::error::quoted(&context(ContextKind::InvalidArg).unwrap_or_default()),
+            suggested(ContextKind::SuggestedArg)
+        ),
+        ErrorKind::InvalidUtf8 => not_utf8(),
+        _ => {
+            // One line: clap's message without its usage and help hints.
+            let lines: Vec<&str> = rendered
+                .lines()
+                .map(str::trim)
+                .take_while(|l| !l.starts_with("Usage:") && !l.starts_with("For more information"))
+                .filter(|l| !l.is_empty())
+                .collect();
+            lines.join(" ").trim_start_matches("error: ").to_string()
+        }
+    };
+    eprintln!("leech: {message}");
     ExitCode::from(2)
+}
+
+/// The subcommands of `command` (`leech drive`), comma-separated, `help` left out.
+fn subcommands(command: &str) -> String {
+    use clap::CommandFactory;
+    let mut at = flags::Cli::command();
+    for name in command.split(' ').skip(1) {
+        match at.find_subcommand(name) {
+            Some(sub) => at = sub.clone(),
+            None => break,
+        }
+    }
+    let names: Vec<&str> = at.get_subcommands().map(|c| c.get_name()).filter(|n| *n != "help").collect();
+    names.join(", ")
+}
+
+/// The first argument that is not UTF-8, named by its flag (`--lengths`,
+/// `--lengths=...`) or its place, in the house format.
+fn not_utf8() -> String {
+    let args: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    let Some(at) = args.iter().skip(1).position(|a| a.to_str().is_none()).map(|i| i + 1) else {
+        return "an argument: got text that is not UTF-8, expected UTF-8 text".into();
+    };
+    let lossy = args[at].to_string_lossy();
+    let field = match lossy.split_once('=') {
+        Some((flag, _)) if flag.starts_with("--") => flag.to_string(),
+        _ => match args[at - 1].to_str() {
+            Some(flag) if flag.starts_with("--") => flag.to_string(),
+            _ => format!("argument {at}"),
+        },
+    };
+    format!("{field}: got {}, which is not UTF-8; expected UTF-8 text", leech::error::quoted(&lossy))
 }
 
 /// Runs a command, appending what it prints to `out`.

@@ -91,9 +91,7 @@ fn why(e: &std::io::Error, kind: &str) -> (String, String) {
         ErrorKind::PermissionDenied => {
             ("which cannot be opened (permission denied)".into(), format!("a {kind} this user may read"))
         }
-        ErrorKind::WouldBlock => {
-            ("which has nothing to read now (a terminal or device)".into(), format!("a {kind}"))
-        }
+        ErrorKind::WouldBlock => ("which has nothing to read now (a terminal or device)".into(), format!("a {kind}")),
         _ => (format!("which cannot be read ({e})"), format!("a readable {kind}")),
     }
 }
@@ -138,10 +136,7 @@ pub fn read_text(path: &Path, field: &str, cap: Cap) -> Result<String, InputErro
         }
     }
     let mut bytes = Vec::new();
-    options
-        .open(path)
-        .and_then(|f| f.take(cap.bytes as u64 + 1).read_to_end(&mut bytes))
-        .map_err(failed)?;
+    options.open(path).and_then(|f| f.take(cap.bytes as u64 + 1).read_to_end(&mut bytes)).map_err(failed)?;
     if bytes.len() > cap.bytes {
         let cap_text = size(cap.bytes);
         return Err(unreadable(

@@ -265,7 +265,6 @@ fn a_plan_with_too_many_steps_is_refused() {
     assert!(e.contains("10001") && e.contains("1 to 10000"), "{e}");
 }
 
-
 /// Runs a job that cannot finish within `--time-limit 1`, killed (and the
 /// test failed) if it outlives a generous process timeout; returns stderr,
 /// checking exit code 3 and one line.
