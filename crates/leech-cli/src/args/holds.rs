@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use leech::error::within;
+use leech::error::{within, Num};
 use leech::prelude::*;
 use leech::scene::{Scene, BUILTIN_SCENES, MAX_COORDINATE_M, ON_SURFACE_M};
 use leech::stance::{self, Hold, Pose};
@@ -40,7 +40,7 @@ pub(super) fn situation(
         }
     };
     if let Some(scene) = scene {
-        clear_of(scene, robot, hold)?;
+        clear_of(scene, robot, hold, [a.rear, a.front])?;
     }
     Ok(hold)
 }
@@ -56,30 +56,38 @@ pub(super) fn pose(flag: &str, [x, y, deg]: [f64; 3], max_deg: f64) -> Result<Po
 /// the endpoint deeper than [`ON_SURFACE_M`], the cups' centres (each cup
 /// sits on chain B's side: `b` or `c` plus its offset along `nu`) deeper
 /// than that plus the robot file's preload (a planner presses them in by it).
-fn clear_of(scene: &Scene, robot: &Robot, hold: Hold) -> Result<(), Failure> {
+/// `given` is --rear's and --front's values as typed, which a refusal quotes.
+fn clear_of(scene: &Scene, robot: &Robot, hold: Hold, given: [Option<[f64; 3]>; 2]) -> Result<(), Failure> {
     let (point, pressed) = (ON_SURFACE_M, ON_SURFACE_M + robot.cup.preload_m);
     let mut points = Vec::new();
     if let Some(p) = hold.rear() {
         let cup = stance::rear_cup_centre(robot, p);
         points.extend([
-            ("--rear", "the driving unit", p.point_m, point),
-            ("--rear", "the rear cup's centre", cup, pressed),
+            ("--rear", given[0], "the driving unit", p.point_m, point),
+            ("--rear", given[0], "the rear cup's centre", cup, pressed),
         ]);
     }
     if let Some(p) = hold.front() {
         let cup = stance::front_cup_centre(robot, p);
         points.extend([
-            ("--front", "the endpoint", p.point_m, point),
-            ("--front", "the front cup's centre", cup, pressed),
+            ("--front", given[1], "the endpoint", p.point_m, point),
+            ("--front", given[1], "the front cup's centre", cup, pressed),
         ]);
     }
     // A point on a surface is clear, to rounding.
-    match points.into_iter().find(|(_, _, p, depth)| !scene.is_free(*p, -depth)) {
-        Some((flag, what, [x, y], _)) => Err(Failure::Input(format!(
-            "{flag}: {what} at ({:.1}, {:.1}) mm is inside a solid of the scene, expected free space or a surface",
-            x * 1e3,
-            y * 1e3
-        ))),
+    match points.into_iter().find(|(_, _, _, p, depth)| !scene.is_free(*p, -depth)) {
+        Some((flag, typed, what, [x, y], _)) => {
+            // Without --rear, the scene's [start] placed the robot.
+            let value = match typed {
+                Some(v) => v.map(|c| Num(c).to_string()).join(","),
+                None => "the scene's [start]".into(),
+            };
+            Err(Failure::Input(format!(
+                "{flag}: got {value}, which puts {what} at ({:.1}, {:.1}) mm inside a solid of the scene; expected free space or a surface",
+                x * 1e3,
+                y * 1e3
+            )))
+        }
         None => Ok(()),
     }
 }
