@@ -184,7 +184,7 @@ impl CantileverSpec {
                 format!("a whole number from 1 to {}", crate::chain::MAX_LINKS),
             ));
         }
-        let l = positive("element_length_m", self.element_length_m)?;
+        let l = crate::chain::check_element_length("element_length_m", self.element_length_m)?;
         // The derived length, not only its factors: 20 elements of 1e308 m
         // are each finite but together overflow.
         let full = self.elements as f64 * l;
@@ -202,7 +202,7 @@ impl CantileverSpec {
         let spec = crate::chain::ChainSpec {
             tube_length,
             element_length: l,
-            element_mass: positive("element_mass_kg", self.element_mass_kg)?,
+            element_mass: crate::chain::check_element_mass("element_mass_kg", self.element_mass_kg)?,
             stiffness: positive("joint_stiffness_nm_per_rad", self.joint_stiffness_nm_per_rad)?,
             damping: 0.0,
             tip_mass: non_negative("tip_mass_kg", self.tip_mass_kg)?,

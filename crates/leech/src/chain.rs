@@ -42,6 +42,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::error::InputError;
 use crate::geom::unit;
 use crate::linalg::quasiseparable::{self, Generators};
 use crate::statics::Evaluation;
@@ -86,6 +87,27 @@ pub const MAX_LINKS: usize = 10_000;
 /// finite inputs (`elements x element length`) may overflow, or describe
 /// nothing a soft robot could be.
 pub const MAX_TUBE_LENGTH_M: f64 = 1e3;
+
+/// Element lengths (m) a tube may be cut into: 0.1 mm to 1 m. Shorter, a
+/// link's inertia and spring (`k / l`, `m l^2`) leave the range where the
+/// solvers' tolerances mean anything (a subnormal length solves to
+/// nonsense); longer, one element is no longer a short piece of a soft tube.
+pub const ELEMENT_LENGTH_M: (f64, f64) = (1e-4, 1.0);
+
+/// Element masses (kg): a microgram to a tonne. Below, gravity's terms
+/// vanish beside the solver's tolerances (a subnormal mass is accepted as
+/// weightless and means nothing); above, nothing a soft robot carries.
+pub const ELEMENT_MASS_KG: (f64, f64) = (1e-9, 1e3);
+
+/// Checks an element length against [`ELEMENT_LENGTH_M`].
+pub fn check_element_length(field: &str, length: f64) -> Result<f64, InputError> {
+    crate::error::within(field, length, ELEMENT_LENGTH_M.0, ELEMENT_LENGTH_M.1)
+}
+
+/// Checks an element mass against [`ELEMENT_MASS_KG`].
+pub fn check_element_mass(field: &str, mass: f64) -> Result<f64, InputError> {
+    crate::error::within(field, mass, ELEMENT_MASS_KG.0, ELEMENT_MASS_KG.1)
+}
 
 /// Largest factor by which a short last element's spring exceeds `k`.
 pub const MAX_STIFFNESS_RATIO: f64 = 1e4;

@@ -150,10 +150,7 @@ pub fn clip(text: &str, max: usize) -> String {
             break;
         }
         match c {
-            // Printable but invisible, or reordering what follows.
-            '\u{feff}' | '\u{200b}'..='\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2060}'..='\u{2069}' => {
-                out.extend(c.escape_unicode());
-            }
+            c if invisible(c) => out.extend(c.escape_unicode()),
             '"' | '\'' => out.push(c),
             _ => out.extend(c.escape_debug()),
         }
@@ -174,20 +171,30 @@ pub fn quoted(text: &str) -> String {
     format!("'{}'", clip(text, EXCERPT_CHARS).replace('\'', "\\'"))
 }
 
+/// Whether `c` is printable but invisible, or reorders what follows it (a
+/// byte-order mark, zero-width and bidirectional marks, overrides and
+/// isolates): text shown to a user never carries one as it is.
+pub fn invisible(c: char) -> bool {
+    matches!(c, '\u{feff}' | '\u{061c}' | '\u{200b}'..='\u{200f}' | '\u{202a}'..='\u{202e}' | '\u{2060}'..='\u{2069}')
+}
+
 /// Longest name or description a file may give (characters).
 pub const MAX_NAME_CHARS: usize = 200;
 
 /// Checks a name or description is printable text of at most
 /// [`MAX_NAME_CHARS`] characters: it goes into titles, SVG text and
-/// one-line messages, where control characters break them.
+/// one-line messages, where control characters break them and invisible
+/// ones ([`invisible`]: a right-to-left override) disguise them.
 pub fn printable(field: &str, text: &str) -> Result<(), InputError> {
-    if text.chars().count() <= MAX_NAME_CHARS && !text.chars().any(char::is_control) {
+    if text.chars().count() <= MAX_NAME_CHARS && !text.chars().any(|c| c.is_control() || invisible(c)) {
         return Ok(());
     }
     Err(InputError::Invalid {
         field: field.into(),
         value: quoted(text),
-        allowed: format!("printable text (no control characters) of at most {MAX_NAME_CHARS} characters"),
+        allowed: format!(
+            "printable text (no control, invisible or bidirectional characters) of at most {MAX_NAME_CHARS} characters"
+        ),
     })
 }
 

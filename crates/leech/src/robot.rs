@@ -44,7 +44,7 @@ use serde::{Deserialize, Serialize};
 use crate::body::Body;
 use crate::cantilever::Cantilever;
 pub use crate::chain::MAX_LINKS;
-use crate::chain::{Chain, ChainSpec, Discretization};
+use crate::chain::{check_element_length, check_element_mass, Chain, ChainSpec, Discretization};
 use crate::error::{non_negative, positive, within, InputError, Num};
 use crate::geom::right_normal;
 
@@ -74,6 +74,23 @@ pub const DEFAULT_MIN_BEND_RADIUS_M: f64 = 0.025;
 
 /// The paper's stripwound hose: 10 mm outer diameter.
 pub const DEFAULT_TUBE_OUTER_DIAMETER_M: f64 = 0.010;
+
+/// Tube outer diameters (m): 0.1 mm to 1 m, the range of tubes a soft
+/// robot is made of; the cups' offsets are checked against its radius.
+pub const OUTER_DIAMETER_M: (f64, f64) = (1e-4, 1.0);
+
+/// Longest spacing (m) of the tubes at the driving unit or the tip: a
+/// driving unit is a hand's width, ten metres is already none.
+pub const MAX_SPACING_M: f64 = 10.0;
+
+/// Checks a tube spacing: above 0 and at most [`MAX_SPACING_M`].
+fn spacing(field: &str, value: f64) -> Result<f64, InputError> {
+    if value > 0.0 && value <= MAX_SPACING_M {
+        Ok(value)
+    } else {
+        Err(InputError::invalid(field, value, format!("a number of m above 0 and at most {}", Num(MAX_SPACING_M))))
+    }
+}
 
 /// The body's geometry and payload.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -372,7 +389,8 @@ impl Robot {
     pub fn from_toml_str(text: &str) -> Result<Robot, InputError> {
         let raw: RawRobot =
             toml::from_str(text).map_err(|e| InputError::Toml { message: crate::scene::file::one_line(text, &e) })?;
-        let l = positive("tube.element_length_m", raw.tube.element_length_m)?;
+        // First: every other length is checked against it.
+        let l = check_element_length("tube.element_length_m", raw.tube.element_length_m)?;
         let (per_element, mass) = either(
             "tube",
             ("element_mass_kg", raw.tube.element_mass_kg),
@@ -408,17 +426,17 @@ impl Robot {
     /// Checks every value; call it again after changing fields by hand.
     pub fn validate(&self) -> Result<(), InputError> {
         crate::error::printable("name", &self.name)?;
-        positive("tube.element_length_m", self.tube.element_length_m)?;
-        positive("tube.element_mass_kg", self.tube.element_mass_kg)?;
+        check_element_length("tube.element_length_m", self.tube.element_length_m)?;
+        check_element_mass("tube.element_mass_kg", self.tube.element_mass_kg)?;
         positive("tube.joint_stiffness_nm_per_rad", self.tube.joint_stiffness_nm_per_rad)?;
         non_negative("tube.joint_damping_nms_per_rad", self.tube.joint_damping_nms_per_rad)?;
         non_negative("tube.min_bend_radius_m", self.tube.min_bend_radius_m)?;
-        positive("body.base_spacing_m", self.body.base_spacing_m)?;
-        positive("body.tip_spacing_m", self.body.tip_spacing_m)?;
+        spacing("body.base_spacing_m", self.body.base_spacing_m)?;
+        spacing("body.tip_spacing_m", self.body.tip_spacing_m)?;
         non_negative("body.payload_kg", self.body.payload_kg)?;
         within("world.gravity_m_per_s2", self.world.gravity_m_per_s2, 0.0, 1e3)?;
         within("world.base_angle_deg", self.world.base_angle_deg, -360.0, 360.0)?;
-        positive("tube.outer_diameter_m", self.tube.outer_diameter_m)?;
+        within("tube.outer_diameter_m", self.tube.outer_diameter_m, OUTER_DIAMETER_M.0, OUTER_DIAMETER_M.1)?;
         non_negative("driving_unit.mass_kg", self.driving_unit.mass_kg)?;
         self.cup.validate()?;
         self.validate_cup_offsets()?;
@@ -463,7 +481,7 @@ impl Robot {
                 return Err(InputError::invalid(
                     field,
                     offset,
-                    format!("a number >= the tube's radius ({radius} m, half of tube.outer_diameter_m)"),
+                    format!("a number >= the tube's radius ({} m, half of tube.outer_diameter_m)", Num(radius)),
                 ));
             }
         }
