@@ -88,7 +88,7 @@ fn spacing(field: &str, value: f64) -> Result<f64, InputError> {
     if value > 0.0 && value <= MAX_SPACING_M {
         Ok(value)
     } else {
-        Err(InputError::invalid(field, value, format!("a number of m above 0 and at most {}", Num(MAX_SPACING_M))))
+        Err(InputError::invalid(field, value, format!("a finite number > 0 and at most {} m", Num(MAX_SPACING_M))))
     }
 }
 

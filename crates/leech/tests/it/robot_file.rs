@@ -26,7 +26,7 @@ fn message(r: Result<Robot, InputError>) -> String {
 #[test]
 fn bad_values_name_field_value_and_range() {
     let e = message(with("element_length_m = 0.01", "element_length_m = -0.01"));
-    assert!(e.contains("tube.element_length_m") && e.contains("-0.01") && e.contains("> 0"), "{e}");
+    assert!(e.contains("tube.element_length_m") && e.contains("-0.01") && e.contains("[0.0001, 1]"), "{e}");
     let e = message(with("tip_spacing_m = 0.012", "tip_spacing_m = 0.0"));
     assert!(e.contains("body.tip_spacing_m") && e.contains("> 0"), "{e}");
     let e = message(with("gravity_m_per_s2 = 9.81", "gravity_m_per_s2 = nan"));
@@ -116,7 +116,11 @@ fn optional_sections_take_single_keys() {
 #[test]
 fn bad_new_values_name_field_value_and_range() {
     for (line, bad, field, allowed) in [
-        ("outer_diameter_m = 0.010 ", "outer_diameter_m = 0 ", "tube.outer_diameter_m", "> 0"),
+        ("outer_diameter_m = 0.010 ", "outer_diameter_m = 0 ", "tube.outer_diameter_m", "[0.0001, 1]"),
+        ("outer_diameter_m = 0.010 ", "outer_diameter_m = 1e308 ", "tube.outer_diameter_m", "[0.0001, 1]"),
+        ("element_length_m = 0.01 ", "element_length_m = 1e308 ", "tube.element_length_m", "[0.0001, 1]"),
+        ("element_mass_kg = 0.001 ", "element_mass_kg = 1e-320 ", "tube.element_mass_kg", "[1e-9, 1000]"),
+        ("base_spacing_m = 0.017", "base_spacing_m = 1e308", "body.base_spacing_m", "at most 10"),
         ("mass_kg = 0.25 ", "mass_kg = -0.25 ", "driving_unit.mass_kg", ">= 0"),
         ("\ndiameter_m = 0.05 ", "\ndiameter_m = 0 ", "cup.diameter_m", "> 0"),
         ("pull_off_force_n = 33.4 ", "pull_off_force_n = nan ", "cup.pull_off_force_n", "> 0"),
