@@ -61,6 +61,7 @@ fn input_error(e: LibInputError) -> PyErr {
             LibInputError::Invalid { field, value, allowed } => (field, value, allowed),
             LibInputError::Toml { message } => ("robot file".into(), String::new(), message),
             LibInputError::File { file, message } => (file, String::new(), message),
+            LibInputError::Unreadable { field, file, allowed, .. } => (field, file, allowed),
         };
         let s = |t: String| t.into_pyobject(py).map(|o| o.into_any().unbind());
         match (s(field), s(value), s(allowed)) {
