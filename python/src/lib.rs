@@ -18,6 +18,7 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 
 use leech::batch::{self, BatchOptions, Outcome, Query};
+use leech::budget::Deadline;
 use leech::calibration::{self, CalibrationError as LibCalibrationError, Fit};
 use leech::constant_curvature::PlanarBody;
 use leech::error::InputError as LibInputError;
@@ -30,18 +31,13 @@ use leech::statics::{SolveError as LibSolveError, Solver};
 use leech::stride::{PlanOptions, Scenario};
 use leech::sweep::{Grid, Model, SweepOptions};
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1};
-use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 pyo3::create_exception!(leech, InputError, PyValueError, "Bad input: `field`, `value` and what is `allowed`.");
 pyo3::create_exception!(leech, SolveError, PyRuntimeError, "A solve that failed: `status`, `iterations`, `residual`.");
 pyo3::create_exception!(leech, CalibrationError, PyRuntimeError, "A fit that could not be made.");
-
-/// Largest robot, scene, scenario or measurement file read (bytes): a
-/// robot file is a few hundred bytes; a wrong path to a huge file must not
-/// fill the memory.
-const MAX_FILE_BYTES: u64 = 16 << 20;
 
 /// An exception of type `T` with `message` and the given attributes set.
 fn raise<T: pyo3::PyTypeInfo>(py: Python<'_>, message: String, attributes: &[(&str, Py<PyAny>)]) -> PyErr {
@@ -75,7 +71,7 @@ fn solve_error(e: &LibSolveError, status_override: Option<&str>) -> PyErr {
     Python::attach(|py| {
         let (status, iterations, residual) = match e {
             LibSolveError::NotConverged { iterations, residual, .. } => ("not_converged", Some(*iterations), *residual),
-            LibSolveError::TimeLimit { iterations, residual, .. } => ("time_limit", Some(*iterations), *residual),
+            LibSolveError::Stopped { iterations, residual, .. } => ("stopped", Some(*iterations), *residual),
             LibSolveError::BadStart { .. } => ("bad_start", None, f64::NAN),
         };
         let status = status_override.unwrap_or(status);
@@ -107,6 +103,26 @@ fn stance_error(e: StanceError) -> PyErr {
     }
 }
 
+/// A job stopped by its deadline (Python jobs have none but a climb's
+/// `time_limit_s`; a cancel flag may stop them too).
+fn stopped_error(e: leech::budget::Stopped) -> PyErr {
+    pyo3::exceptions::PyTimeoutError::new_err(e.to_string())
+}
+
+fn sweep_error(e: leech::sweep::SweepError) -> PyErr {
+    match e {
+        leech::sweep::SweepError::Input(e) => input_error(e),
+        leech::sweep::SweepError::Stopped(e) => stopped_error(e),
+    }
+}
+
+fn reach_error(e: leech::inverse_statics::ReachError) -> PyErr {
+    match e {
+        leech::inverse_statics::ReachError::Input(e) => input_error(e),
+        leech::inverse_statics::ReachError::Stopped(e) => stopped_error(e),
+    }
+}
+
 fn calibration_error(e: LibCalibrationError) -> PyErr {
     match e {
         LibCalibrationError::Input(e) => input_error(e),
@@ -118,22 +134,10 @@ fn to_json(value: &impl serde::Serialize) -> PyResult<String> {
     serde_json::to_string(value).map_err(|e| PyRuntimeError::new_err(format!("serializing the result: {e}")))
 }
 
-/// A file's text, at most [`MAX_FILE_BYTES`].
-fn read_text(path: &PathBuf, what: &str) -> PyResult<String> {
-    use std::io::Read;
-    let file = std::fs::File::open(path).map_err(|e| PyOSError::new_err(format!("{what} {}: {e}", path.display())))?;
-    let mut text = String::new();
-    file.take(MAX_FILE_BYTES + 1)
-        .read_to_string(&mut text)
-        .map_err(|e| PyOSError::new_err(format!("{what} {}: {e}", path.display())))?;
-    if text.len() as u64 > MAX_FILE_BYTES {
-        return Err(input_error(LibInputError::Invalid {
-            field: what.into(),
-            value: path.display().to_string(),
-            allowed: format!("a file of at most {MAX_FILE_BYTES} bytes"),
-        }));
-    }
-    Ok(text)
+/// A file's text through the library's one reading layer (caps, UTF-8,
+/// no FIFO hang), its errors as `InputError`s.
+fn read_text(path: &std::path::Path, field: &str, cap: leech::files::Cap) -> PyResult<String> {
+    leech::files::read_text(path, field, cap).map_err(input_error)
 }
 
 /// A built-in item by name (`builtin`), else a file read with `parse`;
@@ -156,7 +160,7 @@ fn load_named<T>(
             allowed: format!("a {field} file or one of {}", names.join(", ")),
         }));
     }
-    parse(&read_text(&path, field)?, given).map_err(input_error)
+    parse(&read_text(&path, field, leech::files::SCENE_FILE)?, given).map_err(input_error)
 }
 
 /// A built-in scene by name, else a scene file.
@@ -205,7 +209,7 @@ impl Robot {
     /// A robot file (TOML).
     #[staticmethod]
     fn from_file(path: PathBuf) -> PyResult<Robot> {
-        let text = read_text(&path, "robot file")?;
+        let text = read_text(&path, "robot file", leech::files::ROBOT_FILE)?;
         LibRobot::from_toml_str(&text)
             .map(|inner| Robot { inner })
             .map_err(|e| input_error(with_source(e, &path.display().to_string())))
@@ -456,8 +460,8 @@ impl Robot {
             leech::error::positive("shape parameter", *pi).map_err(input_error)?;
         }
         let grid = Grid::new(min_m, max_m, step_m).map_err(input_error)?;
-        let options = SweepOptions { grid, shape_parameters, models, left_longer };
-        let sweep = py.detach(|| leech::sweep::sweep(&self.inner, &options, &|_| {})).map_err(input_error)?;
+        let options = SweepOptions { grid, shape_parameters, models, left_longer, deadline: Deadline::none() };
+        let sweep = py.detach(|| leech::sweep::sweep(&self.inner, &options, &|_| {})).map_err(sweep_error)?;
         let p = &sweep.points;
         let column = |f: &dyn Fn(&leech::sweep::Point) -> f64| PyArray1::from_vec(py, p.iter().map(f).collect());
         let flag = |f: &dyn Fn(&leech::sweep::Point) -> bool| PyArray1::from_vec(py, p.iter().map(f).collect());
@@ -493,7 +497,9 @@ impl Robot {
         let sag = calibration::read_sag(sag, "sag").map_err(input_error)?;
         let shapes = shapes.map(|s| calibration::read_shapes(s, "shapes")).transpose().map_err(input_error)?;
         let shapes = shapes.as_deref().unwrap_or(&[]);
-        let result = py.detach(|| calibration::calibrate(&self.inner, &sag, shapes, fit)).map_err(calibration_error)?;
+        let result = py
+            .detach(|| calibration::calibrate(&self.inner, &sag, shapes, fit, &Deadline::none()))
+            .map_err(calibration_error)?;
         let fitted = self.inner.with_tube(result.stiffness_nm_per_rad, result.element_mass_kg).map_err(input_error)?;
         Ok((to_json(&result)?, Robot { inner: fitted }))
     }
@@ -503,8 +509,10 @@ impl Robot {
     fn climb_json(&self, py: Python<'_>, scenario: &str, time_limit_s: f64) -> PyResult<String> {
         let s = load_scenario(scenario)?;
         let limit = leech::error::within("time_limit_s", time_limit_s, 1e-3, 86_400.0).map_err(input_error)?;
-        let options =
-            PlanOptions { time_limit: Some(std::time::Duration::from_secs_f64(limit)), ..PlanOptions::default() };
+        let options = PlanOptions {
+            deadline: Deadline::after(std::time::Duration::from_secs_f64(limit)),
+            ..PlanOptions::default()
+        };
         let plan =
             py.detach(|| leech::stride::plan(&self.inner, &s.scene, s.start, s.goal, &options)).map_err(input_error)?;
         to_json(&ClimbReport::new(&s.name, &self.inner, &plan, s.goal.point_m, s.goal.tolerance_m))
@@ -513,7 +521,7 @@ impl Robot {
     /// A map for inverse statics over `grid` (min, max, step in m).
     fn reacher(&self, py: Python<'_>, min_m: f64, max_m: f64, step_m: f64) -> PyResult<Reacher> {
         let grid = Grid::new(min_m, max_m, step_m).map_err(input_error)?;
-        let inner = py.detach(|| LibReacher::new(&self.inner, grid)).map_err(input_error)?;
+        let inner = py.detach(|| LibReacher::new(&self.inner, grid, Deadline::none())).map_err(reach_error)?;
         Ok(Reacher { inner })
     }
 
@@ -543,7 +551,7 @@ impl Reacher {
             .map(|d| within("angle (deg)", d, -720.0, 720.0).map(f64::to_radians))
             .transpose()
             .map_err(input_error)?;
-        to_json(&py.detach(|| self.inner.reach(target, angle)))
+        to_json(&py.detach(|| self.inner.reach(target, angle)).map_err(stopped_error)?)
     }
 }
 

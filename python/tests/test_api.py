@@ -149,8 +149,10 @@ def test_bad_robot_files(tmp_path):
     with pytest.raises(leech.InputError) as e:
         leech.Robot.from_file(bad)
     assert e.value.field == str(bad)
-    with pytest.raises(OSError):
+    # Files are read by the library's one reading layer: a missing one is bad input.
+    with pytest.raises(leech.InputError) as e:
         leech.Robot.from_file(tmp_path / "missing.toml")
+    assert e.value.field == "robot file" and "does not exist" in str(e.value)
 
 
 def test_solve_error_carries_status(robot):
