@@ -195,6 +195,7 @@ WORKSPACE_COLUMNS = (
     "endpoint_x_m",
     "endpoint_y_m",
     "endpoint_angle_rad",
+    "fresh_difference_m",
 )
 
 

@@ -481,6 +481,7 @@ impl Robot {
         d.set_item("endpoint_x_m", column(&|x| x.endpoint_m[0]))?;
         d.set_item("endpoint_y_m", column(&|x| x.endpoint_m[1]))?;
         d.set_item("endpoint_angle_rad", column(&|x| x.endpoint_angle_rad))?;
+        d.set_item("fresh_difference_m", column(&|x| x.fresh_difference_m))?;
         d.set_item("summaries_json", to_json(&sweep.summaries)?)?;
         Ok(d)
     }
