@@ -121,11 +121,7 @@ fn solve_body(robot: &Robot, la: f64, lb: f64) -> Result<(Body, Equilibrium), Fi
 }
 
 fn pi_label(pi: f64) -> String {
-    if !(1e-2..1e4).contains(&pi) {
-        format!("{pi:.1e}")
-    } else {
-        format!("{pi:.0}")
-    }
+    leech::error::Num::rounded(pi, 2).to_string()
 }
 
 /// Fig. 3a: tubes of 50 to 300 mm clamped horizontally.

@@ -113,6 +113,24 @@ fn flag_field(flag: &str, field: &str) -> String {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Num(pub f64);
 
+impl Num {
+    /// `x` rounded to `digits` significant digits (at least 1), for a label
+    /// that must stay short whatever the value's scale.
+    ///
+    /// ```
+    /// use leech::error::Num;
+    /// assert_eq!(Num::rounded(0.05, 3).to_string(), "0.05");
+    /// assert_eq!(Num::rounded(100.0 / 3.0, 3).to_string(), "33.3");
+    /// assert_eq!(Num::rounded(2.0e7 / 3.0, 2).to_string(), "6.7e6");
+    /// ```
+    pub fn rounded(x: f64, digits: usize) -> Num {
+        // Rust prints the shortest decimal that reads back exactly, so the
+        // rounded value prints with no more digits than asked for.
+        let text = format!("{x:.*e}", digits.max(1) - 1);
+        Num(text.parse().unwrap_or(x))
+    }
+}
+
 impl std::fmt::Display for Num {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let x = self.0;

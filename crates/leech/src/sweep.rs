@@ -470,8 +470,7 @@ fn two_chain_points(
     solver: &Solver,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Vec<Point> {
-    let mut points: Vec<Point> =
-        walk(robot, values, left_longer, false, solver, progress).into_iter().map(|(p, _)| p).collect();
+    let mut points = walk(robot, values, left_longer, solver, progress);
     check_fresh(robot, &mut points, solver, progress);
     points
 }
@@ -518,15 +517,14 @@ fn fresh_difference(robot: &Robot, p: &Point, solver: &Solver, ws: &mut Option<S
 pub(crate) type Seed = (Body, Vec<f64>);
 
 /// Walks the grid along the actuation path (see the module doc), returning
-/// every point in row order (`LA` major) and, when `keep` is set, its state.
-pub(crate) fn walk(
+/// every point in row order (`LA` major).
+fn walk(
     robot: &Robot,
     values: &[f64],
     left_longer: bool,
-    keep: bool,
     solver: &Solver,
     progress: &(dyn Fn(usize) + Sync),
-) -> Vec<(Point, Option<Seed>)> {
+) -> Vec<Point> {
     let n = values.len();
     // Past the deadline every loop ends at its next point (the caller then
     // discards the partial walk); progress counts the points solved in time.
@@ -543,7 +541,7 @@ pub(crate) fn walk(
         progress(1);
     }
     // Each row fed in LB from its first column, rows in parallel.
-    let rows: Vec<Vec<(Point, Option<Seed>)>> = column
+    let rows: Vec<Vec<Point>> = column
         .into_par_iter()
         .enumerate()
         .map(|(i, first)| {
@@ -551,17 +549,16 @@ pub(crate) fn walk(
             let end = if left_longer { i + 1 } else { n };
             let mut row = Vec::with_capacity(end);
             let mut seed = first.body;
-            row.push((first.point, if keep { seed.clone() } else { None }));
+            row.push(first.point);
             for &lb in &values[1..end] {
                 if deadline.expired() {
                     break;
                 }
                 let solved = solve_point(robot, (values[i], lb), seed.as_ref(), solver, &mut ws);
-                let kept = if keep { solved.body.clone() } else { None };
                 if solved.body.is_some() {
                     seed = solved.body;
                 }
-                row.push((solved.point, kept));
+                row.push(solved.point);
                 progress(1);
             }
             row

@@ -75,7 +75,12 @@ pub fn shape(
     two_chain: Option<(&BodyReport, Option<&SolveTiming>)>,
     constant_curvature: Option<&ConstantCurvatureReport>,
 ) {
-    say!(out, "{}: LA = {la:.4} m, LB = {lb:.4} m (Pi = {})", robot.name, fixed(robot.shape_parameter(), 0));
+    say!(
+        out,
+        "{}: LA = {la:.4} m, LB = {lb:.4} m (Pi = {})",
+        robot.name,
+        leech::error::Num::rounded(robot.shape_parameter(), 3)
+    );
     if let Some((r, timing)) = two_chain {
         let links = format_args!("{} + {} links", r.links[0], r.links[1]);
         endpoint(out, "two-chain", r.endpoint_m, r.endpoint_angle_rad, links);
