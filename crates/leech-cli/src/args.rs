@@ -504,11 +504,7 @@ fn simulate(a: flags::SimulateArgs) -> Result<Simulate, Failure> {
     };
     let integrator = a.integrator.into();
     let duration = within("--duration (s)", a.duration, 1e-6, 3600.0)?;
-    let dt = match (a.dt, integrator) {
-        (Some(dt), _) => Some(within("--dt (s)", dt, 1e-9, duration)?),
-        (None, Integrator::Implicit) => Some(5e-3_f64.min(duration)),
-        (None, _) => None,
-    };
+    let dt = a.dt.map(|dt| within("--dt (s)", dt, 1e-9, duration)).transpose()?;
     let options = SimulationOptions {
         integrator,
         dt,

@@ -7,6 +7,11 @@ use crate::body::Body;
 /// Most steps one simulation takes.
 pub const MAX_STEPS: usize = 10_000_000;
 
+/// The implicit scheme's default step (s), never longer than the run
+/// itself: the step the energy bound of the [`crate::dynamics`] module doc is tested
+/// at, far beyond the explicit scheme's stability limit.
+pub const IMPLICIT_STEP_S: f64 = 5e-3;
+
 /// How the tubes move during a simulation.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Actuation {
@@ -40,8 +45,9 @@ pub enum Start {
 pub struct SimulationOptions {
     /// Time-stepping scheme.
     pub integrator: Integrator,
-    /// Time step (s); `None` picks 2 ms for the implicit scheme and
-    /// [`Simulator::stable_step`] for the others.
+    /// Time step (s); `None` picks [`IMPLICIT_STEP_S`] (at most the
+    /// duration) for the implicit scheme and [`Simulator::stable_step`] for
+    /// the others.
     pub dt: Option<f64>,
     /// Simulated time (s); the longest run when stopping at rest.
     pub duration: f64,
@@ -183,12 +189,12 @@ fn checked_target(
     Ok(target)
 }
 
-/// The step (s): the one given, 2 ms for the implicit scheme, or from the
+/// The step (s): the one given, [`IMPLICIT_STEP_S`] for the implicit scheme, or from the
 /// stability limit at `q`; at most [`MAX_STEPS`] of them in the duration.
 fn step_size(body: &Body, q: &[f64], options: &SimulationOptions) -> Result<f64, SimulationError> {
     let dt = match (options.dt, options.integrator) {
         (Some(dt), _) => crate::error::positive("dt (s)", dt)?,
-        (None, Integrator::Implicit) => 2e-3,
+        (None, Integrator::Implicit) => IMPLICIT_STEP_S.min(options.duration),
         (None, integrator) => {
             let limit =
                 Simulator::new(body).stable_step(q).map_err(|source| SimulationError::Step { time: 0.0, source })?;
