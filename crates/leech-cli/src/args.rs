@@ -486,7 +486,7 @@ fn simulate(a: flags::SimulateArgs) -> Result<Simulate, Failure> {
             "--step: --to not provided, expected --to <LA2,LB2> with it (the lengths to step to)".into(),
         ));
     }
-    let robot = tuned(&a.robot, Ok)?;
+    let robot = at_base_angle(tuned(&a.robot, Ok)?, a.base_angle)?;
     // The library checks these again as it runs; here each is named by its flag.
     tube_lengths(&robot, "--lengths", a.lengths)?;
     a.to.map(|to| tube_lengths(&robot, "--to", to)).transpose()?;

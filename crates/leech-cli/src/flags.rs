@@ -348,6 +348,9 @@ pub struct SimulateArgs {
     /// Starting tube lengths LA,LB in m.
     #[arg(long, value_name = "LA,LB", value_parser = parse_pair, allow_hyphen_values = true)]
     pub lengths: [f64; 2],
+    /// Clamp direction (deg), overriding the robot file.
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
+    pub base_angle: Option<f64>,
     /// Move the tubes to these lengths (m).
     #[arg(long, value_name = "LA2,LB2", value_parser = parse_pair, allow_hyphen_values = true)]
     pub to: Option<[f64; 2]>,

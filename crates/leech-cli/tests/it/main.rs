@@ -413,6 +413,22 @@ fn simulate_writes_series_animation_and_summary() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `--base-angle` turns the clamp as it does for `shape`: the body settles
+/// on the static equilibrium at that angle.
+#[test]
+fn simulate_takes_the_base_angle() {
+    let args = ["simulate", "--lengths", "0.15,0.11", "--until-rest", "--duration", "30", "--json"];
+    let v = succeeds(leech().args(args).args(["--base-angle", "0"]));
+    let statics = json_of(&["shape", "--lengths", "0.15,0.11", "--base-angle", "0"]);
+    let (a, b) = (&v["final"]["endpoint_m"], &statics["endpoint_m"]);
+    let d = (a[0].as_f64().unwrap() - b[0].as_f64().unwrap()).hypot(a[1].as_f64().unwrap() - b[1].as_f64().unwrap());
+    assert!(d < 1e-5, "final endpoint {d} m from the static one at 0 deg");
+    // Out along +x and sagging, not up the default wall.
+    let (x, y) = (a[0].as_f64().unwrap(), a[1].as_f64().unwrap());
+    assert!(x > 0.05 && y < 0.0, "endpoint {a} not out along +x and below it");
+    rejected(&["simulate", "--lengths", "0.2,0.2", "--base-angle", "nan"]);
+}
+
 mod climb;
 mod corpus;
 mod drive;
