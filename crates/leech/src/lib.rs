@@ -49,6 +49,7 @@
 //! * [`chain`]: one tube as a chain of links; discretizations, kinematics, energy.
 //! * [`cantilever`]: a single clamped tube under gravity.
 //! * [`body`]: the two-chain body and its endpoint weld.
+//! * [`body3`]: the three-tube body in 3D (twist, turning) and its static solver.
 //! * [`calibration`]: fitting `k` (and `m`) to measured tubes and bodies; model comparison.
 //! * [`constant_curvature`]: the kinematic constant-curvature model, planar and tri-tube.
 //! * [`cup`]: whether a suction cup holds under a hold's reaction: pull-off, peel, slip.
@@ -68,6 +69,7 @@
 #![warn(missing_docs)]
 
 pub mod body;
+pub mod body3;
 pub mod calibration;
 pub mod cantilever;
 pub mod chain;

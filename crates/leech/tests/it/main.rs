@@ -1,5 +1,6 @@
 //! Integration tests of the `leech` library: one binary, one module per topic.
 
+mod body3;
 mod calibration;
 mod climb;
 mod constant_curvature;
