@@ -260,8 +260,7 @@ fn scale_mat(s: f64, a: &Mat3) -> Mat3 {
 pub fn pair_terms(m: &Mat3, gradient: impl Fn(Vec3) -> Vec3, h_theta: &Mat3) -> PairTerms {
     let (theta, p, jacobian_a) = relative(m);
     let w = gradient(theta);
-    let (_, dc_over_t) = jr_inv_coefficients(dot(theta, theta));
-    let (c, _) = jr_inv_coefficients(dot(theta, theta));
+    let (c, dc_over_t) = jr_inv_coefficients(dot(theta, theta));
     // D = d(P^T w)/dtheta, P^T w = w - theta x w / 2 + c theta x (theta x w).
     let tw = dot(theta, w);
     let ttw = cross(theta, cross(theta, w));

@@ -224,3 +224,4 @@ mod derivatives {
         }
     }
 }
+
