@@ -27,7 +27,7 @@
 use super::body3::{distance, retract, Body3, Eval3, Frames, Param, BORDER, PLATE_ROWS};
 use super::rotation::{apply, axpy, cross};
 use crate::linalg::{BorderedLdl, Pattern};
-use crate::statics::{BranchRule, Event, Side, SolveError, Solver, Stage, StopReason};
+use crate::statics::{BranchRule, Equilibrium, Event, Side, SolveError, Solver, Stage, StopReason};
 
 /// Unstable landings left in one settle before it gives up.
 const ESCAPES: usize = 3;
@@ -35,25 +35,25 @@ const ESCAPES: usize = 3;
 /// Bisections of the shift that brackets the most negative curvature.
 const ESCAPE_BISECTIONS: usize = 30;
 
-/// A converged equilibrium of the 3D body and how it was reached.
+/// A converged equilibrium of the 3D body: its frames, and the solve's
+/// summary as the planar solver gives it, whose `q` holds every link's
+/// rotation vector `Log(R_j)` (3 per link, in the body's order) and whose
+/// `multipliers` the weld's 12 (N on the position rows, N m on the rotation
+/// rows; tube 2's, then tube 3's). Its fields are reached through `Deref`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Equilibrium3 {
     /// The links' frames.
     pub frames: Frames,
-    /// The weld's multipliers: force (N) and moment-like rows (N m) on tube 2, then tube 3.
-    pub multipliers: [f64; PLATE_ROWS],
-    /// Potential energy (J).
-    pub energy: f64,
-    /// Scaled residual sup norm at the solution.
-    pub residual: f64,
-    /// Whether the reduced Hessian is positive definite.
-    pub stable: bool,
-    /// Newton iterations, all stages together.
-    pub iterations: usize,
-    /// Continuation steps accepted.
-    pub steps: usize,
-    /// Folds met on the way.
-    pub events: Vec<Event>,
+    /// Energy, residual, stability, counters and events.
+    pub summary: Equilibrium,
+}
+
+impl std::ops::Deref for Equilibrium3 {
+    type Target = Equilibrium;
+
+    fn deref(&self) -> &Equilibrium {
+        &self.summary
+    }
 }
 
 /// The solver's state: frames, multipliers, counters.
@@ -98,6 +98,8 @@ struct Work {
     step: Vec<f64>,
     dual: [f64; PLATE_ROWS],
     tangent: Vec<f64>,
+    /// `dF/dtau` of the residual's moments (the tangent's right-hand side).
+    path_residual: Vec<f64>,
     lambda_tangent: [f64; PLATE_ROWS],
     frames_trial: Frames,
     frames_saved: Frames,
@@ -123,6 +125,7 @@ impl Work {
             step: vec![0.0; 3 * n],
             dual: [0.0; PLATE_ROWS],
             tangent: vec![0.0; 3 * n],
+            path_residual: vec![0.0; 3 * n],
             lambda_tangent: [0.0; PLATE_ROWS],
             frames_trial: body.straight(),
             frames_saved: body.straight(),
@@ -223,15 +226,19 @@ impl Body3 {
         self.evaluate(&state.frames, &state.lambda, Param::FULL, &mut work.ev);
         let tiny = solver.options.tuning.tiny_pivot * self.moment_scale();
         let stable = work.factor(0.0, tiny).0;
+        let q = state.frames.0.iter().flat_map(super::rotation::log).collect();
         Equilibrium3 {
             frames: state.frames,
-            multipliers: state.lambda,
-            energy: work.ev.energy,
-            residual,
-            stable,
-            iterations: state.iterations,
-            steps: state.steps,
-            events: state.events,
+            summary: Equilibrium {
+                q,
+                multipliers: state.lambda.to_vec(),
+                energy: work.ev.energy,
+                residual,
+                stable,
+                iterations: state.iterations,
+                steps: state.steps,
+                events: state.events,
+            },
         }
     }
 
@@ -384,7 +391,7 @@ impl Body3 {
         self.evaluate(&state.frames, &state.lambda, param, &mut work.ev);
         work.ev.stationarity(&state.lambda, &mut work.residual);
         work.damping = 0.0;
-        let (mut iter, mut best, mut best_at) = (0, f64::INFINITY, 0);
+        let (mut iter, mut best, mut best_at, mut fresh) = (0, f64::INFINITY, 0, false);
         loop {
             let res = self.residual_norm(&work.ev, &work.residual);
             if !res.is_finite() {
@@ -397,7 +404,9 @@ impl Body3 {
             }
             let stalled = iter >= best_at + tuning.stall_iterations && res <= o.rounding_slack * budget.tolerance;
             if res <= budget.tolerance || stalled {
-                return (res, Ok(work.factor(0.0, tiny).0));
+                // After a tiny plain step from a minimum the last factors
+                // still give the verdict and a tangent good for a predictor.
+                return (res, Ok(fresh || work.factor(0.0, tiny).0));
             }
             if iter >= budget.max_iter || state.iterations >= o.max_iterations {
                 return (res, Err(StopReason::IterationLimit));
@@ -427,6 +436,7 @@ impl Body3 {
                 }
                 return (res, Err(StopReason::NoDescent));
             }
+            fresh = min_shift == 0.0 && work.damping == 0.0 && sup(&work.step) < tuning.reuse_factors_step;
             if budget.leash.is_finite() && distance(&state.frames, &work.frames_saved) > budget.leash {
                 let res = self.residual_norm(&work.ev, &work.residual);
                 return (res, Err(StopReason::LeftBranch));
@@ -491,8 +501,8 @@ impl Body3 {
     fn tangent(&self, state: &State, path: &impl Fn(f64) -> Param, tau: f64, work: &mut Work) {
         const H: f64 = 1e-6;
         let mut dc = [0.0; PLATE_ROWS];
-        let n = work.tangent.len();
-        let mut dr = vec![0.0; n];
+        let mut dr = std::mem::take(&mut work.path_residual);
+        dr.fill(0.0);
         for (sign, at) in [(1.0, tau + H), (-1.0, tau - H)] {
             self.evaluate(&state.frames, &state.lambda, path(at), &mut work.trial);
             work.trial.stationarity(&state.lambda, &mut work.residual_trial);
@@ -504,6 +514,7 @@ impl Body3 {
             }
         }
         work.solve(&dr, &dc);
+        work.path_residual = dr;
         work.tangent.copy_from_slice(&work.step);
         work.lambda_tangent = work.dual;
     }

@@ -225,3 +225,18 @@ mod derivatives {
     }
 }
 
+/// The tubes' axial rotation left free at the driving unit: a softer body
+/// (no lower energy is lost: the free body's minimum is at most the held
+/// one's), still a stable, converged equilibrium, turning the same way.
+#[test]
+fn free_axial_rotation_softens_the_body() {
+    let robot = Robot::builtin();
+    let solver = Solver::default();
+    let held = Body3::from_robot(&robot, [0.25, 0.30, 0.22]).unwrap();
+    let free = held.clone().with_free_axial_rotation();
+    let (a, b) = (held.solve(&solver).unwrap(), free.solve(&solver).unwrap());
+    assert!(a.stable && b.stable && b.residual < 1e-10);
+    assert!(b.energy <= a.energy + 1e-12, "{} vs {}", b.energy, a.energy);
+    let (ea, eb) = (held.endpoint(&a.frames), free.endpoint(&b.frames));
+    assert!(ea[2] * eb[2] > 0.0 && eb[2].abs() >= ea[2].abs(), "{ea:?} {eb:?}");
+}
