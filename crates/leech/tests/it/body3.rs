@@ -240,3 +240,25 @@ fn free_axial_rotation_softens_the_body() {
     let (ea, eb) = (held.endpoint(&a.frames), free.endpoint(&b.frames));
     assert!(ea[2] * eb[2] > 0.0 && eb[2].abs() >= ea[2].abs(), "{ea:?} {eb:?}");
 }
+
+/// `[tube] torsion_stiffness_nm_per_rad`: optional, `k / 1.3` when missing,
+/// positive when given, kept by `to_toml_string` and scaled like `k`.
+#[test]
+fn robot_files_take_the_torsional_stiffness() {
+    let builtin = Robot::builtin();
+    assert_eq!(builtin.tube.torsion_stiffness_nm_per_rad, None);
+    assert!((builtin.tube.torsion_stiffness() - 0.5 / 1.3).abs() < 1e-15);
+    let line = "# torsion_stiffness_nm_per_rad = 0.38";
+    let text = leech::robot::BUILTIN_TOML.replace(line, "torsion_stiffness_nm_per_rad = 0.2");
+    let robot = Robot::from_toml_str(&text).unwrap();
+    assert_eq!(robot.tube.torsion_stiffness(), 0.2);
+    assert_eq!(Robot::from_toml_str(&robot.to_toml_string()).unwrap(), robot);
+    assert_eq!(robot.scaled(2.0).unwrap().tube.torsion_stiffness(), 0.8);
+    let bad = leech::robot::BUILTIN_TOML.replace(line, "torsion_stiffness_nm_per_rad = -1");
+    let err = Robot::from_toml_str(&bad).unwrap_err().to_string();
+    assert!(err.contains("tube.torsion_stiffness_nm_per_rad"), "{err}");
+    // The 3D body refuses the midpoint scheme, naming the field.
+    let midpoint = builtin.with_discretization(Discretization::Midpoint);
+    let err = Body3::from_robot(&midpoint, [0.2, 0.2, 0.2]).unwrap_err().to_string();
+    assert!(err.contains("model.discretization"), "{err}");
+}
