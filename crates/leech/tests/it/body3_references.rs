@@ -50,7 +50,10 @@ fn three_tube_bodies_match_scipy() {
                 worst_point = worst_point.max((0..3).fold(0.0f64, |m, c| m.max((p[c] - q[c]).abs())));
             }
         }
-        println!("{name}: frames within {worst_angle:.1e} rad, points within {worst_point:.1e} m");
+        // Genuinely 3D: every case turns out of the clamp's plane and twists.
+        let (end, twist) = (body.endpoint(&eq.frames), body.max_twist(&eq.frames));
+        println!("{name}: frames within {worst_angle:.1e} rad, points within {worst_point:.1e} m (z {:.4} m, twist {twist:.1e} rad)", end[2]);
+        assert!(end[2].abs() > 5e-3 && twist > 1e-4, "{name}: z {} m, twist {twist} rad", end[2]);
         assert!(worst_angle < TOLERANCE && worst_point < TOLERANCE, "{name}: {worst_angle:e} rad, {worst_point:e} m");
     }
 }
