@@ -102,7 +102,9 @@ struct Work {
     path_residual: Vec<f64>,
     lambda_tangent: [f64; PLATE_ROWS],
     frames_trial: Frames,
+    /// Where the last Newton run started (its leash) and the continuation step's start.
     frames_saved: Frames,
+    frames_start: Frames,
     damping: f64,
     rho: f64,
 }
@@ -129,6 +131,7 @@ impl Work {
             lambda_tangent: [0.0; PLATE_ROWS],
             frames_trial: body.straight(),
             frames_saved: body.straight(),
+            frames_start: body.straight(),
             damping: 0.0,
             rho: 0.0,
         }
@@ -541,10 +544,11 @@ impl Body3 {
                 return Err(fail(solver, stage, state, residual, StopReason::StepLimit));
             }
             dtau = dtau.min(1.0 - tau);
-            let saved = (state.frames.clone(), state.lambda);
-            let mut predicted = state.frames.clone();
-            moved(&saved.0, &work.tangent, dtau, &mut predicted);
-            state.frames.clone_from(&predicted);
+            // The step's start, and the prediction (the corrector's start is
+            // the newton run's own `frames_saved`): buffers of `work`, no allocation.
+            work.frames_start.clone_from(&state.frames);
+            let lambda_start = state.lambda;
+            moved(&work.frames_start, &work.tangent, dtau, &mut state.frames);
             for (l, d) in state.lambda.iter_mut().zip(&work.lambda_tangent) {
                 *l += dtau * d;
             }
@@ -552,7 +556,7 @@ impl Body3 {
             let tolerance = if last { o.tolerance } else { o.path_tolerance };
             let budget = Budget { max_iter: o.max_corrector_iterations, tolerance, leash: o.jump_tolerance };
             let (res, out) = self.newton(solver, state, path(tau + dtau), budget, work);
-            if out == Ok(true) && distance(&state.frames, &predicted) <= o.jump_tolerance {
+            if out == Ok(true) && distance(&state.frames, &work.frames_saved) <= o.jump_tolerance {
                 tau = if last { 1.0 } else { tau + dtau };
                 state.steps += 1;
                 residual = res;
@@ -565,7 +569,8 @@ impl Body3 {
             if o.time_limit.is_some_and(|limit| state.started.elapsed() > limit) {
                 return Err(fail(solver, stage, state, res, StopReason::TimeLimit));
             }
-            (state.frames, state.lambda) = saved;
+            state.frames.clone_from(&work.frames_start);
+            state.lambda = lambda_start;
             if dtau > o.min_step {
                 dtau *= 0.5;
                 // Re-evaluate and re-factor at the saved point for the tangent.
@@ -577,12 +582,11 @@ impl Body3 {
                 continue;
             }
             // Still failing at the smallest step: the branch ends here (a fold).
-            let before = state.frames.clone();
             let at = tau;
             tau = (tau + dtau).min(1.0);
             let escaped;
             (residual, escaped) = self.settle(solver, state, path(tau), stage, work)?;
-            let jump_rad = distance(&state.frames, &before);
+            let jump_rad = distance(&state.frames, &work.frames_start);
             if let Some(side) = escaped {
                 state.events.push(Event::Bifurcation { stage, at, side, jump_rad });
             } else if jump_rad > o.snap_threshold {
