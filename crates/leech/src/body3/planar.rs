@@ -12,8 +12,6 @@ use super::body3::{angle_between, Body3};
 use super::rotation::{axpy, dot, rot_z, scale};
 use super::solve::Equilibrium3;
 use crate::body::Body;
-use crate::error::InputError;
-use crate::robot::Robot;
 use crate::statics::{Equilibrium, SolveError, Solver};
 
 /// How far the 3D body is from the planar model of the same robot.
@@ -32,17 +30,6 @@ pub struct PlanarDifference {
     pub out_of_plane_m: f64,
     /// Largest twist of any joint (rad).
     pub max_twist_rad: f64,
-}
-
-/// Why [`planar_difference`] has no answer.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum CompareError {
-    /// A body could not be built.
-    #[error(transparent)]
-    Input(#[from] InputError),
-    /// A body could not be solved.
-    #[error(transparent)]
-    Solve(#[from] SolveError),
 }
 
 /// Compares solved bodies of one robot: `body3` at `(L1, L2, L2)` against the
@@ -81,12 +68,13 @@ pub fn compare(body3: &Body3, eq3: &Equilibrium3, body: &Body, eq: &Equilibrium)
     out
 }
 
-/// Solves `robot` at tube 1 of length `l1` and both side tubes of length
-/// `l23` in 3D and in the plane, on their default paths, and compares them.
-pub fn planar_difference(robot: &Robot, l1: f64, l23: f64, solver: &Solver) -> Result<PlanarDifference, CompareError> {
-    let body3 = Body3::from_robot(robot, [l1, l23, l23])?;
-    let body = robot.body(l1, l23)?;
+/// Solves `body3` (a robot at `(L1, L2, L2)`, [`Body3::from_robot`]) and the
+/// planar `body` of the same robot at `(L1, L2)` ([`Robot::body`]) on their
+/// default paths and compares them.
+///
+/// [`Robot::body`]: crate::robot::Robot::body
+pub fn planar_difference(body3: &Body3, body: &Body, solver: &Solver) -> Result<PlanarDifference, SolveError> {
     let eq3 = body3.solve(solver)?;
     let eq = body.solve(solver)?;
-    Ok(compare(&body3, &eq3, &body, &eq))
+    Ok(compare(body3, &eq3, body, &eq))
 }

@@ -30,7 +30,10 @@ use crate::linalg::{BorderedLdl, Pattern};
 use crate::statics::{BranchRule, Equilibrium, Event, Side, SolveError, Solver, Stage, StopReason};
 
 /// Unstable landings left in one settle before it gives up.
-const ESCAPES: usize = 3;
+const ESCAPES: usize = 4;
+
+/// Growth of the kick between escapes from one settle (0.01, 0.03, 0.09, ... rad).
+const ESCAPE_KICK_GROWTH: f64 = 3.0;
 
 /// Bisections of the shift that brackets the most negative curvature.
 const ESCAPE_BISECTIONS: usize = 30;
@@ -279,11 +282,13 @@ impl Body3 {
         let o = &solver.options;
         let budget = Budget { max_iter: o.max_minimization_iterations, tolerance: o.tolerance, leash: f64::INFINITY };
         let mut escaped = None;
-        for _ in 0..=ESCAPES {
+        for attempt in 0..=ESCAPES {
             match self.newton(solver, state, param, budget, work) {
                 (residual, Ok(true)) => return Ok((residual, escaped)),
                 (residual, Ok(false)) => {
-                    let side = self.escape(solver, state, work);
+                    // A landing back on the saddle is kicked harder each time.
+                    let kick = solver.options.tuning.escape_kick * ESCAPE_KICK_GROWTH.powi(attempt as i32);
+                    let side = self.escape(solver, state, work, kick);
                     escaped = Some(side.map_err(|reason| fail(solver, stage, state, residual, reason))?);
                 }
                 (residual, Err(reason)) => return Err(fail(solver, stage, state, residual, reason)),
@@ -296,13 +301,13 @@ impl Body3 {
     /// Leaves the unstable equilibrium `state` (evaluated in `work.ev`)
     /// along the reduced Hessian's most negative curvature: inverse
     /// iteration on the KKT matrix shifted to just above that curvature
-    /// (found by bisection on the inertia), then a kick of
-    /// [`Tuning::escape_kick`](crate::statics::Tuning::escape_kick) rad.
+    /// (found by bisection on the inertia), then a kick of `kick` rad
+    /// (from [`Tuning::escape_kick`](crate::statics::Tuning::escape_kick)).
     /// The sign follows the branch rule on the endpoint's displacement:
     /// along the right of the clamp direction (towards tubes 2 and 3) for a
     /// mode mostly in the plane of the clamp, along `+z` (towards tube 2)
     /// for one mostly out of it; [`Side::Right`] names the positive side.
-    fn escape(&self, solver: &Solver, state: &mut State, work: &mut Work) -> Result<Side, StopReason> {
+    fn escape(&self, solver: &Solver, state: &mut State, work: &mut Work, kick: f64) -> Result<Side, StopReason> {
         let tuning = &solver.options.tuning;
         let k = self.moment_scale();
         let tiny = tuning.tiny_pivot * k;
@@ -352,7 +357,7 @@ impl Body3 {
         };
         let sign = if measure < 0.0 { -wanted } else { wanted };
         let frames = state.frames.clone();
-        moved(&frames, &v, sign * tuning.escape_kick, &mut state.frames);
+        moved(&frames, &v, sign * kick, &mut state.frames);
         Ok(side)
     }
 

@@ -73,18 +73,26 @@ proptest::proptest! {
         let solver = Solver::default();
         let (eq3, eq) = (body3.solve(&solver).unwrap(), body.solve(&solver).unwrap());
         let d = compare(&body3, &eq3, &body, &eq);
-        if d.max_point_m < 1e-9 && d.max_angle_rad < 1e-9 {
-            return Ok(());
-        }
-        // Otherwise the planar equilibrium is a saddle in 3D (a long side
-        // pair curled flat falls sideways): the path reported leaving it,
-        // and so does a warm start from the planar shape.
+        // The planar equilibrium is always one of the 3D body: warm-started
+        // from it, the 3D solver stays there (to 1e-9), or finds it a saddle
+        // and leaves it sideways, reporting a bifurcation.
         let from_planar = body3.solve_from(&solver, &planar_frames(&body3, &body, &eq.q)).unwrap();
-        proptest::prop_assert!(!eq3.events.is_empty() && d.out_of_plane_m > 1e-3, "{:?} {:?}", d, eq3.events);
-        proptest::prop_assert!(
-            matches!(from_planar.events[..], [leech::statics::Event::Bifurcation { .. }]),
-            "{:?} {:?}", d, from_planar.events
-        );
+        if from_planar.events.is_empty() {
+            let dp = compare(&body3, &from_planar, &body, &eq);
+            proptest::prop_assert!(dp.max_point_m < 1e-9 && dp.max_angle_rad < 1e-9, "{:?}", dp);
+        } else {
+            proptest::prop_assert!(
+                matches!(from_planar.events[..], [leech::statics::Event::Bifurcation { .. }]),
+                "{:?}", from_planar.events
+            );
+        }
+        // The default path ends on the planar shape, or, for bodies lying
+        // along the floor or leaning with a long curled side pair, on another (out-of-plane)
+        // minimum: equilibria are not unique in 3D. (A sideways bifurcation
+        // crossed by the corrector may go unreported: docs/model3d.md
+        // section 6.)
+        let equal = d.max_point_m < 1e-9 && d.max_angle_rad < 1e-9;
+        proptest::prop_assert!(equal || d.out_of_plane_m > 1e-3, "{:?} {:?}", d, eq3.events);
     }
 }
 
@@ -97,7 +105,8 @@ proptest::proptest! {
 fn built_in_robot_differs_from_the_planar_model_where_b_differs_from_c() {
     let robot = Robot::builtin();
     for (l1, l23, lo, hi) in [(0.30, 0.28, 7.0e-5, 9.0e-5), (0.25, 0.25, 1.9e-4, 2.4e-4)] {
-        let d = planar_difference(&robot, l1, l23, &Solver::default()).unwrap();
+        let (body3, body) = (Body3::from_robot(&robot, [l1, l23, l23]).unwrap(), robot.body(l1, l23).unwrap());
+        let d = planar_difference(&body3, &body, &Solver::default()).unwrap();
         println!("{l1} {l23}: {d:?}");
         assert!((lo..hi).contains(&d.endpoint_m), "{l1} {l23}: {d:?}");
         assert!(d.out_of_plane_m < 1e-12 && d.max_twist_rad < 1e-3, "{d:?}");
