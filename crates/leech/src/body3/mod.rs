@@ -1,0 +1,57 @@
+//! The three-tube body in 3D and its static solver (docs/model3d.md).
+//!
+//! World x horizontal, y up, `z = x cross y`; gravity `(0, -g, 0)`. The
+//! driving unit has the pose `(p0, R0)`, `R0` turning `+x` to the clamp
+//! direction `phi0` in the x-y plane. Tubes 1, 2, 3 leave it at the
+//! vertices of an equilateral triangle in the unit's local y-z plane,
+//! `(0, r_b, 0)` and `(0, -r_b/2, +-r_b sqrt(3)/2)` with `r_b = b / 1.5`;
+//! each is a chain of rigid links with frames `R_j` (local x the tangent),
+//! a point mass at each link's tip and, at joint `j`, the energy
+//!
+//! ```text
+//! E_j = (kt_j theta_x^2 + k_j (theta_y^2 + theta_z^2)) / 2,     theta_j = Log(R_{j-1}^T R_j)   (J, rad)
+//! ```
+//!
+//! The endpoint plate is rigid with tube 1's last link; tubes 2 and 3 are
+//! welded to it at the vertices of the triangle of radius `r_t = c / 1.5`
+//! (12 rows: [`body3::PLATE_ROWS`]); the payload sits at the midpoint of
+//! tubes 2 and 3's tips. With `L2 = L3`, `b = c` and gravity in the
+//! symmetry plane this is exactly the planar [`crate::body::Body`].
+//!
+//! # Why a solver of its own
+//!
+//! [`crate::statics`]' contract is built for scalar coordinates: a
+//! tridiagonal Hessian of scalars per chain, *diagonal* constraint Hessians
+//! (its weld rows are linear in the tips) and additive updates `q += dq`.
+//! The 3D body needs 3 x 3 blocks, constraint Hessians that couple the
+//! plate with the side tubes' last links (a weld of two frames is bilinear
+//! in them), and updates on SO(3). Rather than widen that contract for
+//! every planar system (and its hot paths), this module keeps its own Newton
+//! and continuation ([`solve`]) in local rotation-vector coordinates
+//! re-based after every step (`R <- R Exp(delta)`: the gradient and
+//! Hessian are those of the pullback at `delta = 0`), and reuses what
+//! carries over unchanged: the factorization ([`crate::linalg::BorderedLdl`]
+//! with 3 x 3 blocks, the plate's 3 coordinates as primal border rows), the
+//! options, tuning constants, events and errors of [`crate::statics`], and
+//! the planar discretization ([`crate::chain::Chain`]).
+//!
+//! Holds and contacts (later) enter as further border rows of the same
+//! factorization, as the planar `stance` systems add theirs.
+//!
+//! # Layout
+//!
+//! [`rotation`] (`Exp`, `Log`, `Jr^-1`, the local derivatives of linear and
+//! relative terms), [`tube3`] (one tube's links), [`body3`] (the body, its
+//! Lagrangian's derivatives), [`solve`] (Newton, continuation), [`planar`]
+//! (the comparison with the planar model).
+
+#[allow(clippy::module_inception)]
+pub mod body3;
+pub mod planar;
+pub mod rotation;
+pub mod solve;
+pub mod tube3;
+
+pub use body3::{Body3, Derivatives, Frames, PLATE_ROWS};
+pub use solve::Equilibrium3;
+pub use tube3::Tube3;
