@@ -67,13 +67,11 @@ struct State {
     iterations: usize,
     steps: usize,
     events: Vec<Event>,
-    started: std::time::Instant,
 }
 
 impl State {
     fn new(frames: Frames) -> State {
-        let (lambda, events, started) = ([0.0; PLATE_ROWS], Vec::new(), std::time::Instant::now());
-        State { frames, lambda, iterations: 0, steps: 0, events, started }
+        State { frames, lambda: [0.0; PLATE_ROWS], iterations: 0, steps: 0, events: Vec::new() }
     }
 }
 
@@ -419,7 +417,7 @@ impl Body3 {
             if iter >= budget.max_iter || state.iterations >= o.max_iterations {
                 return (res, Err(StopReason::IterationLimit));
             }
-            if o.time_limit.is_some_and(|limit| state.started.elapsed() > limit) {
+            if o.deadline.expired() {
                 return (res, Err(StopReason::TimeLimit));
             }
             iter += 1;
@@ -571,7 +569,7 @@ impl Body3 {
                 dtau *= 2.0;
                 continue;
             }
-            if o.time_limit.is_some_and(|limit| state.started.elapsed() > limit) {
+            if o.deadline.expired() {
                 return Err(fail(solver, stage, state, res, StopReason::TimeLimit));
             }
             state.frames.clone_from(&work.frames_start);
@@ -609,10 +607,8 @@ impl Body3 {
 
 /// The error for a Newton run that stopped for `reason`.
 fn fail(solver: &Solver, stage: Stage, state: &State, residual: f64, reason: StopReason) -> SolveError {
-    match solver.options.time_limit {
-        Some(limit) if reason == StopReason::TimeLimit => {
-            SolveError::TimeLimit { limit, iterations: state.iterations, residual }
-        }
+    match solver.options.deadline.check() {
+        Some(halt) if reason == StopReason::TimeLimit => SolveError::Stopped { halt, iterations: state.iterations, residual },
         _ => SolveError::NotConverged { stage, iterations: state.iterations, residual, reason },
     }
 }
