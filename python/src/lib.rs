@@ -109,17 +109,11 @@ fn stopped_error(e: leech::budget::Stopped) -> PyErr {
     pyo3::exceptions::PyTimeoutError::new_err(e.to_string())
 }
 
-fn sweep_error(e: leech::sweep::SweepError) -> PyErr {
+/// A sweep's or an inverse solve's failure: bad input or stopped.
+fn job_error(e: leech::error::JobError) -> PyErr {
     match e {
-        leech::sweep::SweepError::Input(e) => input_error(e),
-        leech::sweep::SweepError::Stopped(e) => stopped_error(e),
-    }
-}
-
-fn reach_error(e: leech::inverse_statics::ReachError) -> PyErr {
-    match e {
-        leech::inverse_statics::ReachError::Input(e) => input_error(e),
-        leech::inverse_statics::ReachError::Stopped(e) => stopped_error(e),
+        leech::error::JobError::Input(e) => input_error(e),
+        leech::error::JobError::Stopped(e) => stopped_error(e),
     }
 }
 
@@ -461,7 +455,7 @@ impl Robot {
         }
         let grid = Grid::new(min_m, max_m, step_m).map_err(input_error)?;
         let options = SweepOptions { grid, shape_parameters, models, left_longer, deadline: Deadline::none() };
-        let sweep = py.detach(|| leech::sweep::sweep(&self.inner, &options, &|_| {})).map_err(sweep_error)?;
+        let sweep = py.detach(|| leech::sweep::sweep(&self.inner, &options, &|_| {})).map_err(job_error)?;
         let p = &sweep.points;
         let column = |f: &dyn Fn(&leech::sweep::Point) -> f64| PyArray1::from_vec(py, p.iter().map(f).collect());
         let flag = |f: &dyn Fn(&leech::sweep::Point) -> bool| PyArray1::from_vec(py, p.iter().map(f).collect());
@@ -522,7 +516,7 @@ impl Robot {
     /// A map for inverse statics over `grid` (min, max, step in m).
     fn reacher(&self, py: Python<'_>, min_m: f64, max_m: f64, step_m: f64) -> PyResult<Reacher> {
         let grid = Grid::new(min_m, max_m, step_m).map_err(input_error)?;
-        let inner = py.detach(|| LibReacher::new(&self.inner, grid, Deadline::none())).map_err(reach_error)?;
+        let inner = py.detach(|| LibReacher::new(&self.inner, grid, Deadline::none())).map_err(job_error)?;
         Ok(Reacher { inner })
     }
 

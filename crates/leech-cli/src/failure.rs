@@ -4,10 +4,9 @@
 use leech::budget::Stopped;
 use leech::calibration::CalibrationError;
 use leech::dynamics::SimulationError;
-use leech::inverse_statics::ReachError;
+use leech::error::JobError;
 use leech::prelude::*;
 use leech::stance::StanceError;
-use leech::sweep::SweepError;
 use leech_plot::figures::FigureError;
 use leech_plot::PlotError;
 
@@ -48,24 +47,13 @@ impl From<Stopped> for Failure {
     }
 }
 
-impl From<SweepError> for Failure {
-    fn from(e: SweepError) -> Self {
-        match e {
-            SweepError::Input(e) => e.into(),
-            SweepError::Stopped(e) => Failure::Unsolved(format!(
-                "workspace stopped: {e}, no CSV written{RAISE} or use a coarser --lengths-range"
-            )),
-        }
-    }
-}
-
-impl From<ReachError> for Failure {
-    fn from(e: ReachError) -> Self {
-        match e {
-            ReachError::Input(e) => e.into(),
-            ReachError::Stopped(e) => {
-                Failure::Unsolved(format!("reach stopped: {e}{RAISE} or use a coarser --lengths-range"))
-            }
+/// A grid job (`workspace`, `reach`) that had bad input or ran out of time:
+/// `job` names it, `unwritten` says what it did not write.
+pub fn grid_job(e: JobError, job: &str, unwritten: &str) -> Failure {
+    match e {
+        JobError::Input(e) => e.into(),
+        JobError::Stopped(e) => {
+            Failure::Unsolved(format!("{job} stopped: {e}{unwritten}{RAISE} or use a coarser --lengths-range"))
         }
     }
 }

@@ -193,12 +193,17 @@ fn run(args: Args, out: &mut String) -> Result<(), Failure> {
         Args::Workspace(a) => {
             let bar = render::progress(leech::sweep::work_count(&a.options) as u64, "solves");
             let started = Instant::now();
-            let sweep = leech::sweep::sweep(&a.robot, &a.options, &|n| bar.inc(n as u64))?;
+            let sweep = leech::sweep::sweep(&a.robot, &a.options, &|n| bar.inc(n as u64))
+                .map_err(|e| failure::grid_job(e, "workspace", ", no CSV written"))?;
             bar.finish_and_clear();
             render::workspace(out, &a, &sweep, started.elapsed().as_secs_f64())
         }
         Args::Reach(a) => {
-            let answer = Reacher::new(&a.robot, a.grid, a.deadline)?.reach(a.target, a.angle)?;
+            let reach = |e| failure::grid_job(e, "reach", "");
+            let answer = Reacher::new(&a.robot, a.grid, a.deadline)
+                .map_err(reach)?
+                .reach(a.target, a.angle)
+                .map_err(|e| reach(e.into()))?;
             render::reach(out, &answer, a.json)
         }
         Args::Calibrate(a) => {

@@ -224,3 +224,16 @@ pub fn within(field: &str, value: f64, lo: f64, hi: f64) -> Result<f64, InputErr
         Err(InputError::invalid(field, value, format!("a finite number in [{}, {}]", Num(lo), Num(hi))))
     }
 }
+
+/// A job that had bad input, or that its [`Deadline`](crate::budget::Deadline)
+/// stopped first: what a workspace sweep and an inverse solve return (each
+/// names it after itself, `SweepError`, `ReachError`).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum JobError {
+    /// Bad options or robot.
+    #[error(transparent)]
+    Input(#[from] InputError),
+    /// The deadline ran out (or the job was cancelled) first.
+    #[error("stopped: {0}")]
+    Stopped(#[from] crate::budget::Stopped),
+}

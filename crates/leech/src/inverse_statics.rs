@@ -37,7 +37,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crate::body::Body;
 use crate::budget::{Deadline, Stopped};
-use crate::error::InputError;
+use crate::error::{InputError, JobError};
 use crate::geom::angle_difference;
 use crate::least_squares::{central_differences, levenberg_marquardt, LeastSquares, Options, Scaling};
 use crate::robot::Robot;
@@ -53,16 +53,8 @@ const STARTS: usize = 32;
 /// Largest map the reacher builds (a 10 mm grid over 0.05..0.3 m has 676).
 pub const MAX_MAP_POINTS: usize = 40_000;
 
-/// Why there is no reacher or no answer.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum ReachError {
-    /// Bad robot or range.
-    #[error(transparent)]
-    Input(#[from] InputError),
-    /// The deadline ran out (or the job was cancelled) first.
-    #[error("the inverse solve stopped: {0}")]
-    Stopped(#[from] Stopped),
-}
+/// Why there is no reacher: bad robot or range, or stopped by its deadline.
+pub type ReachError = JobError;
 
 /// Whether the target was hit.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]

@@ -51,9 +51,9 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use rayon::prelude::*;
 
 use crate::body::Body;
-use crate::budget::{Deadline, Stopped};
+use crate::budget::Deadline;
 use crate::constant_curvature::PlanarBody;
-use crate::error::{positive, InputError};
+use crate::error::{positive, InputError, JobError};
 use crate::robot::{Robot, MAX_LINKS};
 use crate::statics::{Scratch, Solver, SolverOptions};
 
@@ -159,16 +159,8 @@ pub struct SweepOptions {
     pub deadline: Deadline,
 }
 
-/// Why a sweep gave no result.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum SweepError {
-    /// Bad options or robot.
-    #[error(transparent)]
-    Input(#[from] InputError),
-    /// The deadline ran out (or the sweep was cancelled) first.
-    #[error("the sweep stopped: {0}")]
-    Stopped(#[from] Stopped),
-}
+/// Why a sweep gave no result: bad input, or stopped by its deadline.
+pub type SweepError = JobError;
 
 /// One grid point.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
