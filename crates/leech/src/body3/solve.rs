@@ -442,7 +442,15 @@ impl Body3 {
                 }
                 return (res, Err(StopReason::NoDescent));
             }
-            fresh = min_shift == 0.0 && work.damping == 0.0 && sup(&work.step) < tuning.reuse_factors_step;
+            // The Lagrangian Hessian holds the multipliers too (the weld's
+            // curvature): factors stay good only if neither moved. A warm
+            // start begins with zero multipliers, whose Hessian can look
+            // stable where the true one is a saddle.
+            let moved_multipliers = (0..PLATE_ROWS).fold(0.0f64, |m, r| m.max(work.dual[r].abs() * self.row_scale(r) / k));
+            fresh = min_shift == 0.0
+                && work.damping == 0.0
+                && sup(&work.step) < tuning.reuse_factors_step
+                && moved_multipliers < tuning.reuse_factors_step;
             if budget.leash.is_finite() && distance(&state.frames, &work.frames_saved) > budget.leash {
                 let res = self.residual_norm(&work.ev, &work.residual);
                 return (res, Err(StopReason::LeftBranch));
