@@ -60,11 +60,14 @@ impl Frames {
 pub(crate) struct Param {
     pub load: f64,
     pub scale: [f64; 3],
+    /// Hanging from the front cup: gravity as [`super::hold3`] writes it
+    /// (turning with the plate), in place of the fixed unit's.
+    pub hang: Option<super::hold3::Hanging>,
 }
 
 impl Param {
     /// The body itself: full gravity, true lengths.
-    pub const FULL: Param = Param { load: 1.0, scale: [1.0; 3] };
+    pub const FULL: Param = Param { load: 1.0, scale: [1.0; 3], hang: None };
 }
 
 /// The triangle's vertices in the unit's (or plate's) local frame for radius
@@ -116,6 +119,17 @@ impl Body3 {
     pub fn with_free_axial_rotation(mut self) -> Body3 {
         self.tubes.iter_mut().for_each(Tube3::free_axial_rotation);
         self
+    }
+
+    /// The same body moved rigidly: turned by `rotation` about the origin,
+    /// then shifted by `translation` (m).
+    pub(crate) fn placed(&self, rotation: &Mat3, translation: Vec3) -> Body3 {
+        let mut out = self.clone();
+        out.base = super::rotation::mul(rotation, &self.base);
+        for tube in out.tubes.iter_mut() {
+            tube.set_root(axpy(1.0, translation, apply(rotation, tube.root())));
+        }
+        out
     }
 
     /// Tube `i` (0, 1, 2 for tubes 1, 2, 3).
@@ -175,12 +189,7 @@ impl Body3 {
             });
         }
         for (u, r) in frames.iter().enumerate() {
-            let gram = mul_tn(r, r);
-            let det = super::rotation::dot(r[0], cross(r[1], r[2]));
-            let off = (0..3)
-                .flat_map(|a| (0..3).map(move |b| (a, b)))
-                .fold(0.0f64, |m, (a, b)| m.max((gram[a][b] - if a == b { 1.0 } else { 0.0 }).abs()));
-            if !(off <= 1e-9 && (det - 1.0).abs() <= 1e-9) {
+            if !is_rotation(r) {
                 return Err(InputError::Invalid {
                     field: format!("frames[{u}]"),
                     value: format!("{r:?}"),
@@ -270,8 +279,13 @@ impl Body3 {
     /// The Lagrangian `V - lambda . C` and its local derivatives at one point,
     /// dense (for checks and small studies; the solver keeps them banded).
     pub fn derivatives(&self, frames: &Frames, lambda: &[f64; PLATE_ROWS]) -> Derivatives {
+        self.derivatives_at(frames, lambda, Param::FULL)
+    }
+
+    /// [`Body3::derivatives`] at `param`.
+    pub(crate) fn derivatives_at(&self, frames: &Frames, lambda: &[f64; PLATE_ROWS], param: Param) -> Derivatives {
         let mut ev = Eval3::new(self);
-        self.evaluate(frames, lambda, Param::FULL, &mut ev);
+        self.evaluate(frames, lambda, param, &mut ev);
         let n = 3 * self.links();
         let mut gradient = vec![0.0; n];
         ev.stationarity(lambda, &mut gradient);
@@ -315,7 +329,8 @@ impl Body3 {
     pub(crate) fn evaluate(&self, frames: &Frames, lambda: &[f64; PLATE_ROWS], param: Param, ev: &mut Eval3) {
         ev.clear();
         let f = &frames.0;
-        let g = param.load * self.gravity;
+        // Hanging, gravity turns with the plate: added after the loop.
+        let g = if param.hang.is_some() { 0.0 } else { param.load * self.gravity };
         let positions = [[lambda[0], lambda[1], lambda[2]], [lambda[6], lambda[7], lambda[8]]];
         let mut tips = [[0.0; 3]; 3];
         for (i, tube) in self.tubes.iter().enumerate() {
@@ -368,6 +383,9 @@ impl Body3 {
             ev.add_hessian(p, p, &terms.h_aa);
             ev.add_hessian(b, b, &terms.h_bb);
             ev.add_hessian(p, b, &terms.h_ab);
+        }
+        if let Some(hang) = &param.hang {
+            self.add_hanging(frames, hang, param, ev);
         }
     }
 
@@ -464,7 +482,7 @@ impl Eval3 {
         self.constraints = [0.0; PLATE_ROWS];
     }
 
-    fn add_gradient(&mut self, u: usize, g: Vec3, s: f64) {
+    pub(crate) fn add_gradient(&mut self, u: usize, g: Vec3, s: f64) {
         for (x, y) in self.gradient[3 * u..3 * u + 3].iter_mut().zip(g) {
             *x += s * y;
         }
@@ -485,7 +503,7 @@ impl Eval3 {
     /// Adds `h` (rows: link `a`, columns: link `b`) and, for `a != b`, its
     /// transpose: the only pairs are a link with itself, consecutive links
     /// of one tube, and a link with the plate.
-    fn add_hessian(&mut self, a: usize, b: usize, h: &Mat3) {
+    pub(crate) fn add_hessian(&mut self, a: usize, b: usize, h: &Mat3) {
         let plate = self.links - 1;
         let add = |buf: &mut [f64], offset: usize, m: &Mat3| {
             for r in 0..3 {
@@ -509,6 +527,16 @@ impl Eval3 {
             *o = row.iter().zip(lambda).fold(*g, |acc, (j, l)| acc - j * l);
         }
     }
+}
+
+/// Whether `r` is a rotation: orthonormal to 1e-9, determinant +1 to 1e-9.
+pub(crate) fn is_rotation(r: &Mat3) -> bool {
+    let gram = mul_tn(r, r);
+    let det = super::rotation::dot(r[0], cross(r[1], r[2]));
+    let off = (0..3)
+        .flat_map(|a| (0..3).map(move |b| (a, b)))
+        .fold(0.0f64, |m, (a, b)| m.max((gram[a][b] - if a == b { 1.0 } else { 0.0 }).abs()));
+    off <= 1e-9 && (det - 1.0).abs() <= 1e-9
 }
 
 /// `R Exp(v)`, the retraction of a local step `v` (rad).

@@ -35,23 +35,42 @@
 //! options, tuning constants, events and errors of [`crate::statics`], and
 //! the planar discretization ([`crate::chain::Chain`]).
 //!
-//! Holds and contacts (later) enter as further border rows of the same
-//! factorization, as the planar `stance` systems add theirs.
+//! # Holds
+//!
+//! The body as built has its driving unit fixed: the rear cup holds.
+//! [`hold3`] gives that cup's reaction as a 6-vector (force and moment about
+//! the cup's centre, world frame) and its verdict:
+//!
+//! ```
+//! use leech::body3::Body3;
+//! use leech::prelude::*;
+//! let robot = Robot::builtin();
+//! let body = Body3::from_robot(&robot, [0.25, 0.28, 0.22]).unwrap();
+//! let eq = body.solve(&Solver::default()).unwrap();
+//! let cup = body.rear_cup(&robot, &eq).unwrap();
+//! assert!(cup.verdict.holds);
+//! ```
+//!
+//! Holds at the front and contacts (not yet) enter as further border rows
+//! of the same factorization, as the planar `stance` systems add theirs.
 //!
 //! # Layout
 //!
 //! [`rotation`] (`Exp`, `Log`, `Jr^-1`, the local derivatives of linear and
 //! relative terms), [`tube3`] (one tube's links), [`body3`] (the body, its
 //! Lagrangian's derivatives), [`solve`] (Newton, continuation), [`planar`]
-//! (the comparison with the planar model).
+//! (the comparison with the planar model), [`hold3`] (the rear cup's
+//! reaction and verdict).
 
 #[allow(clippy::module_inception)]
 pub mod body3;
+pub mod hold3;
 pub mod planar;
 pub mod rotation;
 pub mod solve;
 pub mod tube3;
 
 pub use body3::{Body3, Derivatives, Frames, PLATE_ROWS};
+pub use hold3::{verdict3, CupState3, Hanging, Held3, Hold3, Wrench};
 pub use solve::Equilibrium3;
 pub use tube3::Tube3;

@@ -25,6 +25,7 @@
 //! step is a fold, reported as [`Event::Snap`].
 
 use super::body3::{distance, retract, Body3, Eval3, Frames, Param, BORDER, PLATE_ROWS};
+use super::hold3::Hanging;
 use super::rotation::{apply, axpy, cross};
 use crate::linalg::{BorderedLdl, Pattern};
 use crate::statics::{BranchRule, Equilibrium, Event, Side, SolveError, Solver, Stage, StopReason};
@@ -198,36 +199,53 @@ impl Body3 {
     /// scaled from `L_min / L_i` up to 1), then gravity raised from 0 to `g`.
     /// The solver's options (tolerances, bounds, time limit) are `solver`'s.
     pub fn solve(&self, solver: &Solver) -> Result<Equilibrium3, SolveError> {
+        self.solve_on(solver, None)
+    }
+
+    /// [`Body3::solve`], hanging from the front cup when `hang` says so
+    /// ([`super::hold3`]: gravity raised on the hanging body).
+    pub(crate) fn solve_on(&self, solver: &Solver, hang: Option<Hanging>) -> Result<Equilibrium3, SolveError> {
         let mut work = Work::new(self);
         let mut state = State::new(self.straight());
         let lengths = [0, 1, 2].map(|i| self.tube(i).tube_length());
         let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
-        let feed = |tau: f64| Param { load: 0.0, scale: lengths.map(|l| (shortest + tau * (l - shortest)) / l) };
+        let feed = |tau: f64| Param { load: 0.0, scale: lengths.map(|l| (shortest + tau * (l - shortest)) / l), hang: None };
         let mut residual = if lengths.iter().all(|l| *l == shortest) {
             self.settle_reporting(solver, &mut state, feed(1.0), 1.0, Stage::Feed, &mut work)?
         } else {
             self.continuation(solver, &mut state, &feed, Stage::Feed, &mut work)?
         };
         if self.gravity() != 0.0 {
-            let load = |t: f64| Param { load: t, scale: [1.0; 3] };
+            let load = |t: f64| Param { load: t, scale: [1.0; 3], hang };
             residual = self.continuation(solver, &mut state, &load, Stage::Load, &mut work)?;
         }
-        Ok(self.finish(solver, state, residual, &mut work))
+        Ok(self.finish(solver, state, residual, hang, &mut work))
     }
 
     /// The equilibrium reached from `frames` with gravity on, without
     /// continuation (a warm start, as planners following an actuation
     /// history use it); an unstable landing is left as on the paths.
     pub fn solve_from(&self, solver: &Solver, frames: &Frames) -> Result<Equilibrium3, SolveError> {
+        self.solve_from_on(solver, frames, None)
+    }
+
+    /// [`Body3::solve_from`], hanging from the front cup when `hang` says so.
+    pub(crate) fn solve_from_on(
+        &self,
+        solver: &Solver,
+        frames: &Frames,
+        hang: Option<Hanging>,
+    ) -> Result<Equilibrium3, SolveError> {
         let mut work = Work::new(self);
         let mut state = State::new(frames.clone());
-        let residual = self.settle_reporting(solver, &mut state, Param::FULL, 1.0, Stage::WarmStart, &mut work)?;
-        Ok(self.finish(solver, state, residual, &mut work))
+        let full = Param { hang, ..Param::FULL };
+        let residual = self.settle_reporting(solver, &mut state, full, 1.0, Stage::WarmStart, &mut work)?;
+        Ok(self.finish(solver, state, residual, hang, &mut work))
     }
 
     /// Packs a state converged at the full load.
-    fn finish(&self, solver: &Solver, state: State, residual: f64, work: &mut Work) -> Equilibrium3 {
-        self.evaluate(&state.frames, &state.lambda, Param::FULL, &mut work.ev);
+    fn finish(&self, solver: &Solver, state: State, residual: f64, hang: Option<Hanging>, work: &mut Work) -> Equilibrium3 {
+        self.evaluate(&state.frames, &state.lambda, Param { hang, ..Param::FULL }, &mut work.ev);
         let tiny = solver.options.tuning.tiny_pivot * self.moment_scale();
         let stable = work.factor(0.0, tiny).0;
         let q = state.frames.0.iter().flat_map(super::rotation::log).collect();

@@ -48,6 +48,11 @@ impl Tube3 {
         }
     }
 
+    /// Moves the root (m): the body placed elsewhere.
+    pub(crate) fn set_root(&mut self, root: Vec3) {
+        self.root = root;
+    }
+
     /// Frees the axial rotation at the driving unit (`kt_1 = 0`).
     pub(crate) fn free_axial_rotation(&mut self) {
         self.torsion[0] = 0.0;
