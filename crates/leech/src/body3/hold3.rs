@@ -37,10 +37,12 @@
 //! planar front hold's: the unloaded shape (feeding at `g = 0`, the same
 //! whichever cup holds), then gravity raised from 0 to `g` on the hanging
 //! body. The answer is turned back into the world (`G`, the body placed
-//! there with [`Body3::placed`] so that its points are world points).
+//! there so that its points are world points).
 //!
 //! # The rear hold
-//! The surface then carries everything: the tubes, the payload and the
+//!
+//! With the driving unit fixed (the body as built), the rear cup's surface
+//! carries everything: the tubes, the payload and the
 //! driving unit's own mass `Md` (kg), which sits where the planar model puts
 //! it, at the midpoint of tube 1's root and the midpoint of tubes 2 and 3's
 //! roots (`p0 + R0 (0, r_b/4, 0)`; it does not change the shape).
@@ -99,6 +101,45 @@ use crate::statics::Solver;
 
 const E_X: Vec3 = [1.0, 0.0, 0.0];
 
+/// The swing's step about a free front joint (rad): short enough for a warm
+/// start to land on the same branch.
+pub const SWING_STEP: f64 = 0.1;
+
+/// Steps of [`SWING_STEP`] before the swing gives up: one full turn.
+const SWING_STEPS: usize = 63;
+
+/// The free joint's moment about its axis, relative to `W L1`, below which
+/// the swing has come to rest.
+pub const PIVOT_TOLERANCE: f64 = 1e-11;
+
+/// Regula falsi iterations on the turn.
+const PIVOT_ITERATIONS: usize = 100;
+
+/// The front hold's gravity for the plate's frame `plate` and the unit's mass `md` (kg).
+fn hanging(plate: &Mat3, md: f64) -> Hanging {
+    Hanging { up: apply(&transpose(plate), [0.0, 1.0, 0.0]), unit_mass_kg: md }
+}
+
+/// A hold's point (named `point_field`) must be finite and its frame (named
+/// `frame_field`) a rotation.
+fn check_hold(point_field: &str, point: Vec3, frame_field: &str, frame: &Mat3) -> Result<(), InputError> {
+    if !point.iter().all(|x| x.is_finite()) {
+        return Err(InputError::Invalid {
+            field: point_field.into(),
+            value: format!("{point:?}"),
+            allowed: "finite coordinates".into(),
+        });
+    }
+    if !is_rotation(frame) {
+        return Err(InputError::Invalid {
+            field: frame_field.into(),
+            value: format!("{frame:?}"),
+            allowed: "a rotation matrix (orthonormal to 1e-9, determinant +1)".into(),
+        });
+    }
+    Ok(())
+}
+
 /// Gravity on the body hanging from the front cup, in the fixed unit's
 /// picture (module doc).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -123,6 +164,17 @@ pub enum Hold3 {
         /// The plate's frame.
         plate: Mat3,
     },
+    /// The front cup on a free rotation joint about its face's normal
+    /// (the sideways maneuver, paper Fig. 11): the face's centre `centre_m`
+    /// (m) and normal `plate e_y` fixed, the plate free to turn about that
+    /// normal. The body swings from the plate's frame `plate` the way gravity
+    /// turns it until the moment about the normal vanishes (module doc).
+    FrontPivot {
+        /// The front cup's face centre (m).
+        centre_m: Vec3,
+        /// The plate's frame where the swing starts.
+        plate: Mat3,
+    },
 }
 
 /// The body held by a cup: where the hold puts it, its equilibrium in world
@@ -141,6 +193,9 @@ pub struct Held3 {
     pub rear: Option<CupState3>,
     /// The front cup, when it holds.
     pub front: Option<CupState3>,
+    /// On a free front joint: how far the plate turned about the face's
+    /// normal from where the swing started (rad, right-handed about it).
+    pub pivot_turn_rad: Option<f64>,
 }
 
 /// A force (N, world frame) and a moment (N m, world frame) about a stated point.
@@ -176,7 +231,11 @@ pub fn verdict3(cup: &Cup, force_n: Vec3, moment_nm: Vec3, normal: Vec3) -> Resu
     let show = |v: Vec3| format!("({}, {}, {})", Num(v[0]), Num(v[1]), Num(v[2]));
     for (field, v) in [("cup force (N)", force_n), ("cup moment (N m)", moment_nm)] {
         if !finite(v) {
-            return Err(InputError::Invalid { field: field.into(), value: show(v), allowed: "finite components".into() });
+            return Err(InputError::Invalid {
+                field: field.into(),
+                value: show(v),
+                allowed: "finite components".into(),
+            });
         }
     }
     let length = dot(normal, normal).sqrt();
@@ -310,32 +369,115 @@ impl Body3 {
             Hold3::Rear => {
                 let equilibrium = self.solve(solver)?;
                 let rear = Some(self.rear_cup(robot, &equilibrium)?);
-                Ok(Held3 { hold, body: self.clone(), equilibrium, rear, front: None })
+                Ok(Held3 { hold, body: self.clone(), equilibrium, rear, front: None, pivot_turn_rad: None })
             }
             Hold3::Front { tip_m, plate } => {
-                if !tip_m.iter().all(|x| x.is_finite()) {
-                    return Err(InputError::Invalid {
-                        field: "front hold tip (m)".into(),
-                        value: format!("{tip_m:?}"),
-                        allowed: "finite coordinates".into(),
-                    }
-                    .into());
-                }
-                if !is_rotation(&plate) {
-                    return Err(InputError::Invalid {
-                        field: "front hold plate frame".into(),
-                        value: format!("{plate:?}"),
-                        allowed: "a rotation matrix (orthonormal to 1e-9, determinant +1)".into(),
-                    }
-                    .into());
-                }
-                let hang = Hanging { up: apply(&transpose(&plate), [0.0, 1.0, 0.0]), unit_mass_kg: robot.driving_unit.mass_kg };
-                let picture = self.solve_on(solver, Some(hang))?;
+                check_hold("front hold tip (m)", tip_m, "front hold plate frame", &plate)?;
+                let md = robot.driving_unit.mass_kg;
+                let picture = self.solve_on(solver, Some(hanging(&plate, md)))?;
                 let (body, equilibrium) = self.hung(&picture, tip_m, &plate);
-                let front = Some(body.front_cup(robot, &equilibrium, robot.driving_unit.mass_kg)?);
-                Ok(Held3 { hold, body, equilibrium, rear: None, front })
+                let front = Some(body.front_cup(robot, &equilibrium, md)?);
+                Ok(Held3 { hold, body, equilibrium, rear: None, front, pivot_turn_rad: None })
+            }
+            Hold3::FrontPivot { centre_m, plate } => {
+                check_hold("front pivot centre (m)", centre_m, "front pivot plate frame", &plate)?;
+                self.swing(robot, hold, centre_m, &plate, solver)
             }
         }
+    }
+
+    /// The swing about a free front joint: the front hold's path at the
+    /// start, then the plate turned about the face's normal `n` (the tip,
+    /// on that axis, stays) in steps of [`SWING_STEP`] the way the moment of
+    /// gravity about `n` turns it, each a warm start from the last, until
+    /// that moment changes sign; then regula falsi (Illinois) on the turn to
+    /// a moment below [`PIVOT_TOLERANCE`] times `W L1`. Moving downhill in
+    /// the energy, the first change of sign is a minimum in the turn.
+    fn swing(
+        &self,
+        robot: &Robot,
+        hold: Hold3,
+        centre: Vec3,
+        plate: &Mat3,
+        solver: &Solver,
+    ) -> Result<Held3, StanceError> {
+        let md = robot.driving_unit.mass_kg;
+        let normal = [plate[0][1], plate[1][1], plate[2][1]];
+        let tip = axpy(robot.body.tip_spacing_m + robot.cup.front_offset_m, normal, centre);
+        let frame = |turn: f64| mul(&super::rotation::exp(scale(turn, normal)), plate);
+        // The surface's moment about n on the plate turned by `turn`, from a
+        // picture converged there.
+        let moment = |picture: &Equilibrium3, turn: f64| -> Result<(f64, Held3), StanceError> {
+            let (body, equilibrium) = self.hung(picture, tip, &frame(turn));
+            let front = body.front_cup(robot, &equilibrium, md)?;
+            let m = dot(front.reaction.moment_nm, normal);
+            Ok((m, Held3 { hold, body, equilibrium, rear: None, front: Some(front), pivot_turn_rad: Some(turn) }))
+        };
+        let settle =
+            |from: &Equilibrium3, turn: f64| self.solve_from_on(solver, &from.frames, Some(hanging(&frame(turn), md)));
+        let mut picture = self.solve_on(solver, Some(hanging(plate, md)))?;
+        let (mut m, mut held) = moment(&picture, 0.0)?;
+        let scale_nm = held.front.as_ref().map_or(0.0, |f| f.reaction.force_n[1]) * self.tube(0).tube_length();
+        let tolerance = PIVOT_TOLERANCE * scale_nm.max(f64::MIN_POSITIVE);
+        let mut events = std::mem::take(&mut picture.summary.events);
+        // The surface's moment `m` about n is what gravity's moment needs:
+        // gravity turns the body by -m.
+        let direction = -m.signum();
+        let (mut turn, mut iterations) = (0.0, picture.iterations);
+        let mut bracket = None;
+        for _ in 0..SWING_STEPS {
+            if m.abs() <= tolerance {
+                break;
+            }
+            let next = turn + direction * SWING_STEP;
+            let ahead = settle(&picture, next)?;
+            iterations += ahead.iterations;
+            events.extend_from_slice(&ahead.events);
+            let (m_next, held_next) = moment(&ahead, next)?;
+            if m_next.signum() != m.signum() {
+                bracket = Some(((turn, m), (next, m_next)));
+            }
+            (turn, m, picture, held) = (next, m_next, ahead, held_next);
+            if bracket.is_some() {
+                break;
+            }
+        }
+        if let Some(((mut a, mut ma), (mut b, mut mb))) = bracket {
+            // Illinois: the side kept twice has its moment halved.
+            let mut kept = 0i8;
+            for _ in 0..PIVOT_ITERATIONS {
+                if m.abs() <= tolerance || (b - a).abs() <= 1e-13 {
+                    break;
+                }
+                let c = (a * mb - b * ma) / (mb - ma);
+                let here = settle(&picture, c)?;
+                iterations += here.iterations;
+                events.extend_from_slice(&here.events);
+                let (mc, held_c) = moment(&here, c)?;
+                if mc.signum() == mb.signum() {
+                    (b, mb) = (c, mc);
+                    ma = if kept == -1 { 0.5 * ma } else { ma };
+                    kept = -1;
+                } else {
+                    (a, ma) = (c, mc);
+                    mb = if kept == 1 { 0.5 * mb } else { mb };
+                    kept = 1;
+                }
+                (turn, m, picture, held) = (c, mc, here, held_c);
+            }
+        }
+        if !(m.abs() <= tolerance) {
+            return Err(StanceError::Solve(crate::statics::SolveError::NotConverged {
+                stage: crate::statics::Stage::Load,
+                iterations,
+                residual: m.abs() / scale_nm.max(f64::MIN_POSITIVE),
+                reason: crate::statics::StopReason::IterationLimit,
+            }));
+        }
+        held.pivot_turn_rad = Some(turn);
+        held.equilibrium.summary.iterations = iterations;
+        held.equilibrium.summary.events = events;
+        Ok(held)
     }
 
     /// The hanging equilibrium `picture` (the unit fixed) turned into the

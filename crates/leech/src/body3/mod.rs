@@ -38,22 +38,32 @@
 //! # Holds
 //!
 //! The body as built has its driving unit fixed: the rear cup holds.
-//! [`hold3`] gives that cup's reaction as a 6-vector (force and moment about
-//! the cup's centre, world frame) and its verdict:
+//! [`Body3::solve_held`] solves it held by the rear cup, by the front cup
+//! (the driving unit hanging: gravity turns with the plate, no unknown
+//! added) or by the front cup on a free joint about its face's normal (the
+//! swing of the sideways maneuver), and gives each holding cup's reaction
+//! as a 6-vector (force and moment about the cup's centre, world frame) and
+//! its verdict ([`hold3`]):
 //!
 //! ```
-//! use leech::body3::Body3;
+//! use leech::body3::{Body3, Hold3};
+//! use leech::body3::rotation::rot_z;
 //! use leech::prelude::*;
 //! let robot = Robot::builtin();
 //! let body = Body3::from_robot(&robot, [0.25, 0.28, 0.22]).unwrap();
-//! let eq = body.solve(&Solver::default()).unwrap();
-//! let cup = body.rear_cup(&robot, &eq).unwrap();
-//! assert!(cup.verdict.holds);
+//! let solver = Solver::default();
+//! let rear = body.solve_held(&robot, Hold3::Rear, &solver).unwrap();
+//! assert!(rear.rear.unwrap().verdict.holds);
+//! // Held at the front, the plate along +y (up a wall), the unit below.
+//! let hold = Hold3::Front { tip_m: [0.0, 0.5, 0.0], plate: rot_z(std::f64::consts::FRAC_PI_2) };
+//! let front = body.solve_held(&robot, hold, &solver).unwrap();
+//! assert!(front.body.tube(0).root()[1] < 0.5);
 //! ```
 //!
-//! Holds at the front and contacts (not yet) enter as further border rows
-//! of the same factorization, as the planar `stance` systems add theirs.
-//!
+//! Both cups holding (a closed loop) and contacts with scene solids are not
+//! yet in 3D: they need rows beyond the weld's 12 (and an active set for
+//! contacts), as the planar `stance` systems add theirs.
+
 //! # Layout
 //!
 //! [`rotation`] (`Exp`, `Log`, `Jr^-1`, the local derivatives of linear and

@@ -209,7 +209,8 @@ impl Body3 {
         let mut state = State::new(self.straight());
         let lengths = [0, 1, 2].map(|i| self.tube(i).tube_length());
         let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
-        let feed = |tau: f64| Param { load: 0.0, scale: lengths.map(|l| (shortest + tau * (l - shortest)) / l), hang: None };
+        let feed =
+            |tau: f64| Param { load: 0.0, scale: lengths.map(|l| (shortest + tau * (l - shortest)) / l), hang: None };
         let mut residual = if lengths.iter().all(|l| *l == shortest) {
             self.settle_reporting(solver, &mut state, feed(1.0), 1.0, Stage::Feed, &mut work)?
         } else {
@@ -244,7 +245,14 @@ impl Body3 {
     }
 
     /// Packs a state converged at the full load.
-    fn finish(&self, solver: &Solver, state: State, residual: f64, hang: Option<Hanging>, work: &mut Work) -> Equilibrium3 {
+    fn finish(
+        &self,
+        solver: &Solver,
+        state: State,
+        residual: f64,
+        hang: Option<Hanging>,
+        work: &mut Work,
+    ) -> Equilibrium3 {
         self.evaluate(&state.frames, &state.lambda, Param { hang, ..Param::FULL }, &mut work.ev);
         let tiny = solver.options.tuning.tiny_pivot * self.moment_scale();
         let stable = work.factor(0.0, tiny).0;
@@ -464,7 +472,8 @@ impl Body3 {
             // curvature): factors stay good only if neither moved. A warm
             // start begins with zero multipliers, whose Hessian can look
             // stable where the true one is a saddle.
-            let moved_multipliers = (0..PLATE_ROWS).fold(0.0f64, |m, r| m.max(work.dual[r].abs() * self.row_scale(r) / k));
+            let moved_multipliers =
+                (0..PLATE_ROWS).fold(0.0f64, |m, r| m.max(work.dual[r].abs() * self.row_scale(r) / k));
             fresh = min_shift == 0.0
                 && work.damping == 0.0
                 && sup(&work.step) < tuning.reuse_factors_step
@@ -634,7 +643,9 @@ impl Body3 {
 /// The error for a Newton run that stopped for `reason`.
 fn fail(solver: &Solver, stage: Stage, state: &State, residual: f64, reason: StopReason) -> SolveError {
     match solver.options.deadline.check() {
-        Some(halt) if reason == StopReason::TimeLimit => SolveError::Stopped { halt, iterations: state.iterations, residual },
+        Some(halt) if reason == StopReason::TimeLimit => {
+            SolveError::Stopped { halt, iterations: state.iterations, residual }
+        }
         _ => SolveError::NotConverged { stage, iterations: state.iterations, residual, reason },
     }
 }

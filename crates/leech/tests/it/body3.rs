@@ -46,9 +46,7 @@ fn equals_the_planar_body_where_b_equals_c() {
         let from_planar = body3.solve_from(&solver, &planar_frames(&body3, &body, &eq.q)).unwrap();
         if ["n10_n13_flat_pi510", "n8_n10_flat_pi51"].contains(&name) {
             assert!(!eq3.events.is_empty() && d.out_of_plane_m > 0.01, "{name}: {d:?}");
-            assert!(
-                matches!(from_planar.events[..], [Event::Bifurcation { jump_rad, .. }] if jump_rad > 1.0)
-            );
+            assert!(matches!(from_planar.events[..], [Event::Bifurcation { jump_rad, .. }] if jump_rad > 1.0));
             sideways += 1;
         } else {
             assert!(d.max_point_m < 1e-9 && d.max_angle_rad < 1e-9, "{name}: {d:?}");
@@ -178,7 +176,7 @@ fn swapping_the_side_tubes_mirrors_the_body() {
 
 mod derivatives {
     use leech::body3::rotation::{exp, mul, Mat3};
-    use leech::body3::{Body3, Frames, PLATE_ROWS};
+    use leech::body3::{Body3, Derivatives, Frames, Hanging, PLATE_ROWS};
     use leech::prelude::*;
     use proptest::prelude::*;
 
@@ -199,16 +197,34 @@ mod derivatives {
         e
     }
 
+    /// The derivatives at `f`: the fixed unit's gravity, or hanging from the front cup.
+    fn derive(body: &Body3, f: &Frames, lambda: &[f64; PLATE_ROWS], hang: Option<Hanging>) -> Derivatives {
+        match hang {
+            Some(hang) => body.hanging_derivatives(f, lambda, hang),
+            None => body.derivatives(f, lambda),
+        }
+    }
+
     /// `L` with coordinates `i` and `j` (3 per link) moved by `si H`, `sj H`
     /// in one chart: one combined rotation vector where they share a link.
-    fn lagrangian(body: &Body3, f: &Frames, lambda: &[f64; PLATE_ROWS], i: usize, si: f64, j: usize, sj: f64) -> f64 {
+    #[allow(clippy::too_many_arguments)]
+    fn lagrangian(
+        body: &Body3,
+        f: &Frames,
+        lambda: &[f64; PLATE_ROWS],
+        hang: Option<Hanging>,
+        i: usize,
+        si: f64,
+        j: usize,
+        sj: f64,
+    ) -> f64 {
         let (a, b) = (unit(i % 3, si * H), unit(j % 3, sj * H));
         let moves = if i / 3 == j / 3 {
             vec![(i / 3, [a[0] + b[0], a[1] + b[1], a[2] + b[2]])]
         } else {
             vec![(i / 3, a), (j / 3, b)]
         };
-        body.derivatives(&turned(body, f, &moves), lambda).lagrangian
+        derive(body, &turned(body, f, &moves), lambda, hang).lagrangian
     }
 
     fn setup(lengths: [f64; 3], angle: f64, seed: &[f64], lambda: &[f64]) -> (Body3, Frames, [f64; PLATE_ROWS]) {
@@ -233,6 +249,45 @@ mod derivatives {
         (body, frames, l)
     }
 
+    /// Gradient, Hessian and Jacobian at `frames` against central
+    /// differences in the local chart.
+    fn check(
+        body: &Body3,
+        frames: &Frames,
+        lambda: &[f64; PLATE_ROWS],
+        hang: Option<Hanging>,
+    ) -> Result<(), TestCaseError> {
+        let d = derive(body, frames, lambda, hang);
+        let n = d.gradient.len();
+        let scale = d.hessian.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let l = |i, si, j, sj| lagrangian(body, frames, lambda, hang, i, si, j, sj);
+        for i in 0..n {
+            let fd = (l(i, 1.0, i, 0.0) - l(i, -1.0, i, 0.0)) / (2.0 * H);
+            prop_assert!(
+                (fd - d.gradient[i]).abs() < 1e-8 + 1e-7 * d.gradient[i].abs(),
+                "gradient {i}: {} vs {fd}",
+                d.gradient[i]
+            );
+            let plus = derive(body, &turned(body, frames, &[(i / 3, unit(i % 3, H))]), lambda, hang).constraints;
+            let minus = derive(body, &turned(body, frames, &[(i / 3, unit(i % 3, -H))]), lambda, hang).constraints;
+            for r in 0..PLATE_ROWS {
+                let fd = (plus[r] - minus[r]) / (2.0 * H);
+                let ours = d.jacobian[i * PLATE_ROWS + r];
+                prop_assert!((fd - ours).abs() < 1e-7, "jacobian ({i}, {r}): {ours} vs {fd}");
+            }
+            for j in i..n {
+                let fd =
+                    (l(i, 1.0, j, 1.0) - l(i, 1.0, j, -1.0) - l(i, -1.0, j, 1.0) + l(i, -1.0, j, -1.0)) / (4.0 * H * H);
+                let ours = d.hessian[i * n + j];
+                prop_assert!(
+                    (fd - ours).abs() < 1e-6 + 1e-6 * ours.abs(),
+                    "hessian ({i}, {j}): {ours} vs {fd} (scale {scale})"
+                );
+            }
+        }
+        Ok(())
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(12))]
 
@@ -247,29 +302,24 @@ mod derivatives {
             lambda in proptest::collection::vec(-2.0f64..2.0, PLATE_ROWS),
         ) {
             let (body, frames, lambda) = setup([l1, l2, l3], angle, &seed, &lambda);
-            let d = body.derivatives(&frames, &lambda);
-            let n = d.gradient.len();
-            let scale = d.hessian.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-            for i in 0..n {
-                let fd = (lagrangian(&body, &frames, &lambda, i, 1.0, i, 0.0)
-                    - lagrangian(&body, &frames, &lambda, i, -1.0, i, 0.0)) / (2.0 * H);
-                prop_assert!((fd - d.gradient[i]).abs() < 1e-8 + 1e-7 * d.gradient[i].abs(), "gradient {i}: {} vs {fd}", d.gradient[i]);
-                let plus = body.derivatives(&turned(&body, &frames, &[(i / 3, unit(i % 3, H))]), &lambda).constraints;
-                let minus = body.derivatives(&turned(&body, &frames, &[(i / 3, unit(i % 3, -H))]), &lambda).constraints;
-                for r in 0..PLATE_ROWS {
-                    let fd = (plus[r] - minus[r]) / (2.0 * H);
-                    let ours = d.jacobian[i * PLATE_ROWS + r];
-                    prop_assert!((fd - ours).abs() < 1e-7, "jacobian ({i}, {r}): {ours} vs {fd}");
-                }
-                for j in i..n {
-                    let fd = (lagrangian(&body, &frames, &lambda, i, 1.0, j, 1.0)
-                        - lagrangian(&body, &frames, &lambda, i, 1.0, j, -1.0)
-                        - lagrangian(&body, &frames, &lambda, i, -1.0, j, 1.0)
-                        + lagrangian(&body, &frames, &lambda, i, -1.0, j, -1.0)) / (4.0 * H * H);
-                    let ours = d.hessian[i * n + j];
-                    prop_assert!((fd - ours).abs() < 1e-6 + 1e-6 * ours.abs(), "hessian ({i}, {j}): {ours} vs {fd} (scale {scale})");
-                }
-            }
+            check(&body, &frames, &lambda, None)?;
+        }
+
+        /// The same with the body hanging from the front cup (gravity turning
+        /// with the plate: its cross blocks with every link), for any
+        /// direction of up in the plate's frame and any driving-unit mass.
+        #[test]
+        fn hanging_terms_match_finite_differences(
+            l1 in 0.025f64..0.06, l2 in 0.025f64..0.06, l3 in 0.025f64..0.06,
+            seed in proptest::collection::vec(-1.0f64..1.0, 31),
+            lambda in proptest::collection::vec(-2.0f64..2.0, PLATE_ROWS),
+            up in proptest::collection::vec(-1.0f64..1.0, 3),
+            unit_mass in 0.0f64..0.5,
+        ) {
+            let (body, frames, lambda) = setup([l1, l2, l3], 30.0, &seed, &lambda);
+            let norm = (up[0] * up[0] + up[1] * up[1] + up[2] * up[2]).sqrt().max(1e-3);
+            let hang = Hanging { up: [up[0] / norm, up[1] / norm, up[2] / norm], unit_mass_kg: unit_mass };
+            check(&body, &frames, &lambda, Some(hang))?;
         }
     }
 }
