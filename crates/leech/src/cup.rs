@@ -61,7 +61,7 @@ pub use crate::robot::Cup;
 
 /// How far a surface normal may be from unit length: rounding, not a wrong
 /// vector.
-const UNIT_TOLERANCE: f64 = 1e-6;
+pub(crate) const UNIT_TOLERANCE: f64 = 1e-6;
 
 /// Which failure a cup is closest to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]

@@ -50,6 +50,7 @@
 //! * [`cantilever`]: a single clamped tube under gravity.
 //! * [`batch`]: many clamped bodies at once (lengths and base angles as arrays), on all cores.
 //! * [`body`]: the two-chain body and its endpoint weld.
+//! * [`body3`]: the three-tube body in 3D (twist, turning) and its static solver.
 //! * [`calibration`]: fitting `k` (and `m`) to measured tubes and bodies; model comparison.
 //! * [`constant_curvature`]: the kinematic constant-curvature model, planar and tri-tube.
 //! * [`cup`]: whether a suction cup holds under a hold's reaction: pull-off, peel, slip.
@@ -71,6 +72,7 @@
 
 pub mod batch;
 pub mod body;
+pub mod body3;
 pub mod budget;
 pub mod calibration;
 pub mod cantilever;

@@ -11,7 +11,8 @@
 //! `[driving_unit]`, `[cup]`, `[limits]` and `[drive]` may be left out whole: a missing
 //! key takes the built-in robot's value, so robot files written before these
 //! keys existed stay valid. They are the tube's outer diameter
-//! ([`DEFAULT_TUBE_OUTER_DIAMETER_M`]), the driving unit's mass
+//! ([`DEFAULT_TUBE_OUTER_DIAMETER_M`]), its torsional stiffness for the 3D
+//! body (`torsion_stiffness_nm_per_rad`, `k / 1.3` until measured), the driving unit's mass
 //! ([`DrivingUnit`]), both suction cups ([`Cup`], judged by [`crate::cup`]) and
 //! the tube lengths planners may use ([`Limits`]).
 //!
@@ -67,6 +68,22 @@ pub struct Tube {
     /// The tube's outer diameter (m): contacts with a surface keep a tube's
     /// axis at least its radius away.
     pub outer_diameter_m: f64,
+    /// Torsional stiffness of one joint `kt` (N m/rad), twist about the
+    /// tube's own axis (the 3D body, [`crate::body3`]); `None`: not measured,
+    /// estimated as `k / 1.3` ([`Tube::torsion_stiffness`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub torsion_stiffness_nm_per_rad: Option<f64>,
+}
+
+/// `k / kt` assumed while a tube's torsional stiffness is not measured
+/// (a thin tube's `GJ / EI = 1 / (1 + nu)` with Poisson's ratio 0.3).
+pub const BENDING_PER_TORSION: f64 = 1.3;
+
+impl Tube {
+    /// Torsional stiffness of one joint `kt` (N m/rad): the file's value, else `k / 1.3`.
+    pub fn torsion_stiffness(&self) -> f64 {
+        self.torsion_stiffness_nm_per_rad.unwrap_or(self.joint_stiffness_nm_per_rad / BENDING_PER_TORSION)
+    }
 }
 
 /// The paper's stripwound hose: 25 mm minimum bending radius.
@@ -336,6 +353,7 @@ struct RawTube {
     joint_damping_nms_per_rad: f64,
     min_bend_radius_m: Option<f64>,
     outer_diameter_m: Option<f64>,
+    torsion_stiffness_nm_per_rad: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -410,6 +428,7 @@ impl Robot {
                 joint_damping_nms_per_rad: raw.tube.joint_damping_nms_per_rad,
                 min_bend_radius_m: raw.tube.min_bend_radius_m.unwrap_or(DEFAULT_MIN_BEND_RADIUS_M),
                 outer_diameter_m: raw.tube.outer_diameter_m.unwrap_or(DEFAULT_TUBE_OUTER_DIAMETER_M),
+                torsion_stiffness_nm_per_rad: raw.tube.torsion_stiffness_nm_per_rad,
             },
             body: raw.body,
             world: raw.world,
@@ -437,6 +456,9 @@ impl Robot {
         within("world.gravity_m_per_s2", self.world.gravity_m_per_s2, 0.0, 1e3)?;
         within("world.base_angle_deg", self.world.base_angle_deg, -360.0, 360.0)?;
         within("tube.outer_diameter_m", self.tube.outer_diameter_m, OUTER_DIAMETER_M.0, OUTER_DIAMETER_M.1)?;
+        if let Some(kt) = self.tube.torsion_stiffness_nm_per_rad {
+            positive("tube.torsion_stiffness_nm_per_rad", kt)?;
+        }
         non_negative("driving_unit.mass_kg", self.driving_unit.mass_kg)?;
         self.cup.validate()?;
         self.validate_cup_offsets()?;
@@ -591,6 +613,9 @@ impl Robot {
             robot.tube.element_length_m *= s;
             robot.tube.element_mass_kg *= s;
             robot.tube.joint_stiffness_nm_per_rad *= s * s;
+            if let Some(kt) = &mut robot.tube.torsion_stiffness_nm_per_rad {
+                *kt *= s * s;
+            }
             robot.tube.joint_damping_nms_per_rad *= s * s * s.sqrt();
             robot.tube.min_bend_radius_m *= s;
             robot.body.base_spacing_m *= s;
@@ -637,7 +662,7 @@ impl Robot {
         })
     }
 
-    fn spec(&self, tube_length: f64, tubes: f64, tip_mass: f64, clamp_point: [f64; 2]) -> ChainSpec {
+    pub(crate) fn spec(&self, tube_length: f64, tubes: f64, tip_mass: f64, clamp_point: [f64; 2]) -> ChainSpec {
         ChainSpec {
             tube_length,
             element_length: self.tube.element_length_m,

@@ -1,6 +1,9 @@
 //! Integration tests of the `leech` library: one binary, one module per topic.
 
 mod batch;
+mod body3;
+mod body3_hold;
+mod body3_references;
 mod calibration;
 mod climb;
 mod constant_curvature;

@@ -1,0 +1,556 @@
+//! The three-tube body: the tubes, the driving unit's pose, the endpoint
+//! plate, and the Lagrangian's derivatives in local rotation coordinates
+//! (docs/model3d.md sections 2 to 5).
+//!
+//! ```text
+//! V = sum_tubes sum_j E_j(theta_j) + t g sum_tubes sum_j s_i W_j (R_j e_x)_y + g sum_i M_i y(root_i)   (J)
+//! C_pos,i = root_i + sum_j s_i l_ij R_ij e_x - root_1 - sum_j s_1 l_1j R_1j e_x - R_P (v_i - v_1)     (m)
+//! C_rot,i = Log(R_P^T R_i,n_i)                                                                   (rad)
+//! ```
+//!
+//! for `i = 2, 3`, `R_P` tube 1's last link (the plate), `v_i` the plate's
+//! triangle, `t` the load fraction and `s_i` the feeding scales of the
+//! tubes' links (1 at the body's lengths). The coordinates are the links'
+//! local rotation vectors (`R <- R Exp(delta)`), ordered for the block
+//! factorization: tube 1's links but the last, tube 2's, tube 3's, then the
+//! plate (three dense *free* coordinates, since the weld's rotation rows
+//! couple the plate with the side tubes' last links).
+
+use super::rotation::{
+    add_scaled, apply, axpy, cross, linear_terms, mul_tn, pair_terms, rot_z, scale, transpose, Mat3, Vec3,
+};
+use super::tube3::Tube3;
+use crate::chain::{Chain, Discretization};
+use crate::error::InputError;
+use crate::robot::Robot;
+
+/// Number of the plate's constraint rows: position and rotation of tubes 2 and 3.
+pub const PLATE_ROWS: usize = 12;
+
+/// Border rows of the factorization: the plate's 3 coordinates and the 12 rows.
+pub(crate) const BORDER: usize = 3 + PLATE_ROWS;
+
+/// The three-tube body under gravity, driving unit fixed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Body3 {
+    tubes: [Tube3; 3],
+    base: Mat3,
+    base_point: Vec3,
+    plate: [Vec3; 3],
+    gravity: f64,
+    moment_scale: f64,
+    element_length: f64,
+}
+
+/// The links' frames (rotation matrices, columns the link's axes in world
+/// coordinates; local x the tangent), in the body's coordinate order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frames(pub(crate) Vec<Mat3>);
+
+impl Frames {
+    /// Every link's frame, in the body's coordinate order ([`Body3::index`]).
+    pub fn as_slice(&self) -> &[Mat3] {
+        &self.0
+    }
+}
+
+/// Where on the continuation paths a body is evaluated: the load fraction
+/// `t` and the feeding scales `s_i` of the tubes' link lengths.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Param {
+    pub load: f64,
+    pub scale: [f64; 3],
+    /// Hanging from the front cup: gravity as [`super::hold3`] writes it
+    /// (turning with the plate), in place of the fixed unit's.
+    pub hang: Option<super::hold3::Hanging>,
+}
+
+impl Param {
+    /// The body itself: full gravity, true lengths.
+    pub const FULL: Param = Param { load: 1.0, scale: [1.0; 3], hang: None };
+}
+
+/// The triangle's vertices in the unit's (or plate's) local frame for radius
+/// `r`: tube 1 at `(0, r, 0)`, tubes 2 and 3 at `(0, -r/2, +-r sqrt(3)/2)`.
+pub fn triangle(r: f64) -> [Vec3; 3] {
+    let side = r * 3f64.sqrt() / 2.0;
+    [[0.0, r, 0.0], [0.0, -0.5 * r, side], [0.0, -0.5 * r, -side]]
+}
+
+impl Body3 {
+    /// The body of `robot` at tube lengths `lengths = [L1, L2, L3]` (m), the
+    /// driving unit at the origin turned by the clamp angle about z
+    /// (docs/model3d.md section 2). The tubes are cut by the `paper` scheme.
+    pub fn from_robot(robot: &Robot, lengths: [f64; 3]) -> Result<Body3, InputError> {
+        robot.validate()?;
+        if robot.model.discretization != Discretization::Paper {
+            return Err(InputError::Invalid {
+                field: "model.discretization".into(),
+                value: robot.model.discretization.name().into(),
+                allowed: "\"paper\" (the 3D body cuts its tubes by the paper's scheme)".into(),
+            });
+        }
+        let names = ["lengths[0] (L1)", "lengths[1] (L2)", "lengths[2] (L3)"];
+        let mut checked = [0.0; 3];
+        for ((out, name), length) in checked.iter_mut().zip(names).zip(lengths) {
+            *out = robot.check_tube_length(name, length)?;
+        }
+        let base = rot_z(robot.world.base_angle_deg.to_radians());
+        let roots = triangle(robot.body.base_spacing_m / 1.5).map(|v| apply(&base, v));
+        let ratio = robot.tube.torsion_stiffness() / robot.tube.joint_stiffness_nm_per_rad;
+        // The payload sits at the midpoint of tubes 2 and 3's tips: half on each.
+        let tip_mass = [0.0, 0.5 * robot.body.payload_kg, 0.5 * robot.body.payload_kg];
+        let tube =
+            |i: usize| Tube3::new(&Chain::new(&robot.spec(checked[i], 1.0, tip_mass[i], [0.0; 2])), roots[i], ratio);
+        Ok(Body3 {
+            tubes: [tube(0), tube(1), tube(2)],
+            base,
+            base_point: [0.0; 3],
+            plate: triangle(robot.body.tip_spacing_m / 1.5),
+            gravity: robot.world.gravity_m_per_s2,
+            moment_scale: robot.tube.joint_stiffness_nm_per_rad,
+            element_length: robot.tube.element_length_m,
+        })
+    }
+
+    /// The same body with each tube's axial rotation at the driving unit
+    /// free (no torsional spring at the first joints): the unactuated
+    /// helical freedom of the tube in its gear.
+    pub fn with_free_axial_rotation(mut self) -> Body3 {
+        self.tubes.iter_mut().for_each(Tube3::free_axial_rotation);
+        self
+    }
+
+    /// The same body moved rigidly: turned by `rotation` about the origin,
+    /// then shifted by `translation` (m).
+    pub(crate) fn placed(&self, rotation: &Mat3, translation: Vec3) -> Body3 {
+        let mut out = self.clone();
+        out.base = super::rotation::mul(rotation, &self.base);
+        for tube in out.tubes.iter_mut() {
+            tube.set_root(axpy(1.0, translation, apply(rotation, tube.root())));
+        }
+        out
+    }
+
+    /// Tube `i` (0, 1, 2 for tubes 1, 2, 3).
+    pub fn tube(&self, i: usize) -> &Tube3 {
+        &self.tubes[i]
+    }
+
+    /// The driving unit's frame `R0` (columns its axes).
+    pub fn base_frame(&self) -> Mat3 {
+        self.base
+    }
+
+    /// Gravity (m/s^2).
+    pub fn gravity(&self) -> f64 {
+        self.gravity
+    }
+
+    /// Moment scale of residuals: the tube's joint stiffness `k` (N m/rad).
+    pub fn moment_scale(&self) -> f64 {
+        self.moment_scale
+    }
+
+    /// Number of links of all tubes.
+    pub fn links(&self) -> usize {
+        self.tubes.iter().map(Tube3::len).sum()
+    }
+
+    /// Where link `j` of tube `i` sits in the coordinate order (module doc).
+    pub fn index(&self, i: usize, j: usize) -> usize {
+        let n1 = self.tubes[0].len();
+        match i {
+            0 if j + 1 == n1 => self.links() - 1,
+            0 => j,
+            1 => n1 - 1 + j,
+            _ => n1 - 1 + self.tubes[1].len() + j,
+        }
+    }
+
+    /// The chains of the block factorization: tube 1 without its last link, tubes 2 and 3.
+    pub(crate) fn chain_blocks(&self) -> [usize; 3] {
+        [self.tubes[0].len() - 1, self.tubes[1].len(), self.tubes[2].len()]
+    }
+
+    /// Every link along the driving unit's direction.
+    pub fn straight(&self) -> Frames {
+        Frames(vec![self.base; self.links()])
+    }
+
+    /// Frames given link by link in the body's order ([`Body3::index`]):
+    /// one per link, each a rotation (orthonormal to 1e-9, determinant +1).
+    pub fn frames_from(&self, frames: Vec<Mat3>) -> Result<Frames, InputError> {
+        if frames.len() != self.links() {
+            return Err(InputError::Invalid {
+                field: "frames".into(),
+                value: format!("{} frames", frames.len()),
+                allowed: format!("one per link: {}", self.links()),
+            });
+        }
+        for (u, r) in frames.iter().enumerate() {
+            if !is_rotation(r) {
+                return Err(InputError::Invalid {
+                    field: format!("frames[{u}]"),
+                    value: format!("{r:?}"),
+                    allowed: "a rotation matrix".into(),
+                });
+            }
+        }
+        Ok(Frames(frames))
+    }
+
+    /// Frame of link `j` of tube `i`.
+    pub fn frame(&self, frames: &Frames, i: usize, j: usize) -> Mat3 {
+        frames.0[self.index(i, j)]
+    }
+
+    /// The plate's frame: tube 1's last link (columns the plate's axes).
+    pub fn plate_frame(&self, frames: &Frames) -> Mat3 {
+        frames.0[self.links() - 1]
+    }
+
+    /// Tube `i`'s centre line: its root, then every link's tip (m).
+    pub fn points(&self, frames: &Frames, i: usize) -> Vec<Vec3> {
+        let tube = &self.tubes[i];
+        let mut p = tube.root();
+        let mut out = vec![p];
+        for (j, l) in tube.lengths().iter().enumerate() {
+            let r = self.frame(frames, i, j);
+            p = axpy(*l, [r[0][0], r[1][0], r[2][0]], p);
+            out.push(p);
+        }
+        out
+    }
+
+    /// The endpoint: tube 1's tip (m).
+    pub fn endpoint(&self, frames: &Frames) -> Vec3 {
+        self.points(frames, 0).pop().unwrap_or(self.tubes[0].root())
+    }
+
+    /// The plate's 12 constraint values (m for positions, rad for rotations):
+    /// tube 2's position and rotation rows, then tube 3's.
+    pub fn constraints(&self, frames: &Frames) -> [f64; PLATE_ROWS] {
+        let tip = |i: usize| self.points(frames, i).pop().unwrap_or(self.tubes[i].root());
+        let plate = self.plate_frame(frames);
+        let mut out = [0.0; PLATE_ROWS];
+        for side in 0..2 {
+            let offset = apply(&plate, axpy(-1.0, self.plate[0], self.plate[side + 1]));
+            let gap = axpy(-1.0, axpy(1.0, tip(0), offset), tip(side + 1));
+            out[6 * side..6 * side + 3].copy_from_slice(&gap);
+            let last = self.tubes[side + 1].len() - 1;
+            out[6 * side + 3..6 * side + 6]
+                .copy_from_slice(&super::rotation::log(&mul_tn(&plate, &self.frame(frames, side + 1, last))));
+        }
+        out
+    }
+
+    /// Scale of row `r` (m for positions, 1 for rotations): residuals are divided by it.
+    pub fn row_scale(&self, r: usize) -> f64 {
+        if r % 6 < 3 {
+            self.element_length
+        } else {
+            1.0
+        }
+    }
+
+    /// Potential energy, springs and gravity (J).
+    pub fn energy(&self, frames: &Frames) -> f64 {
+        let mut ev = Eval3::new(self);
+        self.evaluate(frames, &[0.0; PLATE_ROWS], Param::FULL, &mut ev);
+        ev.energy
+    }
+
+    /// The largest twist `|theta_x|` of any joint (rad): the torsion the
+    /// tubes carry.
+    pub fn max_twist(&self, frames: &Frames) -> f64 {
+        let mut most = 0.0f64;
+        for (i, tube) in self.tubes.iter().enumerate() {
+            let mut prev = self.base;
+            for j in 0..tube.len() {
+                let r = self.frame(frames, i, j);
+                most = most.max(super::rotation::log(&mul_tn(&prev, &r))[0].abs());
+                prev = r;
+            }
+        }
+        most
+    }
+
+    /// The Lagrangian `V - lambda . C` and its local derivatives at one point,
+    /// dense (for checks and small studies; the solver keeps them banded).
+    pub fn derivatives(&self, frames: &Frames, lambda: &[f64; PLATE_ROWS]) -> Derivatives {
+        self.derivatives_at(frames, lambda, Param::FULL)
+    }
+
+    /// [`Body3::derivatives`] at `param`.
+    pub(crate) fn derivatives_at(&self, frames: &Frames, lambda: &[f64; PLATE_ROWS], param: Param) -> Derivatives {
+        let mut ev = Eval3::new(self);
+        self.evaluate(frames, lambda, param, &mut ev);
+        let n = 3 * self.links();
+        let mut gradient = vec![0.0; n];
+        ev.stationarity(lambda, &mut gradient);
+        let mut hessian = vec![0.0; n * n];
+        let chain = n - 3;
+        let mut put = |i: usize, j: usize, v: f64| {
+            hessian[i * n + j] += v;
+            if i != j {
+                hessian[j * n + i] += v;
+            }
+        };
+        for u in 0..self.links() - 1 {
+            for r in 0..3 {
+                for c in 0..3 {
+                    if c >= r {
+                        put(3 * u + r, 3 * u + c, ev.diag[9 * u + 3 * r + c]);
+                    }
+                    put(3 * u + r, 3 * u + 3 + c, ev.off[9 * u + 3 * r + c]);
+                    put(3 * u + r, chain + c, ev.plate_border[9 * u + 3 * r + c]);
+                }
+            }
+        }
+        for r in 0..3 {
+            for c in r..3 {
+                put(chain + r, chain + c, ev.plate_corner[r][c]);
+            }
+        }
+        let multiplied: f64 = lambda.iter().zip(&ev.constraints).map(|(l, c)| l * c).sum();
+        Derivatives {
+            lagrangian: ev.energy - multiplied,
+            gradient,
+            hessian,
+            constraints: ev.constraints,
+            jacobian: ev.jacobian,
+        }
+    }
+
+    /// Evaluates at `frames` with multipliers `lambda` on the path point
+    /// `param` (module doc): energy, gradient, constraints, Jacobian and the
+    /// Lagrangian Hessian `hess V - sum_r lambda_r hess C_r` into `ev`.
+    pub(crate) fn evaluate(&self, frames: &Frames, lambda: &[f64; PLATE_ROWS], param: Param, ev: &mut Eval3) {
+        ev.clear();
+        let f = &frames.0;
+        // Hanging, gravity turns with the plate: added after the loop.
+        let g = if param.hang.is_some() { 0.0 } else { param.load * self.gravity };
+        let positions = [[lambda[0], lambda[1], lambda[2]], [lambda[6], lambda[7], lambda[8]]];
+        let mut tips = [[0.0; 3]; 3];
+        for (i, tube) in self.tubes.iter().enumerate() {
+            let s = param.scale[i];
+            ev.energy += g * tube.total_mass() * (self.base_point[1] + tube.root()[1]);
+            let (mut prev, mut prev_index) = (self.base, None);
+            for j in 0..tube.len() {
+                let u = self.index(i, j);
+                let r = &f[u];
+                self.add_joint(tube.stiffness(j), &prev, prev_index, r, u, ev);
+                let lever = g * s * tube.levers()[j];
+                if lever != 0.0 {
+                    ev.energy += lever * r[1][0];
+                    let (grad, hess) = linear_terms(r, [0.0, lever, 0.0], [1.0, 0.0, 0.0]);
+                    ev.add_gradient(u, grad, 1.0);
+                    ev.add_hessian(u, u, &hess);
+                }
+                let d = s * tube.lengths()[j];
+                tips[i] = axpy(d, [r[0][0], r[1][0], r[2][0]], tips[i]);
+                // Tube 1 enters both position blocks with -1, tube i + 1 its own with +1.
+                for side in 0..2 {
+                    let sign = match i {
+                        0 => -1.0,
+                        _ if i == side + 1 => 1.0,
+                        _ => continue,
+                    };
+                    self.add_position_term(r, u, scale(sign * d, [1.0, 0.0, 0.0]), side, positions[side], ev);
+                }
+                (prev, prev_index) = (*r, Some(u));
+            }
+        }
+        let p = self.links() - 1;
+        let plate = f[p];
+        for side in 0..2 {
+            let offset = axpy(-1.0, self.plate[0], self.plate[side + 1]);
+            self.add_position_term(&plate, p, scale(-1.0, offset), side, positions[side], ev);
+            let gap = axpy(-1.0, axpy(1.0, tips[0], apply(&plate, offset)), tips[side + 1]);
+            let roots = axpy(-1.0, self.tubes[0].root(), self.tubes[side + 1].root());
+            ev.constraints[6 * side..6 * side + 3].copy_from_slice(&axpy(1.0, roots, gap));
+            // The rotation rows: -lambda . theta in the Lagrangian.
+            let rows = 6 * side + 3;
+            let b = self.index(side + 1, self.tubes[side + 1].len() - 1);
+            let mult = [-lambda[rows], -lambda[rows + 1], -lambda[rows + 2]];
+            let terms = pair_terms(&mul_tn(&plate, &f[b]), |_| mult, &[[0.0; 3]; 3]);
+            ev.constraints[rows..rows + 3].copy_from_slice(&terms.theta);
+            for c in 0..3 {
+                ev.set_jacobian(p, rows + c, terms.jacobian_a[c]);
+                ev.set_jacobian(b, rows + c, terms.jacobian_b[c]);
+            }
+            ev.add_hessian(p, p, &terms.h_aa);
+            ev.add_hessian(b, b, &terms.h_bb);
+            ev.add_hessian(p, b, &terms.h_ab);
+        }
+        if let Some(hang) = &param.hang {
+            self.add_hanging(frames, hang, param, ev);
+        }
+    }
+
+    /// A joint between `prev` (the driving unit, or frame `prev_index`) and
+    /// frame `r` at index `u`: energy, gradient, Hessian.
+    fn add_joint(&self, k: Vec3, prev: &Mat3, prev_index: Option<usize>, r: &Mat3, u: usize, ev: &mut Eval3) {
+        let stiffness = [[k[0], 0.0, 0.0], [0.0, k[1], 0.0], [0.0, 0.0, k[2]]];
+        let terms = pair_terms(&mul_tn(prev, r), |th| [k[0] * th[0], k[1] * th[1], k[2] * th[2]], &stiffness);
+        let th = terms.theta;
+        ev.energy += 0.5 * (k[0] * th[0] * th[0] + k[1] * th[1] * th[1] + k[2] * th[2] * th[2]);
+        ev.add_gradient(u, terms.grad_b, 1.0);
+        ev.add_hessian(u, u, &terms.h_bb);
+        if let Some(a) = prev_index {
+            ev.add_gradient(a, terms.grad_a, 1.0);
+            ev.add_hessian(a, a, &terms.h_aa);
+            ev.add_hessian(a, u, &terms.h_ab);
+        }
+    }
+
+    /// A position row block's term `R Exp(delta) a` of frame `r` at index
+    /// `u` (`side` 0: tube 2's rows, 1: tube 3's): Jacobian and the
+    /// Lagrangian's `-lambda . hess`.
+    fn add_position_term(&self, r: &Mat3, u: usize, a: Vec3, side: usize, lambda: Vec3, ev: &mut Eval3) {
+        for c in 0..3 {
+            ev.add_jacobian(u, 6 * side + c, cross(a, r[c]));
+        }
+        let (_, hess) = linear_terms(r, lambda, a);
+        ev.add_hessian(u, u, &add_scaled(-1.0, &hess, &[[0.0; 3]; 3]));
+    }
+}
+
+/// The Lagrangian's derivatives in local rotation coordinates
+/// ([`Body3::derivatives`]); `n = 3 N` coordinates, 3 per link in the
+/// body's order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Derivatives {
+    /// `V - lambda . C` (J).
+    pub lagrangian: f64,
+    /// `grad V - J^T lambda` (N m).
+    pub gradient: Vec<f64>,
+    /// The Lagrangian Hessian, dense `n x n`, row-major (N m/rad).
+    pub hessian: Vec<f64>,
+    /// `C` (m, rad).
+    pub constraints: [f64; PLATE_ROWS],
+    /// `dC_r/ddelta_i` at `i * 12 + r`.
+    pub jacobian: Vec<f64>,
+}
+
+/// Values and derivatives of the body at one point (see [`Body3::evaluate`]),
+/// laid out for [`crate::linalg::BorderedLdl`] with 3 x 3 blocks.
+#[derive(Clone, Debug)]
+pub(crate) struct Eval3 {
+    /// Links of all tubes, `N`; the plate is index `N - 1`.
+    links: usize,
+    pub energy: f64,
+    /// `dV/ddelta` (N m), 3 per link.
+    pub gradient: Vec<f64>,
+    /// Diagonal blocks of the chains (9 per block, row-major).
+    pub diag: Vec<f64>,
+    /// Block `u` couples chain block `u` (rows) with `u + 1` (columns).
+    pub off: Vec<f64>,
+    /// Chain unknowns against the plate's 3 coordinates (`3 (N - 1) x 3`).
+    pub plate_border: Vec<f64>,
+    /// The plate's own 3 x 3 block.
+    pub plate_corner: Mat3,
+    /// Constraint values.
+    pub constraints: [f64; PLATE_ROWS],
+    /// `dC_r/ddelta_i` at `i * 12 + r`.
+    pub jacobian: Vec<f64>,
+}
+
+impl Eval3 {
+    pub fn new(body: &Body3) -> Eval3 {
+        let n = body.links();
+        Eval3 {
+            links: n,
+            energy: 0.0,
+            gradient: vec![0.0; 3 * n],
+            diag: vec![0.0; 9 * (n - 1)],
+            off: vec![0.0; 9 * (n - 1)],
+            plate_border: vec![0.0; 9 * (n - 1)],
+            plate_corner: [[0.0; 3]; 3],
+            constraints: [0.0; PLATE_ROWS],
+            jacobian: vec![0.0; 3 * n * PLATE_ROWS],
+        }
+    }
+
+    fn clear(&mut self) {
+        self.energy = 0.0;
+        for v in [&mut self.gradient, &mut self.diag, &mut self.off, &mut self.plate_border, &mut self.jacobian] {
+            v.fill(0.0);
+        }
+        self.plate_corner = [[0.0; 3]; 3];
+        self.constraints = [0.0; PLATE_ROWS];
+    }
+
+    pub(crate) fn add_gradient(&mut self, u: usize, g: Vec3, s: f64) {
+        for (x, y) in self.gradient[3 * u..3 * u + 3].iter_mut().zip(g) {
+            *x += s * y;
+        }
+    }
+
+    fn add_jacobian(&mut self, u: usize, row: usize, v: Vec3) {
+        for (c, x) in v.iter().enumerate() {
+            self.jacobian[(3 * u + c) * PLATE_ROWS + row] += x;
+        }
+    }
+
+    fn set_jacobian(&mut self, u: usize, row: usize, v: Vec3) {
+        for (c, x) in v.iter().enumerate() {
+            self.jacobian[(3 * u + c) * PLATE_ROWS + row] = *x;
+        }
+    }
+
+    /// Adds `h` (rows: link `a`, columns: link `b`) and, for `a != b`, its
+    /// transpose: the only pairs are a link with itself, consecutive links
+    /// of one tube, and a link with the plate.
+    pub(crate) fn add_hessian(&mut self, a: usize, b: usize, h: &Mat3) {
+        let plate = self.links - 1;
+        let add = |buf: &mut [f64], offset: usize, m: &Mat3| {
+            for r in 0..3 {
+                for c in 0..3 {
+                    buf[offset + 3 * r + c] += m[r][c];
+                }
+            }
+        };
+        match (a == plate, b == plate) {
+            (true, true) => self.plate_corner = add_scaled(1.0, h, &self.plate_corner),
+            (false, false) if a == b => add(&mut self.diag, 9 * a, h),
+            (false, false) => add(&mut self.off, 9 * a, h),
+            (false, true) => add(&mut self.plate_border, 9 * a, h),
+            (true, false) => add(&mut self.plate_border, 9 * b, &transpose(h)),
+        }
+    }
+
+    /// `grad V - J^T lambda` into `out` (3 per link).
+    pub fn stationarity(&self, lambda: &[f64; PLATE_ROWS], out: &mut [f64]) {
+        for ((o, g), row) in out.iter_mut().zip(&self.gradient).zip(self.jacobian.chunks_exact(PLATE_ROWS)) {
+            *o = row.iter().zip(lambda).fold(*g, |acc, (j, l)| acc - j * l);
+        }
+    }
+}
+
+/// Whether `r` is a rotation: orthonormal to 1e-9, determinant +1 to 1e-9.
+pub(crate) fn is_rotation(r: &Mat3) -> bool {
+    let gram = mul_tn(r, r);
+    let det = super::rotation::dot(r[0], cross(r[1], r[2]));
+    let off = (0..3)
+        .flat_map(|a| (0..3).map(move |b| (a, b)))
+        .fold(0.0f64, |m, (a, b)| m.max((gram[a][b] - if a == b { 1.0 } else { 0.0 }).abs()));
+    off <= 1e-9 && (det - 1.0).abs() <= 1e-9
+}
+
+/// `R Exp(v)`, the retraction of a local step `v` (rad).
+pub(crate) fn retract(r: &Mat3, v: Vec3) -> Mat3 {
+    super::rotation::mul(r, &super::rotation::exp(v))
+}
+
+/// The angle between two frames (rad): `|Log(A^T B)|`.
+pub fn angle_between(a: &Mat3, b: &Mat3) -> f64 {
+    let v = super::rotation::log(&mul_tn(a, b));
+    super::rotation::dot(v, v).sqrt()
+}
+
+/// The largest [`angle_between`] over the links of two states (rad).
+pub fn distance(a: &Frames, b: &Frames) -> f64 {
+    a.0.iter().zip(&b.0).fold(0.0, |m, (x, y)| f64::max(m, angle_between(x, y)))
+}

@@ -1,0 +1,532 @@
+//! Holds in 3D: the rear cup (the driving unit fixed) or the front cup (the
+//! plate fixed, the driving unit hanging from it), each holding cup's
+//! reaction as a 6-vector and its verdict (docs/model3d.md section 8).
+//! [`Body3::solve_held`] is the entry point.
+//!
+//! # The front hold: gravity turning with the plate
+//!
+//! Held at the front, tube 1's tip sits at `P_f` and the plate's frame is
+//! `R_f`; the driving unit hangs free. Rather than adding its pose as six
+//! unknowns, the solver keeps it fixed where [`Body3::from_robot`] put it and
+//! turns the world instead. In that picture (frames `R'`, points `x'`) the
+//! world is `x = G (x' - x'_tip) + P_f` with `G = R_f R'_P^T` (so that the
+//! plate's world frame is `R_f`), and the potential of every mass `m` is
+//! `g m e_y . x`:
+//!
+//! ```text
+//! V_g = g (R'_P u) . (X' - M x'_tip),     u = R_f^T e_y                       (J)
+//! X' - M x'_tip = K + sum_ij c_ij R'_ij e_x
+//! K    = sum_i M_i root_i + Md x_unit - M root_1                               (kg m)
+//! c_ij = W_ij - M l_1j [i = 1]                                                (kg m)
+//! ```
+//!
+//! `M` the whole robot's mass (tubes, payload, driving unit `Md`), `W_ij` the
+//! levers of docs/model3d.md section 3. Every term is bilinear in the plate's
+//! frame and one link's frame (the plate's own term is the constant `u . e_x`):
+//! with `s = R'_P u` and `d = R'_ij e_x`, the link's derivatives are those of
+//! a linear term (docs/model3d.md section 4) with `w = g c_ij s`, the plate's
+//! those of a linear term with `w = g (K + sum c_ij d)` and `a = u`, and the
+//! cross block (rows the plate, columns the link)
+//!
+//! ```text
+//! d2/ddelta_P ddelta_ij = -g c_ij [u] R'_P^T R'_ij [e_x]                      (J/rad^2)
+//! ```
+//!
+//! The plate is already a dense (border) coordinate of the factorization, so
+//! the cross blocks cost nothing new: still O(n) per step. The path is the
+//! planar front hold's: the unloaded shape (feeding at `g = 0`, the same
+//! whichever cup holds), then gravity raised from 0 to `g` on the hanging
+//! body. The answer is turned back into the world (`G`, the body placed
+//! there so that its points are world points).
+//!
+//! # The rear hold
+//!
+//! With the driving unit fixed (the body as built), the rear cup's surface
+//! carries everything: the tubes, the payload and the
+//! driving unit's own mass `Md` (kg), which sits where the planar model puts
+//! it, at the midpoint of tube 1's root and the midpoint of tubes 2 and 3's
+//! roots (`p0 + R0 (0, r_b/4, 0)`; it does not change the shape).
+//!
+//! # The reaction, from the forces at the roots
+//!
+//! Each tube `i` is held at its root by the unit with a force `F_i` and,
+//! through its first joint's spring, a moment `M_i`. The tube's own balance
+//! gives the force: everything else on it is gravity (its links' masses and
+//! tip mass, `M_i` kg in all) and the weld (docs/model3d.md section 5: the
+//! multipliers of the position rows act as forces `+lambda_s` on tube
+//! `s + 1`'s tip and `-lambda_s` on the plate, which is tube 1's):
+//!
+//! ```text
+//! F_i = (0, g M_i, 0) - W_i,     W_2 = lambda_pos,2,  W_3 = lambda_pos,3,  W_1 = -(W_2 + W_3)     (N)
+//! M_i = -R_i1 Jr^-1(theta_1)^T K_1 theta_1,    theta_1 = Log(R0^T R_i1)                          (N m)
+//! ```
+//!
+//! (the spring's moment on the tube's first link: `-dE/ddelta` in the
+//! link's frame, turned to the world). The unit is in balance under the
+//! tubes' reactions, its weight and the surface, so the surface exerts, about
+//! the cup's centre `c`,
+//!
+//! ```text
+//! F = sum_i F_i + (0, g Md, 0)                                                  (N)
+//! M = sum_i (M_i + (root_i - c) x F_i) + (x_unit - c) x (0, g Md, 0)            (N m)
+//! ```
+//!
+//! Only at an equilibrium do these equal the whole body's balance,
+//! `F = (0, g M_total, 0)` and `M = (X - M_total c) x (0, g, 0)` with
+//! `X = sum m x` the first moment of every mass: the test
+//! `body3_hold::rear_reaction_balances_the_whole_body` checks one against
+//! the other.
+//!
+//! # The cup
+//!
+//! The rear cup's face centre is `b + rear_offset` from tube 1's root along
+//! the unit's right normal `nu = -R0 e_y` (towards tubes 2 and 3), the
+//! surface's outward normal `n = -nu`, as in the planar stance. The verdict
+//! is [`crate::cup`]'s with the 3D loads: the pull or push `F . n`, the shear
+//! `|F - (F . n) n|` plus the twist `|M . n|` taken up by friction at the
+//! lip (`|M . n| / R`: the ring's friction force carrying the moment about
+//! its axis), and the peel moment `|M - (M . n) n|` (tilting the cup). With
+//! an in-plane load the twist is zero and the verdict the planar one.
+
+use super::body3::{is_rotation, Body3, Derivatives, Eval3, Frames, Param, PLATE_ROWS};
+use super::rotation::{
+    add_scaled, apply, axpy, cross, dot, hat, jr_inv, linear_terms, log, mul, mul_tn, scale, transpose, Mat3, Vec3,
+};
+use super::solve::Equilibrium3;
+use crate::cup::{Cup, CupVerdict};
+use crate::error::{InputError, Num};
+use crate::robot::Robot;
+use crate::stance::StanceError;
+use crate::statics::Solver;
+
+const E_X: Vec3 = [1.0, 0.0, 0.0];
+
+/// The swing's step about a free front joint (rad): short enough for a warm
+/// start to land on the same branch.
+pub const SWING_STEP: f64 = 0.1;
+
+/// Steps of [`SWING_STEP`] before the swing gives up: one full turn.
+const SWING_STEPS: usize = 63;
+
+/// The free joint's moment about its axis, relative to `W L1`, below which
+/// the swing has come to rest.
+pub const PIVOT_TOLERANCE: f64 = 1e-11;
+
+/// Regula falsi iterations on the turn.
+const PIVOT_ITERATIONS: usize = 100;
+
+/// The front hold's gravity for the plate's frame `plate` and the unit's mass `md` (kg).
+fn hanging(plate: &Mat3, md: f64) -> Hanging {
+    Hanging { up: apply(&transpose(plate), [0.0, 1.0, 0.0]), unit_mass_kg: md }
+}
+
+/// A hold's point (named `point_field`) must be finite and its frame (named
+/// `frame_field`) a rotation.
+fn check_hold(point_field: &str, point: Vec3, frame_field: &str, frame: &Mat3) -> Result<(), InputError> {
+    if !point.iter().all(|x| x.is_finite()) {
+        return Err(InputError::Invalid {
+            field: point_field.into(),
+            value: format!("{point:?}"),
+            allowed: "finite coordinates".into(),
+        });
+    }
+    if !is_rotation(frame) {
+        return Err(InputError::Invalid {
+            field: frame_field.into(),
+            value: format!("{frame:?}"),
+            allowed: "a rotation matrix (orthonormal to 1e-9, determinant +1)".into(),
+        });
+    }
+    Ok(())
+}
+
+/// Gravity on the body hanging from the front cup, in the fixed unit's
+/// picture (module doc).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hanging {
+    /// `u = R_f^T e_y`: up, in the held plate's frame (unit vector).
+    pub up: Vec3,
+    /// The driving unit's mass `Md` (kg).
+    pub unit_mass_kg: f64,
+}
+
+/// Which cup holds the 3D body.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Hold3 {
+    /// The rear cup: the driving unit where [`Body3::from_robot`] put it.
+    Rear,
+    /// The front cup: tube 1's tip at `tip_m` (m), the plate's frame
+    /// `plate` (a rotation, columns the plate's axes); the driving unit
+    /// hangs from it.
+    Front {
+        /// Where tube 1's tip is held (m).
+        tip_m: Vec3,
+        /// The plate's frame.
+        plate: Mat3,
+    },
+    /// The front cup on a free rotation joint about its face's normal
+    /// (the sideways maneuver, paper Fig. 11): the face's centre `centre_m`
+    /// (m) and normal `plate e_y` fixed, the plate free to turn about that
+    /// normal. The body swings from the plate's frame `plate` the way gravity
+    /// turns it until the moment about the normal vanishes (module doc).
+    FrontPivot {
+        /// The front cup's face centre (m).
+        centre_m: Vec3,
+        /// The plate's frame where the swing starts.
+        plate: Mat3,
+    },
+}
+
+/// The body held by a cup: where the hold puts it, its equilibrium in world
+/// frames, and each holding cup.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Held3 {
+    /// The hold.
+    pub hold: Hold3,
+    /// The body placed where the hold puts it (its roots and driving unit in
+    /// the world; [`Body3::points`] of it gives world points).
+    pub body: Body3,
+    /// The equilibrium: world frames; the weld's position multipliers (N)
+    /// in world axes.
+    pub equilibrium: Equilibrium3,
+    /// The rear cup, when it holds.
+    pub rear: Option<CupState3>,
+    /// The front cup, when it holds.
+    pub front: Option<CupState3>,
+    /// On a free front joint: how far the plate turned about the face's
+    /// normal from where the swing started (rad, right-handed about it).
+    pub pivot_turn_rad: Option<f64>,
+}
+
+/// A force (N, world frame) and a moment (N m, world frame) about a stated point.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Wrench {
+    /// Force (N).
+    pub force_n: Vec3,
+    /// Moment (N m).
+    pub moment_nm: Vec3,
+}
+
+/// A holding cup in 3D: its face, the surface's normal, the reaction the
+/// surface exerts on the robot there, and the verdict.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct CupState3 {
+    /// Centre of the cup's face (m).
+    pub centre_m: Vec3,
+    /// The surface's outward unit normal (from the surface into free space).
+    pub normal: Vec3,
+    /// The reaction on the robot: force (N) and moment about the centre (N m).
+    pub reaction: Wrench,
+    /// Whether the cup holds, and by what margin ([`crate::cup`]).
+    pub verdict: CupVerdict,
+}
+
+/// The verdict of [`crate::cup::verdict`] for a 3D reaction: `force_n`
+/// (N) and `moment_nm` (N m, about the cup's centre) the surface exerts on
+/// the robot, `normal` its outward unit normal. The twist about the normal
+/// is added to the shear as `|M . n| / R` (module doc). Errors (never
+/// panics) for non-finite loads or a normal that is not a unit vector.
+pub fn verdict3(cup: &Cup, force_n: Vec3, moment_nm: Vec3, normal: Vec3) -> Result<CupVerdict, InputError> {
+    let finite = |v: Vec3| v.iter().all(|x| x.is_finite());
+    let show = |v: Vec3| format!("({}, {}, {})", Num(v[0]), Num(v[1]), Num(v[2]));
+    for (field, v) in [("cup force (N)", force_n), ("cup moment (N m)", moment_nm)] {
+        if !finite(v) {
+            return Err(InputError::Invalid {
+                field: field.into(),
+                value: show(v),
+                allowed: "finite components".into(),
+            });
+        }
+    }
+    let length = dot(normal, normal).sqrt();
+    if !((length - 1.0).abs() <= crate::cup::UNIT_TOLERANCE) {
+        return Err(InputError::Invalid {
+            field: "surface normal".into(),
+            value: show(normal),
+            allowed: format!("a unit vector (length 1 within {})", crate::cup::UNIT_TOLERANCE),
+        });
+    }
+    let unit = scale(1.0 / length, normal);
+    let along = dot(force_n, unit);
+    let twist = dot(moment_nm, unit);
+    let tangential = axpy(-along, unit, force_n);
+    let peel = axpy(-twist, unit, moment_nm);
+    let shear = dot(tangential, tangential).sqrt() + twist.abs() / (0.5 * cup.diameter_m);
+    // The same loads in the plane of the normal and the shear: the planar
+    // verdict's pull, push, shear and peel are then exactly these.
+    crate::cup::verdict(cup, [shear, along], dot(peel, peel).sqrt(), [0.0, 1.0])
+}
+
+impl Body3 {
+    /// The unit's right normal `nu = -R0 e_y` (towards tubes 2 and 3).
+    fn right_normal(&self) -> Vec3 {
+        apply(&self.base_frame(), [0.0, -1.0, 0.0])
+    }
+
+    /// The centre of the rear cup's face (m) for `robot` (the robot the body
+    /// was built from: its spacing `b` and the cup's offset): `b +
+    /// rear_offset` from tube 1's root along the unit's right normal.
+    pub fn rear_cup_centre(&self, robot: &Robot) -> Vec3 {
+        let d = robot.body.base_spacing_m + robot.cup.rear_offset_m;
+        axpy(d, self.right_normal(), self.tube(0).root())
+    }
+
+    /// Where the driving unit's mass sits (m): the midpoint of tube 1's root
+    /// and the midpoint of tubes 2 and 3's roots, as in the planar model.
+    pub fn unit_centre(&self) -> Vec3 {
+        let pair = scale(0.5, axpy(1.0, self.tube(1).root(), self.tube(2).root()));
+        scale(0.5, axpy(1.0, self.tube(0).root(), pair))
+    }
+
+    /// The reaction the rear hold's surface exerts on the robot, about
+    /// `about` (m), from the forces and spring moments at the tubes' roots
+    /// of the equilibrium `eq` (module doc), with the driving unit's mass
+    /// `unit_mass_kg` (kg).
+    pub fn rear_reaction(&self, eq: &Equilibrium3, unit_mass_kg: f64, about: Vec3) -> Wrench {
+        let g = self.gravity();
+        let lambda = &eq.multipliers;
+        let welds = [[lambda[0], lambda[1], lambda[2]], [lambda[6], lambda[7], lambda[8]]];
+        let weld = [scale(-1.0, axpy(1.0, welds[0], welds[1])), welds[0], welds[1]];
+        let unit_weight = [0.0, g * unit_mass_kg, 0.0];
+        let mut force = unit_weight;
+        let mut moment = cross(axpy(-1.0, about, self.unit_centre()), unit_weight);
+        for (i, w) in weld.iter().enumerate() {
+            let tube = self.tube(i);
+            let f = axpy(-1.0, *w, [0.0, g * tube.total_mass(), 0.0]);
+            let first = self.frame(&eq.frames, i, 0);
+            let theta = log(&mul_tn(&self.base_frame(), &first));
+            let k = tube.stiffness(0);
+            let spring = apply(&transpose(&jr_inv(theta)), [k[0] * theta[0], k[1] * theta[1], k[2] * theta[2]]);
+            moment = axpy(-1.0, apply(&first, spring), moment);
+            moment = axpy(1.0, cross(axpy(-1.0, about, tube.root()), f), moment);
+            force = axpy(1.0, f, force);
+        }
+        Wrench { force_n: force, moment_nm: moment }
+    }
+
+    /// The rear cup holding the body at `eq`: its face, the surface's
+    /// normal, the reaction about the face's centre and the verdict against
+    /// `robot`'s cup (with `robot`'s driving-unit mass).
+    pub fn rear_cup(&self, robot: &Robot, eq: &Equilibrium3) -> Result<CupState3, InputError> {
+        let centre = self.rear_cup_centre(robot);
+        let normal = scale(-1.0, self.right_normal());
+        let reaction = self.rear_reaction(eq, robot.driving_unit.mass_kg, centre);
+        let verdict = verdict3(&robot.cup, reaction.force_n, reaction.moment_nm, normal)?;
+        Ok(CupState3 { centre_m: centre, normal, reaction, verdict })
+    }
+}
+
+impl Body3 {
+    /// The hanging gravity of [`Hanging`] at `param` into `ev` (module doc).
+    pub(crate) fn add_hanging(&self, frames: &Frames, hang: &Hanging, param: Param, ev: &mut Eval3) {
+        let g = param.load * self.gravity();
+        let f = frames.as_slice();
+        let p = self.links() - 1;
+        let plate = f[p];
+        let s = apply(&plate, hang.up);
+        let tubes = [0, 1, 2].map(|i| self.tube(i));
+        let mass = hang.unit_mass_kg + tubes.iter().map(|t| t.total_mass()).sum::<f64>();
+        let mut w = axpy(-mass, tubes[0].root(), scale(hang.unit_mass_kg, self.unit_centre()));
+        let mut own = 0.0;
+        for (i, tube) in tubes.iter().enumerate() {
+            w = axpy(tube.total_mass(), tube.root(), w);
+            let scaled = param.scale[i];
+            for (j, (lever, length)) in tube.levers().iter().zip(tube.lengths()).enumerate() {
+                let c = scaled * (lever - if i == 0 { mass * length } else { 0.0 });
+                let u = self.index(i, j);
+                if u == p {
+                    // (R_P u) . (R_P e_x) = u . e_x: a constant.
+                    own = c * hang.up[0];
+                    continue;
+                }
+                let r = &f[u];
+                w = axpy(c, [r[0][0], r[1][0], r[2][0]], w);
+                let (grad, hess) = linear_terms(r, scale(g * c, s), E_X);
+                ev.add_gradient(u, grad, 1.0);
+                ev.add_hessian(u, u, &hess);
+                let cross_block = mul(&mul(&hat(hang.up), &mul_tn(&plate, r)), &hat(E_X));
+                ev.add_hessian(p, u, &add_scaled(-g * c, &cross_block, &[[0.0; 3]; 3]));
+            }
+        }
+        ev.energy += g * (dot(s, w) + own);
+        let (grad, hess) = linear_terms(&plate, scale(g, w), hang.up);
+        ev.add_gradient(p, grad, 1.0);
+        ev.add_hessian(p, p, &hess);
+    }
+
+    /// The Lagrangian's derivatives of the body hanging as `hang` says
+    /// ([`Body3::derivatives`] with the front hold's gravity), for checks.
+    pub fn hanging_derivatives(&self, frames: &Frames, lambda: &[f64; PLATE_ROWS], hang: Hanging) -> Derivatives {
+        self.derivatives_at(frames, lambda, Param { hang: Some(hang), ..Param::FULL })
+    }
+
+    /// The body of `robot` (the robot it was built from: its driving unit's
+    /// mass and cups) held by `hold`, on the hold's path (module doc), with
+    /// each holding cup's reaction and verdict. A plate frame that is not a
+    /// rotation or a tip that is not finite is refused, naming the field.
+    pub fn solve_held(&self, robot: &Robot, hold: Hold3, solver: &Solver) -> Result<Held3, StanceError> {
+        match hold {
+            Hold3::Rear => {
+                let equilibrium = self.solve(solver)?;
+                let rear = Some(self.rear_cup(robot, &equilibrium)?);
+                Ok(Held3 { hold, body: self.clone(), equilibrium, rear, front: None, pivot_turn_rad: None })
+            }
+            Hold3::Front { tip_m, plate } => {
+                check_hold("front hold tip (m)", tip_m, "front hold plate frame", &plate)?;
+                let md = robot.driving_unit.mass_kg;
+                let picture = self.solve_on(solver, Some(hanging(&plate, md)))?;
+                let (body, equilibrium) = self.hung(&picture, tip_m, &plate);
+                let front = Some(body.front_cup(robot, &equilibrium, md)?);
+                Ok(Held3 { hold, body, equilibrium, rear: None, front, pivot_turn_rad: None })
+            }
+            Hold3::FrontPivot { centre_m, plate } => {
+                check_hold("front pivot centre (m)", centre_m, "front pivot plate frame", &plate)?;
+                self.swing(robot, hold, centre_m, &plate, solver)
+            }
+        }
+    }
+
+    /// The swing about a free front joint: the front hold's path at the
+    /// start, then the plate turned about the face's normal `n` (the tip,
+    /// on that axis, stays) in steps of [`SWING_STEP`] the way the moment of
+    /// gravity about `n` turns it, each a warm start from the last, until
+    /// that moment changes sign; then regula falsi (Illinois) on the turn to
+    /// a moment below [`PIVOT_TOLERANCE`] times `W L1`. Moving downhill in
+    /// the energy, the first change of sign is a minimum in the turn.
+    fn swing(
+        &self,
+        robot: &Robot,
+        hold: Hold3,
+        centre: Vec3,
+        plate: &Mat3,
+        solver: &Solver,
+    ) -> Result<Held3, StanceError> {
+        let md = robot.driving_unit.mass_kg;
+        let normal = [plate[0][1], plate[1][1], plate[2][1]];
+        let tip = axpy(robot.body.tip_spacing_m + robot.cup.front_offset_m, normal, centre);
+        let frame = |turn: f64| mul(&super::rotation::exp(scale(turn, normal)), plate);
+        // The surface's moment about n on the plate turned by `turn`, from a
+        // picture converged there.
+        let moment = |picture: &Equilibrium3, turn: f64| -> Result<(f64, Held3), StanceError> {
+            let (body, equilibrium) = self.hung(picture, tip, &frame(turn));
+            let front = body.front_cup(robot, &equilibrium, md)?;
+            let m = dot(front.reaction.moment_nm, normal);
+            Ok((m, Held3 { hold, body, equilibrium, rear: None, front: Some(front), pivot_turn_rad: Some(turn) }))
+        };
+        let settle =
+            |from: &Equilibrium3, turn: f64| self.solve_from_on(solver, &from.frames, Some(hanging(&frame(turn), md)));
+        let mut picture = self.solve_on(solver, Some(hanging(plate, md)))?;
+        let (mut m, mut held) = moment(&picture, 0.0)?;
+        let scale_nm = held.front.as_ref().map_or(0.0, |f| f.reaction.force_n[1]) * self.tube(0).tube_length();
+        let tolerance = PIVOT_TOLERANCE * scale_nm.max(f64::MIN_POSITIVE);
+        let mut events = std::mem::take(&mut picture.summary.events);
+        // The surface's moment `m` about n is what gravity's moment needs:
+        // gravity turns the body by -m.
+        let direction = -m.signum();
+        let (mut turn, mut iterations) = (0.0, picture.iterations);
+        let mut bracket = None;
+        for _ in 0..SWING_STEPS {
+            if m.abs() <= tolerance {
+                break;
+            }
+            let next = turn + direction * SWING_STEP;
+            let ahead = settle(&picture, next)?;
+            iterations += ahead.iterations;
+            events.extend_from_slice(&ahead.events);
+            let (m_next, held_next) = moment(&ahead, next)?;
+            if m_next.signum() != m.signum() {
+                bracket = Some(((turn, m), (next, m_next)));
+            }
+            (turn, m, picture, held) = (next, m_next, ahead, held_next);
+            if bracket.is_some() {
+                break;
+            }
+        }
+        if let Some(((mut a, mut ma), (mut b, mut mb))) = bracket {
+            // Illinois: the side kept twice has its moment halved.
+            let mut kept = 0i8;
+            for _ in 0..PIVOT_ITERATIONS {
+                if m.abs() <= tolerance || (b - a).abs() <= 1e-13 {
+                    break;
+                }
+                let c = (a * mb - b * ma) / (mb - ma);
+                let here = settle(&picture, c)?;
+                iterations += here.iterations;
+                events.extend_from_slice(&here.events);
+                let (mc, held_c) = moment(&here, c)?;
+                if mc.signum() == mb.signum() {
+                    (b, mb) = (c, mc);
+                    ma = if kept == -1 { 0.5 * ma } else { ma };
+                    kept = -1;
+                } else {
+                    (a, ma) = (c, mc);
+                    mb = if kept == 1 { 0.5 * mb } else { mb };
+                    kept = 1;
+                }
+                (turn, m, picture, held) = (c, mc, here, held_c);
+            }
+        }
+        if !(m.abs() <= tolerance) {
+            return Err(StanceError::Solve(crate::statics::SolveError::NotConverged {
+                stage: crate::statics::Stage::Load,
+                iterations,
+                residual: m.abs() / scale_nm.max(f64::MIN_POSITIVE),
+                reason: crate::statics::StopReason::IterationLimit,
+            }));
+        }
+        held.pivot_turn_rad = Some(turn);
+        held.equilibrium.summary.iterations = iterations;
+        held.equilibrium.summary.events = events;
+        Ok(held)
+    }
+
+    /// The hanging equilibrium `picture` (the unit fixed) turned into the
+    /// world: `G = R_f R'_P^T`, `x = G (x' - x'_tip) + P_f`.
+    fn hung(&self, picture: &Equilibrium3, tip: Vec3, plate: &Mat3) -> (Body3, Equilibrium3) {
+        let turn = mul(plate, &transpose(&self.plate_frame(&picture.frames)));
+        let shift = axpy(-1.0, apply(&turn, self.endpoint(&picture.frames)), tip);
+        let body = self.placed(&turn, shift);
+        let mut equilibrium = picture.clone();
+        equilibrium.frames = Frames(picture.frames.as_slice().iter().map(|r| mul(&turn, r)).collect());
+        equilibrium.summary.q = equilibrium.frames.as_slice().iter().flat_map(log).collect();
+        for side in 0..2 {
+            let rows = &mut equilibrium.summary.multipliers[6 * side..6 * side + 3];
+            let force = apply(&turn, [rows[0], rows[1], rows[2]]);
+            rows.copy_from_slice(&force);
+        }
+        (body, equilibrium)
+    }
+
+    /// The whole robot's mass (kg) and first moment `sum m x` (kg m) at
+    /// `frames`, with the driving unit's mass `unit_mass_kg`.
+    pub fn first_moment(&self, frames: &Frames, unit_mass_kg: f64) -> (f64, Vec3) {
+        let (mut mass, mut first) = (unit_mass_kg, scale(unit_mass_kg, self.unit_centre()));
+        for i in 0..3 {
+            let tube = self.tube(i);
+            mass += tube.total_mass();
+            first = axpy(tube.total_mass(), tube.root(), first);
+            for (j, w) in tube.levers().iter().enumerate() {
+                let r = self.frame(frames, i, j);
+                first = axpy(*w, [r[0][0], r[1][0], r[2][0]], first);
+            }
+        }
+        (mass, first)
+    }
+
+    /// The front cup holding the body alone at `eq` (world frames): its face
+    /// (`c + front_offset` from tube 1's tip along the plate's right normal
+    /// `-R_P e_y`), the surface's normal `R_P e_y`, and the reaction by the
+    /// whole robot's balance (it carries everything): `F = (0, g M, 0)`,
+    /// `M = (X - M c) x (0, g, 0)`.
+    fn front_cup(&self, robot: &Robot, eq: &Equilibrium3, unit_mass_kg: f64) -> Result<CupState3, InputError> {
+        let plate = self.plate_frame(&eq.frames);
+        let normal = [plate[0][1], plate[1][1], plate[2][1]];
+        let d = robot.body.tip_spacing_m + robot.cup.front_offset_m;
+        let centre = axpy(-d, normal, self.endpoint(&eq.frames));
+        let (mass, first) = self.first_moment(&eq.frames, unit_mass_kg);
+        let up = [0.0, self.gravity(), 0.0];
+        let reaction = Wrench { force_n: scale(mass, up), moment_nm: cross(axpy(-mass, centre, first), up) };
+        let verdict = verdict3(&robot.cup, reaction.force_n, reaction.moment_nm, normal)?;
+        Ok(CupState3 { centre_m: centre, normal, reaction, verdict })
+    }
+}

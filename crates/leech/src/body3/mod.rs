@@ -1,0 +1,86 @@
+//! The three-tube body in 3D and its static solver (docs/model3d.md).
+//!
+//! World x horizontal, y up, `z = x cross y`; gravity `(0, -g, 0)`. The
+//! driving unit has the pose `(p0, R0)`, `R0` turning `+x` to the clamp
+//! direction `phi0` in the x-y plane. Tubes 1, 2, 3 leave it at the
+//! vertices of an equilateral triangle in the unit's local y-z plane,
+//! `(0, r_b, 0)` and `(0, -r_b/2, +-r_b sqrt(3)/2)` with `r_b = b / 1.5`;
+//! each is a chain of rigid links with frames `R_j` (local x the tangent),
+//! a point mass at each link's tip and, at joint `j`, the energy
+//!
+//! ```text
+//! E_j = (kt_j theta_x^2 + k_j (theta_y^2 + theta_z^2)) / 2,     theta_j = Log(R_{j-1}^T R_j)   (J, rad)
+//! ```
+//!
+//! The endpoint plate is rigid with tube 1's last link; tubes 2 and 3 are
+//! welded to it at the vertices of the triangle of radius `r_t = c / 1.5`
+//! (12 rows: [`body3::PLATE_ROWS`]); the payload sits at the midpoint of
+//! tubes 2 and 3's tips. With `L2 = L3`, `b = c` and gravity in the
+//! symmetry plane this is exactly the planar [`crate::body::Body`].
+//!
+//! # Why a solver of its own
+//!
+//! [`crate::statics`]' contract is built for scalar coordinates: a
+//! tridiagonal Hessian of scalars per chain, *diagonal* constraint Hessians
+//! (its weld rows are linear in the tips) and additive updates `q += dq`.
+//! The 3D body needs 3 x 3 blocks, constraint Hessians that couple the
+//! plate with the side tubes' last links (a weld of two frames is bilinear
+//! in them), and updates on SO(3). Rather than widen that contract for
+//! every planar system (and its hot paths), this module keeps its own Newton
+//! and continuation ([`solve`]) in local rotation-vector coordinates
+//! re-based after every step (`R <- R Exp(delta)`: the gradient and
+//! Hessian are those of the pullback at `delta = 0`), and reuses what
+//! carries over unchanged: the factorization ([`crate::linalg::BorderedLdl`]
+//! with 3 x 3 blocks, the plate's 3 coordinates as primal border rows), the
+//! options, tuning constants, events and errors of [`crate::statics`], and
+//! the planar discretization ([`crate::chain::Chain`]).
+//!
+//! # Holds
+//!
+//! The body as built has its driving unit fixed: the rear cup holds.
+//! [`Body3::solve_held`] solves it held by the rear cup, by the front cup
+//! (the driving unit hanging: gravity turns with the plate, no unknown
+//! added) or by the front cup on a free joint about its face's normal (the
+//! swing of the sideways maneuver), and gives each holding cup's reaction
+//! as a 6-vector (force and moment about the cup's centre, world frame) and
+//! its verdict ([`hold3`]):
+//!
+//! ```
+//! use leech::body3::{Body3, Hold3};
+//! use leech::body3::rotation::rot_z;
+//! use leech::prelude::*;
+//! let robot = Robot::builtin();
+//! let body = Body3::from_robot(&robot, [0.25, 0.28, 0.22]).unwrap();
+//! let solver = Solver::default();
+//! let rear = body.solve_held(&robot, Hold3::Rear, &solver).unwrap();
+//! assert!(rear.rear.unwrap().verdict.holds);
+//! // Held at the front, the plate along +y (up a wall), the unit below.
+//! let hold = Hold3::Front { tip_m: [0.0, 0.5, 0.0], plate: rot_z(std::f64::consts::FRAC_PI_2) };
+//! let front = body.solve_held(&robot, hold, &solver).unwrap();
+//! assert!(front.body.tube(0).root()[1] < 0.5);
+//! ```
+//!
+//! Both cups holding (a closed loop) and contacts with scene solids are not
+//! yet in 3D: they need rows beyond the weld's 12 (and an active set for
+//! contacts), as the planar `stance` systems add theirs.
+
+//! # Layout
+//!
+//! [`rotation`] (`Exp`, `Log`, `Jr^-1`, the local derivatives of linear and
+//! relative terms), [`tube3`] (one tube's links), [`body3`] (the body, its
+//! Lagrangian's derivatives), [`solve`] (Newton, continuation), [`planar`]
+//! (the comparison with the planar model), [`hold3`] (the rear cup's
+//! reaction and verdict).
+
+#[allow(clippy::module_inception)]
+pub mod body3;
+pub mod hold3;
+pub mod planar;
+pub mod rotation;
+pub mod solve;
+pub mod tube3;
+
+pub use body3::{Body3, Derivatives, Frames, PLATE_ROWS};
+pub use hold3::{verdict3, CupState3, Hanging, Held3, Hold3, Wrench};
+pub use solve::Equilibrium3;
+pub use tube3::Tube3;

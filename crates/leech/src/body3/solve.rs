@@ -1,0 +1,651 @@
+//! The static solver of the 3D body: Newton on the KKT system in local
+//! rotation coordinates, re-based on SO(3) after every step, and continuation
+//! along the documented path (docs/model3d.md section 6).
+//!
+//! Each Newton step solves
+//!
+//! ```text
+//! [ H + shift I   J^T ] [ delta ]     [ grad V - J^T lambda ]
+//! [ J             0   ] [ y     ] = - [ C                   ],     R_u <- R_u Exp(delta_u),  lambda <- lambda - y
+//! ```
+//!
+//! with the Lagrangian Hessian `H` of [`Body3`] (3 x 3 blocks, tridiagonal
+//! along each tube, the plate's 3 coordinates dense) on
+//! [`BorderedLdl`] with 3 x 3 blocks and a border of 15 rows (the plate's
+//! coordinates and the 12 weld rows): O(n) per step. As in
+//! [`crate::statics`]: the shift is the smallest of a geometric sequence
+//! that makes the reduced Hessian positive definite (Sylvester's inertia:
+//! exactly 12 negative eigenvalues), so steps head for stable equilibria;
+//! shifted steps stay within the trust radius and are accepted on the
+//! merit `V/k + rho |C/s|_1`, plain Newton steps also on the residual; a
+//! rejected step raises a Levenberg shift. Continuation uses a tangent
+//! predictor (the path derivative of the residual by a central difference
+//! in the path parameter, one solve with the converged factors) and a
+//! Newton corrector, halving on failure; a persisting jump at the smallest
+//! step is a fold, reported as [`Event::Snap`].
+
+use super::body3::{distance, retract, Body3, Eval3, Frames, Param, BORDER, PLATE_ROWS};
+use super::hold3::Hanging;
+use super::rotation::{apply, axpy, cross};
+use crate::linalg::{BorderedLdl, Pattern};
+use crate::statics::{BranchRule, Equilibrium, Event, Side, SolveError, Solver, Stage, StopReason};
+
+/// Unstable landings left in one settle before it gives up.
+const ESCAPES: usize = 4;
+
+/// Growth of the kick between escapes from one settle (0.01, 0.03, 0.09, ... rad).
+const ESCAPE_KICK_GROWTH: f64 = 3.0;
+
+/// Bisections of the shift that brackets the most negative curvature.
+const ESCAPE_BISECTIONS: usize = 30;
+
+/// A converged equilibrium of the 3D body: its frames, and the solve's
+/// summary as the planar solver gives it, whose `q` holds every link's
+/// rotation vector `Log(R_j)` (3 per link, in the body's order) and whose
+/// `multipliers` the weld's 12 (N on the position rows, N m on the rotation
+/// rows; tube 2's, then tube 3's). Its fields are reached through `Deref`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Equilibrium3 {
+    /// The links' frames.
+    pub frames: Frames,
+    /// Energy, residual, stability, counters and events.
+    pub summary: Equilibrium,
+}
+
+impl std::ops::Deref for Equilibrium3 {
+    type Target = Equilibrium;
+
+    fn deref(&self) -> &Equilibrium {
+        &self.summary
+    }
+}
+
+/// The solver's state: frames, multipliers, counters.
+#[derive(Clone, Debug)]
+struct State {
+    frames: Frames,
+    lambda: [f64; PLATE_ROWS],
+    iterations: usize,
+    steps: usize,
+    events: Vec<Event>,
+}
+
+impl State {
+    fn new(frames: Frames) -> State {
+        State { frames, lambda: [0.0; PLATE_ROWS], iterations: 0, steps: 0, events: Vec::new() }
+    }
+}
+
+/// Limits of one Newton run.
+#[derive(Clone, Copy, Debug)]
+struct Budget {
+    max_iter: usize,
+    tolerance: f64,
+    leash: f64,
+}
+
+/// Scratch for one body: evaluations, the factorization and vectors.
+#[derive(Clone, Debug)]
+struct Work {
+    ev: Eval3,
+    trial: Eval3,
+    ldl: BorderedLdl,
+    border: Vec<f64>,
+    corner: Vec<f64>,
+    residual: Vec<f64>,
+    residual_trial: Vec<f64>,
+    rhs_c: Vec<f64>,
+    x: Vec<f64>,
+    y: Vec<f64>,
+    step: Vec<f64>,
+    dual: [f64; PLATE_ROWS],
+    tangent: Vec<f64>,
+    /// `dF/dtau` of the residual's moments (the tangent's right-hand side).
+    path_residual: Vec<f64>,
+    lambda_tangent: [f64; PLATE_ROWS],
+    frames_trial: Frames,
+    /// Where the last Newton run started (its leash) and the continuation step's start.
+    frames_saved: Frames,
+    frames_start: Frames,
+    damping: f64,
+    rho: f64,
+}
+
+impl Work {
+    fn new(body: &Body3) -> Work {
+        let n = body.links();
+        let chain = 3 * (n - 1);
+        Work {
+            ev: Eval3::new(body),
+            trial: Eval3::new(body),
+            ldl: BorderedLdl::new(&Pattern::new(3, &body.chain_blocks(), BORDER, 3)),
+            border: vec![0.0; chain * BORDER],
+            corner: vec![0.0; BORDER * BORDER],
+            residual: vec![0.0; 3 * n],
+            residual_trial: vec![0.0; 3 * n],
+            rhs_c: vec![0.0; BORDER],
+            x: vec![0.0; chain],
+            y: vec![0.0; BORDER],
+            step: vec![0.0; 3 * n],
+            dual: [0.0; PLATE_ROWS],
+            tangent: vec![0.0; 3 * n],
+            path_residual: vec![0.0; 3 * n],
+            lambda_tangent: [0.0; PLATE_ROWS],
+            frames_trial: body.straight(),
+            frames_saved: body.straight(),
+            frames_start: body.straight(),
+            damping: 0.0,
+            rho: 0.0,
+        }
+    }
+
+    /// Factors the KKT matrix of `ev` shifted by `shift`; whether the reduced
+    /// Hessian is positive definite, and whether the count was singular.
+    fn factor(&mut self, shift: f64, tiny: f64) -> (bool, bool) {
+        let ev = &self.ev;
+        let chain = ev.diag.len() / 3;
+        for i in 0..chain {
+            let row = &mut self.border[i * BORDER..(i + 1) * BORDER];
+            row[..3].copy_from_slice(&ev.plate_border[3 * i..3 * i + 3]);
+            row[3..].copy_from_slice(&ev.jacobian[i * PLATE_ROWS..(i + 1) * PLATE_ROWS]);
+        }
+        self.corner.fill(0.0);
+        for a in 0..3 {
+            self.corner[a * BORDER..a * BORDER + 3].copy_from_slice(&ev.plate_corner[a]);
+            for r in 0..PLATE_ROWS {
+                let j = ev.jacobian[(chain + a) * PLATE_ROWS + r];
+                self.corner[(3 + r) * BORDER + a] = j;
+                self.corner[a * BORDER + 3 + r] = j;
+            }
+        }
+        let count = self.ldl.factor(&ev.diag, &ev.off, &self.border, &self.corner, shift, tiny);
+        (count.zero == 0 && count.negative == PLATE_ROWS, count.zero > 0)
+    }
+
+    /// Solves the factored system for `-(r, c)`: the primal step into `step`
+    /// and `-y` (the multipliers' change) into `dual`.
+    fn solve(&mut self, r: &[f64], c: &[f64; PLATE_ROWS]) {
+        let chain = self.x.len();
+        for (dst, v) in self.rhs_c[..3].iter_mut().zip(&r[chain..]) {
+            *dst = -v;
+        }
+        for (dst, v) in self.rhs_c[3..].iter_mut().zip(c) {
+            *dst = -v;
+        }
+        self.step[..chain].iter_mut().zip(&r[..chain]).for_each(|(s, v)| *s = -v);
+        self.ldl.solve(&self.step[..chain], &self.rhs_c, &mut self.x, &mut self.y);
+        self.step[..chain].copy_from_slice(&self.x);
+        self.step[chain..].copy_from_slice(&self.y[..3]);
+        for (d, y) in self.dual.iter_mut().zip(&self.y[3..]) {
+            *d = -y;
+        }
+    }
+}
+
+/// `frames` moved by `alpha` times the local step `step` (3 per link) into `out`.
+fn moved(frames: &Frames, step: &[f64], alpha: f64, out: &mut Frames) {
+    for ((o, f), s) in out.0.iter_mut().zip(&frames.0).zip(step.chunks_exact(3)) {
+        *o = retract(f, [alpha * s[0], alpha * s[1], alpha * s[2]]);
+    }
+}
+
+fn sup(v: &[f64]) -> f64 {
+    v.iter().fold(0.0f64, |m, x| m.max(x.abs()))
+}
+
+impl Body3 {
+    /// The equilibrium on the default path (docs/model3d.md section 6): the
+    /// tubes fed from the shortest length at `g = 0` (each tube's links
+    /// scaled from `L_min / L_i` up to 1), then gravity raised from 0 to `g`.
+    /// The solver's options (tolerances, bounds, time limit) are `solver`'s.
+    pub fn solve(&self, solver: &Solver) -> Result<Equilibrium3, SolveError> {
+        self.solve_on(solver, None)
+    }
+
+    /// [`Body3::solve`], hanging from the front cup when `hang` says so
+    /// ([`super::hold3`]: gravity raised on the hanging body).
+    pub(crate) fn solve_on(&self, solver: &Solver, hang: Option<Hanging>) -> Result<Equilibrium3, SolveError> {
+        let mut work = Work::new(self);
+        let mut state = State::new(self.straight());
+        let lengths = [0, 1, 2].map(|i| self.tube(i).tube_length());
+        let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
+        let feed =
+            |tau: f64| Param { load: 0.0, scale: lengths.map(|l| (shortest + tau * (l - shortest)) / l), hang: None };
+        let mut residual = if lengths.iter().all(|l| *l == shortest) {
+            self.settle_reporting(solver, &mut state, feed(1.0), 1.0, Stage::Feed, &mut work)?
+        } else {
+            self.continuation(solver, &mut state, &feed, Stage::Feed, &mut work)?
+        };
+        if self.gravity() != 0.0 {
+            let load = |t: f64| Param { load: t, scale: [1.0; 3], hang };
+            residual = self.continuation(solver, &mut state, &load, Stage::Load, &mut work)?;
+        }
+        Ok(self.finish(solver, state, residual, hang, &mut work))
+    }
+
+    /// The equilibrium reached from `frames` with gravity on, without
+    /// continuation (a warm start, as planners following an actuation
+    /// history use it); an unstable landing is left as on the paths.
+    pub fn solve_from(&self, solver: &Solver, frames: &Frames) -> Result<Equilibrium3, SolveError> {
+        self.solve_from_on(solver, frames, None)
+    }
+
+    /// [`Body3::solve_from`], hanging from the front cup when `hang` says so.
+    pub(crate) fn solve_from_on(
+        &self,
+        solver: &Solver,
+        frames: &Frames,
+        hang: Option<Hanging>,
+    ) -> Result<Equilibrium3, SolveError> {
+        let mut work = Work::new(self);
+        let mut state = State::new(frames.clone());
+        let full = Param { hang, ..Param::FULL };
+        let residual = self.settle_reporting(solver, &mut state, full, 1.0, Stage::WarmStart, &mut work)?;
+        Ok(self.finish(solver, state, residual, hang, &mut work))
+    }
+
+    /// Packs a state converged at the full load.
+    fn finish(
+        &self,
+        solver: &Solver,
+        state: State,
+        residual: f64,
+        hang: Option<Hanging>,
+        work: &mut Work,
+    ) -> Equilibrium3 {
+        self.evaluate(&state.frames, &state.lambda, Param { hang, ..Param::FULL }, &mut work.ev);
+        let tiny = solver.options.tuning.tiny_pivot * self.moment_scale();
+        let stable = work.factor(0.0, tiny).0;
+        let q = state.frames.0.iter().flat_map(super::rotation::log).collect();
+        Equilibrium3 {
+            frames: state.frames,
+            summary: Equilibrium {
+                q,
+                multipliers: state.lambda.to_vec(),
+                energy: work.ev.energy,
+                residual,
+                stable,
+                iterations: state.iterations,
+                steps: state.steps,
+                events: state.events,
+            },
+        }
+    }
+
+    /// The scaled sup norm of `(grad V - J^T lambda, C)`.
+    fn residual_norm(&self, ev: &Eval3, r: &[f64]) -> f64 {
+        let moments = sup(r) / self.moment_scale();
+        (0..PLATE_ROWS).fold(moments, |m, row| m.max((ev.constraints[row] / self.row_scale(row)).abs()))
+    }
+
+    /// Squared scaled Euclidean norm of the same.
+    fn residual_l2(&self, ev: &Eval3, r: &[f64]) -> f64 {
+        let k = self.moment_scale();
+        let moments = r.iter().fold(0.0, |s, x| s + (x / k) * (x / k));
+        (0..PLATE_ROWS).fold(moments, |s, row| s + (ev.constraints[row] / self.row_scale(row)).powi(2))
+    }
+
+    /// The exact-penalty merit `V/k + rho |C/s|_1`.
+    fn merit(&self, ev: &Eval3, rho: f64) -> f64 {
+        let infeasibility = (0..PLATE_ROWS).fold(0.0, |s, r| s + (ev.constraints[r] / self.row_scale(r)).abs());
+        ev.energy / self.moment_scale() + rho * infeasibility
+    }
+
+    /// A free minimization at `param` (no leash), which must end stable: an
+    /// unstable landing is left along its most negative curvature
+    /// ([`Body3::escape`]), at most [`ESCAPES`] times. Returns the residual
+    /// and the side left to, if any.
+    fn settle(
+        &self,
+        solver: &Solver,
+        state: &mut State,
+        param: Param,
+        stage: Stage,
+        work: &mut Work,
+    ) -> Result<(f64, Option<Side>), SolveError> {
+        let o = &solver.options;
+        let budget = Budget { max_iter: o.max_minimization_iterations, tolerance: o.tolerance, leash: f64::INFINITY };
+        let mut escaped = None;
+        for attempt in 0..=ESCAPES {
+            match self.newton(solver, state, param, budget, work) {
+                (residual, Ok(true)) => return Ok((residual, escaped)),
+                (residual, Ok(false)) => {
+                    // A landing back on the saddle is kicked harder each time.
+                    let kick = solver.options.tuning.escape_kick * ESCAPE_KICK_GROWTH.powi(attempt as i32);
+                    let side = self.escape(solver, state, work, kick);
+                    escaped = Some(side.map_err(|reason| fail(solver, stage, state, residual, reason))?);
+                }
+                (residual, Err(reason)) => return Err(fail(solver, stage, state, residual, reason)),
+            }
+        }
+        let residual = self.residual_norm(&work.ev, &work.residual);
+        Err(fail(solver, stage, state, residual, StopReason::StillUnstable))
+    }
+
+    /// Leaves the unstable equilibrium `state` (evaluated in `work.ev`)
+    /// along the reduced Hessian's most negative curvature: inverse
+    /// iteration on the KKT matrix shifted to just above that curvature
+    /// (found by bisection on the inertia), then a kick of `kick` rad
+    /// (from [`Tuning::escape_kick`](crate::statics::Tuning::escape_kick)).
+    /// The sign follows the branch rule on the endpoint's displacement:
+    /// along the right of the clamp direction (towards tubes 2 and 3) for a
+    /// mode mostly in the plane of the clamp, along `+z` (towards tube 2)
+    /// for one mostly out of it; [`Side::Right`] names the positive side.
+    fn escape(&self, solver: &Solver, state: &mut State, work: &mut Work, kick: f64) -> Result<Side, StopReason> {
+        let tuning = &solver.options.tuning;
+        let k = self.moment_scale();
+        let tiny = tuning.tiny_pivot * k;
+        let (mut lo, mut hi) = (0.0, tuning.first_shift * k);
+        let mut tries = 0;
+        while !work.factor(hi, tiny).0 {
+            (lo, hi) = (hi, hi * tuning.shift_growth);
+            tries += 1;
+            if tries > tuning.max_shift_tries {
+                return Err(StopReason::SingularJacobian);
+            }
+        }
+        for _ in 0..ESCAPE_BISECTIONS {
+            let mid = 0.5 * (lo + hi);
+            if work.factor(mid, tiny).0 {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        work.factor(hi, tiny);
+        // A fixed start with every component present, so no mode is missed.
+        let n = work.tangent.len();
+        let mut v: Vec<f64> = (0..n).map(|i| 1.0 + 0.5 * ((i * 7919) % 13) as f64 / 13.0).collect();
+        for _ in 0..tuning.escape_iterations {
+            work.solve(&v, &[0.0; PLATE_ROWS]);
+            let norm = sup(&work.step);
+            if norm == 0.0 || !norm.is_finite() {
+                return Err(StopReason::StillUnstable);
+            }
+            v.iter_mut().zip(&work.step).for_each(|(a, b)| *a = b / norm);
+        }
+        // The endpoint's displacement along v: sum_j l_j R_j (v_j x e_x) over tube 1.
+        let mut d = [0.0; 3];
+        for (j, l) in self.tube(0).lengths().iter().enumerate() {
+            let u = self.index(0, j);
+            let local = cross([v[3 * u], v[3 * u + 1], v[3 * u + 2]], [1.0, 0.0, 0.0]);
+            d = axpy(*l, apply(&state.frames.0[u], local), d);
+        }
+        let base = self.base_frame();
+        let right = -(base[0][1] * d[0] + base[1][1] * d[1] + base[2][1] * d[2]);
+        let measure = if right.abs() >= d[2].abs() { right } else { d[2] };
+        let (side, wanted) = match solver.options.branch {
+            BranchRule::Right => (Side::Right, 1.0),
+            BranchRule::Left => (Side::Left, -1.0),
+            BranchRule::Refuse => return Err(StopReason::UnstableRefused),
+        };
+        let sign = if measure < 0.0 { -wanted } else { wanted };
+        let frames = state.frames.clone();
+        moved(&frames, &v, sign * kick, &mut state.frames);
+        Ok(side)
+    }
+
+    /// [`Body3::settle`] at path parameter `at`, reporting a bifurcation left.
+    fn settle_reporting(
+        &self,
+        solver: &Solver,
+        state: &mut State,
+        param: Param,
+        at: f64,
+        stage: Stage,
+        work: &mut Work,
+    ) -> Result<f64, SolveError> {
+        let before = state.frames.clone();
+        let (residual, escaped) = self.settle(solver, state, param, stage, work)?;
+        if let Some(side) = escaped {
+            let jump_rad = distance(&state.frames, &before);
+            state.events.push(Event::Bifurcation { stage, at, side, jump_rad });
+        }
+        Ok(residual)
+    }
+
+    /// Newton's method from `state` at `param`; the scaled residual and
+    /// whether it converged to a stable point. Leaves `work.ev` evaluated at
+    /// the final point and, when converged, its unshifted factors.
+    fn newton(
+        &self,
+        solver: &Solver,
+        state: &mut State,
+        param: Param,
+        budget: Budget,
+        work: &mut Work,
+    ) -> (f64, Result<bool, StopReason>) {
+        let o = &solver.options;
+        let tuning = &o.tuning;
+        let k = self.moment_scale();
+        let tiny = tuning.tiny_pivot * k;
+        work.frames_saved.clone_from(&state.frames);
+        self.evaluate(&state.frames, &state.lambda, param, &mut work.ev);
+        work.ev.stationarity(&state.lambda, &mut work.residual);
+        work.damping = 0.0;
+        let (mut iter, mut best, mut best_at, mut fresh) = (0, f64::INFINITY, 0, false);
+        loop {
+            let res = self.residual_norm(&work.ev, &work.residual);
+            if !res.is_finite() {
+                return (res, Err(StopReason::NonFinite));
+            }
+            // A residual that stalls within a few orders of the tolerance is
+            // at the rounding floor: converged, reported as it is.
+            if res < 0.5 * best {
+                (best, best_at) = (res, iter);
+            }
+            let stalled = iter >= best_at + tuning.stall_iterations && res <= o.rounding_slack * budget.tolerance;
+            if res <= budget.tolerance || stalled {
+                // After a tiny plain step from a minimum the last factors
+                // still give the verdict and a tangent good for a predictor.
+                return (res, Ok(fresh || work.factor(0.0, tiny).0));
+            }
+            if iter >= budget.max_iter || state.iterations >= o.max_iterations {
+                return (res, Err(StopReason::IterationLimit));
+            }
+            if o.deadline.expired() {
+                return (res, Err(StopReason::TimeLimit));
+            }
+            iter += 1;
+            state.iterations += 1;
+            // The smallest shift that makes the reduced Hessian positive definite.
+            let mut min_shift = 0.0;
+            if !work.factor(0.0, tiny).0 {
+                min_shift = tuning.first_shift * k;
+                let mut tries = 0;
+                while !work.factor(min_shift, tiny).0 {
+                    tries += 1;
+                    if tries > tuning.max_shift_tries {
+                        return (res, Err(StopReason::SingularJacobian));
+                    }
+                    min_shift *= tuning.shift_growth;
+                }
+            }
+            if !self.take_step(solver, state, param, work, min_shift) {
+                // Within a few orders of the tolerance no step improves on rounding.
+                if res <= o.rounding_slack * budget.tolerance {
+                    return (res, Ok(work.factor(0.0, tiny).0));
+                }
+                return (res, Err(StopReason::NoDescent));
+            }
+            // The Lagrangian Hessian holds the multipliers too (the weld's
+            // curvature): factors stay good only if neither moved. A warm
+            // start begins with zero multipliers, whose Hessian can look
+            // stable where the true one is a saddle.
+            let moved_multipliers =
+                (0..PLATE_ROWS).fold(0.0f64, |m, r| m.max(work.dual[r].abs() * self.row_scale(r) / k));
+            fresh = min_shift == 0.0
+                && work.damping == 0.0
+                && sup(&work.step) < tuning.reuse_factors_step
+                && moved_multipliers < tuning.reuse_factors_step;
+            if budget.leash.is_finite() && distance(&state.frames, &work.frames_saved) > budget.leash {
+                let res = self.residual_norm(&work.ev, &work.residual);
+                return (res, Err(StopReason::LeftBranch));
+            }
+        }
+    }
+
+    /// Tries steps with growing shifts from `min_shift` until one is accepted
+    /// (then `state` and `work.ev` hold the new point); false if none was.
+    fn take_step(&self, solver: &Solver, state: &mut State, param: Param, work: &mut Work, min_shift: f64) -> bool {
+        let o = &solver.options;
+        let tuning = &o.tuning;
+        let k = self.moment_scale();
+        let tiny = tuning.tiny_pivot * k;
+        let mut shift = if min_shift == 0.0 { 0.0 } else { min_shift.max(work.damping) };
+        let base_l2 = self.residual_l2(&work.ev, &work.residual);
+        for attempt in 0..tuning.max_trials {
+            if attempt > 0 || shift != min_shift {
+                work.factor(shift, tiny);
+            }
+            let residual = std::mem::take(&mut work.residual);
+            work.solve(&residual, &work.ev.constraints.clone());
+            work.residual = residual;
+            // Shifted steps stay within the trust radius; plain Newton steps
+            // within the jump tolerance (the exponential map's good range).
+            let radius = if shift > 0.0 { o.trust_radius } else { o.jump_tolerance };
+            let alpha = (radius / sup(&work.step)).min(1.0);
+            moved(&state.frames, &work.step, alpha, &mut work.frames_trial);
+            let mut lambda = state.lambda;
+            for (l, d) in lambda.iter_mut().zip(&work.dual) {
+                *l += alpha * d;
+            }
+            self.evaluate(&work.frames_trial, &lambda, param, &mut work.trial);
+            work.trial.stationarity(&lambda, &mut work.residual_trial);
+            let largest = (0..PLATE_ROWS).fold(0.0f64, |m, r| m.max(lambda[r].abs() * self.row_scale(r) / k));
+            work.rho = work.rho.max((1.0 + tuning.penalty_margin) * largest);
+            let (before, after) = (self.merit(&work.ev, work.rho), self.merit(&work.trial, work.rho));
+            let decreased = after < before - tuning.measurable_decrease * before.abs().max(1.0);
+            // A plain Newton step may also be accepted on the residual; so may
+            // any step that leaves the merit as it was (to rounding) while
+            // the residual falls: at a constrained stationary point with
+            // wrong multipliers only they need to move.
+            let level = after <= before + tuning.measurable_decrease * before.abs().max(1.0);
+            let improved = (shift == 0.0 || level)
+                && self.residual_l2(&work.trial, &work.residual_trial) < (1.0 - tuning.residual_decrease) * base_l2;
+            if (decreased || improved) && after.is_finite() {
+                std::mem::swap(&mut state.frames, &mut work.frames_trial);
+                state.lambda = lambda;
+                std::mem::swap(&mut work.ev, &mut work.trial);
+                std::mem::swap(&mut work.residual, &mut work.residual_trial);
+                work.damping = shift * tuning.damping_memory;
+                return true;
+            }
+            shift = if shift == 0.0 { (tuning.min_damping * k).max(min_shift) } else { shift * tuning.damping_growth };
+        }
+        false
+    }
+
+    /// The path tangent at a converged point whose unshifted factors are in
+    /// `work.ldl`: `K (delta', -lambda') = -dF/dtau`, `dF/dtau` by a central
+    /// difference of the residual at fixed frames and multipliers.
+    fn tangent(&self, state: &State, path: &impl Fn(f64) -> Param, tau: f64, work: &mut Work) {
+        const H: f64 = 1e-6;
+        let mut dc = [0.0; PLATE_ROWS];
+        let mut dr = std::mem::take(&mut work.path_residual);
+        dr.fill(0.0);
+        for (sign, at) in [(1.0, tau + H), (-1.0, tau - H)] {
+            self.evaluate(&state.frames, &state.lambda, path(at), &mut work.trial);
+            work.trial.stationarity(&state.lambda, &mut work.residual_trial);
+            for (d, r) in dr.iter_mut().zip(&work.residual_trial) {
+                *d += sign * r / (2.0 * H);
+            }
+            for (d, c) in dc.iter_mut().zip(&work.trial.constraints) {
+                *d += sign * c / (2.0 * H);
+            }
+        }
+        work.solve(&dr, &dc);
+        work.path_residual = dr;
+        work.tangent.copy_from_slice(&work.step);
+        work.lambda_tangent = work.dual;
+    }
+
+    /// Follows `path(tau)`, `tau` from 0 to 1, from a start that is
+    /// minimized at `tau = 0` first; ends at a stable equilibrium at 1.
+    fn continuation(
+        &self,
+        solver: &Solver,
+        state: &mut State,
+        path: &impl Fn(f64) -> Param,
+        stage: Stage,
+        work: &mut Work,
+    ) -> Result<f64, SolveError> {
+        let o = &solver.options;
+        let mut residual = self.settle_reporting(solver, state, path(0.0), 0.0, stage, work)?;
+        let mut tau = 0.0;
+        self.tangent(state, path, tau, work);
+        let mut dtau: f64 = 1.0;
+        let mut steps = 0;
+        while tau < 1.0 {
+            steps += 1;
+            if steps > o.max_steps {
+                return Err(fail(solver, stage, state, residual, StopReason::StepLimit));
+            }
+            dtau = dtau.min(1.0 - tau);
+            // The step's start, and the prediction (the corrector's start is
+            // the newton run's own `frames_saved`): buffers of `work`, no allocation.
+            work.frames_start.clone_from(&state.frames);
+            let lambda_start = state.lambda;
+            moved(&work.frames_start, &work.tangent, dtau, &mut state.frames);
+            for (l, d) in state.lambda.iter_mut().zip(&work.lambda_tangent) {
+                *l += dtau * d;
+            }
+            let last = tau + dtau >= 1.0;
+            let tolerance = if last { o.tolerance } else { o.path_tolerance };
+            let budget = Budget { max_iter: o.max_corrector_iterations, tolerance, leash: o.jump_tolerance };
+            let (res, out) = self.newton(solver, state, path(tau + dtau), budget, work);
+            if out == Ok(true) && distance(&state.frames, &work.frames_saved) <= o.jump_tolerance {
+                tau = if last { 1.0 } else { tau + dtau };
+                state.steps += 1;
+                residual = res;
+                if tau < 1.0 {
+                    self.tangent(state, path, tau, work);
+                }
+                dtau *= 2.0;
+                continue;
+            }
+            if o.deadline.expired() {
+                return Err(fail(solver, stage, state, res, StopReason::TimeLimit));
+            }
+            state.frames.clone_from(&work.frames_start);
+            state.lambda = lambda_start;
+            if dtau > o.min_step {
+                dtau *= 0.5;
+                // Re-evaluate and re-factor at the saved point for the tangent.
+                let refactor = Budget { max_iter: 0, tolerance: f64::INFINITY, leash: f64::INFINITY };
+                if let (res, Err(reason)) = self.newton(solver, state, path(tau), refactor, work) {
+                    return Err(fail(solver, stage, state, res, reason));
+                }
+                self.tangent(state, path, tau, work);
+                continue;
+            }
+            // Still failing at the smallest step: the branch ends here (a fold).
+            let at = tau;
+            tau = (tau + dtau).min(1.0);
+            let escaped;
+            (residual, escaped) = self.settle(solver, state, path(tau), stage, work)?;
+            let jump_rad = distance(&state.frames, &work.frames_start);
+            if let Some(side) = escaped {
+                state.events.push(Event::Bifurcation { stage, at, side, jump_rad });
+            } else if jump_rad > o.snap_threshold {
+                state.events.push(Event::Snap { stage, at, jump_rad });
+            }
+            state.steps += 1;
+            dtau = o.tuning.step_after_event;
+            if tau < 1.0 {
+                self.tangent(state, path, tau, work);
+            }
+        }
+        Ok(residual)
+    }
+}
+
+/// The error for a Newton run that stopped for `reason`.
+fn fail(solver: &Solver, stage: Stage, state: &State, residual: f64, reason: StopReason) -> SolveError {
+    match solver.options.deadline.check() {
+        Some(halt) if reason == StopReason::TimeLimit => {
+            SolveError::Stopped { halt, iterations: state.iterations, residual }
+        }
+        _ => SolveError::NotConverged { stage, iterations: state.iterations, residual, reason },
+    }
+}

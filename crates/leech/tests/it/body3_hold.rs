@@ -1,0 +1,258 @@
+//! The rear cup's hold in 3D: its reaction against the whole body's
+//! balance, against the planar stance where the body is planar, and the 3D
+//! cup verdict.
+
+use leech::body3::rotation::{axpy, cross, dot, rot_z, scale};
+use leech::body3::{verdict3, Body3, Hold3};
+use leech::prelude::*;
+use leech::stance::{Hold, Pose};
+
+/// The whole body's balance: weight `(0, g M, 0)` and, about `c`, the
+/// moment `(X - M c) x (0, g, 0)` with `X` the first moment of every mass
+/// (links, payload, driving unit): no multiplier and no spring enters it.
+fn balance(body: &Body3, eq: &leech::body3::Equilibrium3, unit_mass: f64, c: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let g = body.gravity();
+    let (mass, first) = body.first_moment(&eq.frames, unit_mass);
+    ([0.0, g * mass, 0.0], cross(axpy(-mass, c, first), [0.0, g, 0.0]))
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(12))]
+
+    /// The reaction from the forces and spring moments at the roots equals
+    /// the whole body's balance, turning bodies included.
+    #[test]
+    fn rear_reaction_balances_the_whole_body(
+        l1 in 0.08f64..0.30, l2 in 0.08f64..0.30, l3 in 0.08f64..0.30, angle in -180.0f64..180.0,
+    ) {
+        let robot = Robot::builtin().with_base_angle(angle).unwrap();
+        let body = Body3::from_robot(&robot, [l1, l2, l3]).unwrap();
+        let eq = body.solve(&Solver::default()).unwrap();
+        let cup = body.rear_cup(&robot, &eq).unwrap();
+        let (force, moment) = balance(&body, &eq, robot.driving_unit.mass_kg, cup.centre_m);
+        let w = force[1];
+        for a in 0..3 {
+            proptest::prop_assert!((cup.reaction.force_n[a] - force[a]).abs() < 1e-9 * w, "{:?} vs {:?}", cup.reaction.force_n, force);
+            proptest::prop_assert!(
+                (cup.reaction.moment_nm[a] - moment[a]).abs() < 1e-9 * w * 0.3,
+                "{:?} vs {:?}", cup.reaction.moment_nm, moment
+            );
+        }
+    }
+}
+
+/// With `L2 = L3`, `b = c` and the planar equilibrium a 3D minimum, the
+/// rear cup equals the planar stance's: centre, force, moment (about z;
+/// none about x or y) and verdict.
+#[test]
+fn rear_cup_equals_the_planar_stance() {
+    let mut robot = Robot::builtin();
+    robot.body.tip_spacing_m = robot.body.base_spacing_m;
+    let solver = Solver::default();
+    let mut checked = 0;
+    for (angle, l1, l23) in [(90.0, 0.25, 0.22), (0.0, 0.20, 0.18), (30.0, 0.12, 0.16), (-60.0, 0.28, 0.24)] {
+        let robot = robot.with_base_angle(angle).unwrap();
+        let body = Body3::from_robot(&robot, [l1, l23, l23]).unwrap();
+        let eq = body.solve(&solver).unwrap();
+        let root = body.tube(0).root();
+        let pose = Pose { point_m: [root[0], root[1]], angle_rad: f64::to_radians(angle) };
+        let held = leech::stance::solve(&robot, [l1, l23], Hold::Rear(pose), &solver).unwrap();
+        // The rear hold's path is the clamped body's.
+        let planar_eq = held.body.solve(&solver).unwrap();
+        let d = leech::body3::planar::compare(&body, &eq, &held.body, &planar_eq);
+        assert!(d.max_point_m < 1e-9, "{angle}: not the planar shape {d:?}");
+        let cup = body.rear_cup(&robot, &eq).unwrap();
+        let planar = held.cups(&robot).unwrap().0.unwrap();
+        let w = planar.force_n[1];
+        for a in 0..2 {
+            assert!((cup.centre_m[a] - planar.centre_m[a]).abs() < 1e-12, "{angle}: {cup:?} {planar:?}");
+            assert!((cup.reaction.force_n[a] - planar.force_n[a]).abs() < 1e-9 * w, "{angle}: {cup:?} {planar:?}");
+            assert!(cup.reaction.moment_nm[a].abs() < 1e-9 * w);
+        }
+        assert!(cup.centre_m[2].abs() < 1e-12 && cup.reaction.force_n[2].abs() < 1e-9 * w);
+        assert!((cup.reaction.moment_nm[2] - planar.moment_nm).abs() < 1e-9 * w, "{angle}: {cup:?} {planar:?}");
+        let (a, b) = (cup.verdict.safety_factor, planar.verdict.safety_factor);
+        assert!((a - b).abs() < 1e-9 * b && cup.verdict.holds == planar.verdict.holds, "{angle}: {a} vs {b}");
+        checked += 1;
+    }
+    assert_eq!(checked, 4);
+}
+
+/// The 3D verdict: in-plane loads give the planar verdict; a twist about
+/// the normal adds `|M . n| / R` to the shear; a tilt is peel; bad input
+/// names the field.
+#[test]
+fn the_3d_verdict_reduces_to_the_planar_one() {
+    let cup = Robot::builtin().cup;
+    let radius = 0.5 * cup.diameter_m;
+    let (force, moment, normal) = ([1.5, -4.0], 0.02, [0.6, 0.8]);
+    let planar = leech::cup::verdict(&cup, force, moment, normal).unwrap();
+    let ours = verdict3(&cup, [force[0], force[1], 0.0], [0.0, 0.0, moment], [normal[0], normal[1], 0.0]).unwrap();
+    for (a, b) in [
+        (ours.safety_factor, planar.safety_factor),
+        (ours.shear_n, planar.shear_n),
+        (ours.normal_pull_n, planar.normal_pull_n),
+        (ours.peel_moment_nm, planar.peel_moment_nm),
+    ] {
+        assert!((a - b).abs() < 1e-12 * b.abs().max(1.0), "{a} vs {b}");
+    }
+    // A pure twist about the normal: shear |M|/R, no peel.
+    let n = [0.0, 0.0, 1.0];
+    let twist = verdict3(&cup, [0.0; 3], scale(0.01, n), n).unwrap();
+    assert!((twist.shear_n - 0.01 / radius).abs() < 1e-15 && twist.peel_moment_nm == 0.0);
+    // A tilt about a direction in the face: peel, no shear.
+    let tilt = verdict3(&cup, [0.0; 3], [0.01, -0.02, 0.0], n).unwrap();
+    assert!(
+        tilt.shear_n == 0.0 && (tilt.peel_moment_nm - dot([0.01, -0.02, 0.0], [0.01, -0.02, 0.0]).sqrt()).abs() < 1e-15
+    );
+    let err = verdict3(&cup, [0.0; 3], [0.0; 3], [0.0, 0.0, 2.0]).unwrap_err().to_string();
+    assert!(err.contains("surface normal") && err.contains('2'), "{err}");
+    let err = verdict3(&cup, [f64::NAN, 0.0, 0.0], [0.0; 3], n).unwrap_err().to_string();
+    assert!(err.contains("cup force"), "{err}");
+}
+
+/// What the driving unit of a body held at the front needs from outside
+/// to stay in balance (force N, moment N m about its centre): the rear
+/// reaction from the roots' forces and spring moments, less the front cup's
+/// force, which reaches the unit through tube 1's root (tube 1's balance).
+/// Zero when the unit hangs free.
+fn unit_imbalance(held: &leech::body3::Held3, unit_mass: f64) -> ([f64; 3], [f64; 3]) {
+    let about = held.body.unit_centre();
+    let rear = held.body.rear_reaction(&held.equilibrium, unit_mass, about);
+    let front = held.front.as_ref().unwrap().reaction.force_n;
+    let arm = axpy(-1.0, about, held.body.tube(0).root());
+    (axpy(-1.0, front, rear.force_n), axpy(-1.0, cross(arm, front), rear.moment_nm))
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(8))]
+
+    /// Held at the front, the driving unit hangs free: the forces and spring
+    /// moments at the roots balance its weight (the rear reaction computed
+    /// as for the rear hold is zero), the plate is where the hold put it, and
+    /// the front cup carries the whole robot.
+    #[test]
+    fn the_driving_unit_hangs_free_from_the_front_cup(
+        l1 in 0.10f64..0.28, l2 in 0.10f64..0.28, l3 in 0.10f64..0.28,
+        axis in proptest::collection::vec(-1.0f64..1.0, 3), turn in -2.0f64..2.0,
+    ) {
+        let robot = Robot::builtin();
+        let body = Body3::from_robot(&robot, [l1, l2, l3]).unwrap();
+        let norm = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt().max(1e-3);
+        let plate = leech::body3::rotation::exp(scale(turn / norm, [axis[0], axis[1], axis[2]]));
+        let tip = [0.3, -0.1, 0.2];
+        let held = body.solve_held(&robot, Hold3::Front { tip_m: tip, plate }, &Solver::default()).unwrap();
+        let eq = &held.equilibrium;
+        proptest::prop_assert!(eq.stable && eq.residual < 1e-10 && held.rear.is_none());
+        let end = held.body.endpoint(&eq.frames);
+        let frame = held.body.plate_frame(&eq.frames);
+        for a in 0..3 {
+            proptest::prop_assert!((end[a] - tip[a]).abs() < 1e-12, "{:?}", end);
+            for b in 0..3 {
+                proptest::prop_assert!((frame[a][b] - plate[a][b]).abs() < 1e-12);
+            }
+        }
+        let md = robot.driving_unit.mass_kg;
+        let front = held.front.clone().unwrap();
+        let w = front.reaction.force_n[1];
+        let (force, moment) = unit_imbalance(&held, md);
+        for a in 0..3 {
+            proptest::prop_assert!(force[a].abs() < 1e-9 * w && moment[a].abs() < 1e-9 * w * 0.3, "{:?} {:?}", force, moment);
+        }
+        let (force, moment) = balance(&held.body, eq, md, front.centre_m);
+        for a in 0..3 {
+            proptest::prop_assert!((front.reaction.force_n[a] - force[a]).abs() < 1e-12 * w);
+            proptest::prop_assert!((front.reaction.moment_nm[a] - moment[a]).abs() < 1e-9 * w * 0.3);
+        }
+    }
+}
+
+/// With `L2 = L3`, `b = c` and an in-plane front hold, the hanging body is
+/// the planar stance's: the driving unit's pose, and the front cup's
+/// reaction and verdict.
+#[test]
+fn front_hold_equals_the_planar_stance() {
+    let mut robot = Robot::builtin();
+    robot.body.tip_spacing_m = robot.body.base_spacing_m;
+    let solver = Solver::default();
+    for (l1, l23, point, angle) in
+        [(0.25, 0.22, [0.3, 0.2], 90.0), (0.18, 0.20, [0.0, 0.5], 180.0), (0.12, 0.15, [0.1, 0.0], 120.0)]
+    {
+        let pose = Pose::from_deg(point, angle);
+        let planar = leech::stance::solve(&robot, [l1, l23], Hold::Front(pose), &solver).unwrap();
+        let body = Body3::from_robot(&robot, [l1, l23, l23]).unwrap();
+        let hold = Hold3::Front { tip_m: [point[0], point[1], 0.0], plate: rot_z(pose.angle_rad) };
+        let held = body.solve_held(&robot, hold, &solver).unwrap();
+        let root = held.body.tube(0).root();
+        let base = held.body.base_frame();
+        let unit_angle = base[1][0].atan2(base[0][0]);
+        let gap = (root[0] - planar.unit.point_m[0]).hypot(root[1] - planar.unit.point_m[1]);
+        let turn = (unit_angle - planar.unit.angle_rad + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+            - std::f64::consts::PI;
+        assert!(
+            gap < 1e-9 && turn.abs() < 1e-9 && root[2].abs() < 1e-12,
+            "{l1} {l23}: {root:?} {unit_angle} vs {:?}",
+            planar.unit
+        );
+        let cup = held.front.clone().unwrap();
+        let flat = planar.cups(&robot).unwrap().1.unwrap();
+        let w = flat.force_n[1];
+        for a in 0..2 {
+            assert!((cup.centre_m[a] - flat.centre_m[a]).abs() < 1e-12);
+            assert!((cup.reaction.force_n[a] - flat.force_n[a]).abs() < 1e-9 * w, "{cup:?} {flat:?}");
+        }
+        assert!((cup.reaction.moment_nm[2] - flat.moment_nm).abs() < 1e-9 * w, "{cup:?} {flat:?}");
+        let (a, b) = (cup.verdict.safety_factor, flat.verdict.safety_factor);
+        assert!((a - b).abs() < 1e-9 * b, "{a} vs {b}");
+    }
+}
+
+/// The sideways maneuver's swing (paper Fig. 11): on a vertical wall (its
+/// outward normal `+z`) the rear cup lets go with the body lying
+/// horizontally from the front cup; on a free joint about the wall's normal
+/// the body swings down until the centre of mass hangs straight below the
+/// pivot, at rest (no moment about the joint) and stable.
+#[test]
+fn the_body_swings_below_a_free_front_joint() {
+    let robot = Robot::builtin();
+    let solver = Solver::default();
+    // The plate along +x, its y axis (the face's normal) out of the wall.
+    let plate = [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]];
+    let centre = [0.5, 1.0, 0.0];
+    for lengths in [[0.20, 0.20, 0.20], [0.25, 0.22, 0.27]] {
+        let body = Body3::from_robot(&robot, lengths).unwrap();
+        let held = body.solve_held(&robot, Hold3::FrontPivot { centre_m: centre, plate }, &solver).unwrap();
+        let eq = &held.equilibrium;
+        assert!(eq.stable && eq.residual < 1e-10, "{lengths:?}");
+        let cup = held.front.clone().unwrap();
+        assert!(cup.centre_m.iter().zip(centre).all(|(a, b)| (a - b).abs() < 1e-12), "{:?}", cup.centre_m);
+        assert!((cup.normal[2] - 1.0).abs() < 1e-12);
+        let w = cup.reaction.force_n[1];
+        assert!(cup.reaction.moment_nm[2].abs() < 1e-9 * w * lengths[0], "{:?}", cup.reaction);
+        let (mass, first) = held.body.first_moment(&eq.frames, robot.driving_unit.mass_kg);
+        let com = scale(1.0 / mass, first);
+        assert!((com[0] - centre[0]).abs() < 1e-9, "{lengths:?}: centre of mass {com:?}");
+        assert!(com[1] < centre[1] - 0.05, "{lengths:?}: centre of mass {com:?} not below the pivot");
+        // It swung down (counter-clockwise about the wall's normal, the unit
+        // starting on the -x side), and the swing released energy: the
+        // front hold without the joint, where it started, is higher.
+        let turn = held.pivot_turn_rad.unwrap();
+        let tip = axpy(robot.body.tip_spacing_m + robot.cup.front_offset_m, [0.0, 0.0, 1.0], centre);
+        let start = body.solve_held(&robot, Hold3::Front { tip_m: tip, plate }, &solver).unwrap();
+        assert!(
+            turn > 0.0 && eq.energy < start.equilibrium.energy,
+            "{lengths:?}: turned {turn}, {} vs {}",
+            eq.energy,
+            start.equilibrium.energy
+        );
+        let (force, moment) = unit_imbalance(&held, robot.driving_unit.mass_kg);
+        assert!(force.iter().chain(&moment).all(|x| x.abs() < 1e-8 * w), "{force:?} {moment:?}");
+    }
+    let skew = [[1.0, 0.1, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let err = Body3::from_robot(&robot, [0.2; 3])
+        .unwrap()
+        .solve_held(&robot, Hold3::FrontPivot { centre_m: centre, plate: skew }, &solver)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("front pivot plate frame"), "{err}");
+}
