@@ -1,5 +1,5 @@
 //! The tri-tube constant-curvature model of the robot in 3D: kinematics
-//! only, no mass, no stiffness (docs/model3d.md section 8). It stands beside
+//! only, no mass, no stiffness (docs/model3d.md section 9). It stands beside
 //! the 3D body ([`Body3`]) as [`crate::constant_curvature::PlanarBody`]
 //! stands beside the planar one, in the same world conventions.
 //!
@@ -105,7 +105,7 @@
 //! varies along the body. To first order in the bend the two agree: the
 //! plate's rotation vector to the CC model's `theta a` exactly, the
 //! endpoint up to the `paper` scheme's `O(l)` offset (docs/model3d.md
-//! section 8). [`ConstantCurvature3::difference`] measures the rest.
+//! section 9). [`ConstantCurvature3::difference`] measures the rest.
 
 use super::body3::{angle_between, Body3, Frames};
 use super::rotation::{apply, axpy, cross, dot, exp, mul, rot_z, scale, Mat3, Vec3};

@@ -1,5 +1,5 @@
 //! The tri-tube constant-curvature model of the robot (docs/model3d.md
-//! section 8): analytic limits, hand-derived cases, the planar model, the
+//! section 9): analytic limits, hand-derived cases, the planar model, the
 //! general tri-tube form, its inverse, and the 3D body without gravity.
 
 use leech::body3::constant_curvature3::ConstantCurvature3;
@@ -273,14 +273,49 @@ fn the_unloaded_body_with_equal_tubes_is_straight() {
     assert!(d.max_point_m < 1e-12 && d.plate_angle_rad < 1e-12, "{d:?}");
 }
 
+/// Slopes at lengths `l` along `direction` (central differences, step
+/// `h` m): the plate's rotation vector (rad/m) of the solved body and of the
+/// arcs, the endpoint's (m/m) of both, and the `paper` scheme's factor
+/// `1 + sum_j e_j^2 / L1^2` of tube 1.
+struct Slopes {
+    body_turn: Vec3,
+    arc_turn: Vec3,
+    body_end: Vec3,
+    arc_end: Vec3,
+    factor: f64,
+}
+
+fn slopes(robot: &Robot, l: f64, direction: [f64; 3]) -> Slopes {
+    let h = 1e-6;
+    let at = |sign: f64| std::array::from_fn::<f64, 3, _>(|i| l + sign * h * direction[i]);
+    let (plus, minus) = (at(1.0), at(-1.0));
+    let ((bp, fp), (bm, fm)) = (solved(robot, plus), solved(robot, minus));
+    let (cp, cm) = (ConstantCurvature3::new(robot, plus).unwrap(), ConstantCurvature3::new(robot, minus).unwrap());
+    let r0 = cp.base_frame();
+    let slope = |a: Vec3, b: Vec3| -> Vec3 { std::array::from_fn(|k| (a[k] - b[k]) / (2.0 * h)) };
+    let turn = |r: &Mat3| log(&mul(r, &transpose(&r0)));
+    Slopes {
+        body_turn: slope(turn(&bp.plate_frame(&fp)), turn(&bm.plate_frame(&fm))),
+        arc_turn: slope(cp.rotation_vector(), cm.rotation_vector()),
+        body_end: slope(bp.endpoint(&fp), bm.endpoint(&fm)),
+        arc_end: slope(cp.endpoint(), cm.endpoint()),
+        factor: 1.0 + bp.tube(0).lengths().iter().map(|e| e * e).sum::<f64>() / (plus[0] * plus[0]),
+    }
+}
+
+fn largest(v: Vec3) -> f64 {
+    v.iter().map(|x| x.abs()).fold(0.0, f64::max)
+}
+
 /// Without gravity and with `b = c` the body and the arcs agree to first
-/// order in the bend (docs/model3d.md section 8): near equal tubes the
+/// order in the bend (docs/model3d.md section 9): near equal tubes the
 /// plate's rotation vector changes with the lengths exactly as the arcs'
 /// `theta a` (any discretization), and the endpoint as the arcs' with the
 /// lateral part scaled by the `paper` scheme's `1 + sum_j e_j^2 / L1^2`
 /// (its polygon turns at the start of each link). Central differences
-/// with bends of about 1e-4 rad: their error is third order, measured
-/// below 1e-6 relative; the solver's, 1e-12 rad over 1e-6 m, below 1e-6.
+/// with bends of about 1e-4 rad: their error is third order in the bend,
+/// and the solver's (about 1e-12 rad over a step of 1e-6 m) about 1e-6
+/// rad/m; measured 2e-8 to 1.2e-7 of the slopes, allowed 1e-6.
 #[test]
 fn the_unloaded_body_agrees_with_the_arcs_to_first_order() {
     for (element, angle) in [(0.01, 90.0), (0.004, 30.0)] {
@@ -290,30 +325,35 @@ fn the_unloaded_body_agrees_with_the_arcs_to_first_order() {
         robot.limits.tube_length_max_m = 0.3;
         robot.validate().unwrap();
         let l = 0.2437;
-        let h = 1e-6;
         for direction in [[0.0, 1.0, -1.0], [-1.0, 0.5, 0.5], [0.3, -1.0, 0.4]] {
-            let at = |sign: f64| std::array::from_fn::<f64, 3, _>(|i| l + sign * h * direction[i]);
-            let (plus, minus) = (at(1.0), at(-1.0));
-            let (bp, fp) = solved(&robot, plus);
-            let (bm, fm) = solved(&robot, minus);
-            let (cp, cm) = (ConstantCurvature3::new(&robot, plus).unwrap(), ConstantCurvature3::new(&robot, minus).unwrap());
-            let r0 = cp.base_frame();
-            let slope = |a: Vec3, b: Vec3| -> Vec3 { std::array::from_fn(|k| (a[k] - b[k]) / (2.0 * h)) };
-            let turn = |r: &Mat3| log(&mul(r, &transpose(&r0)));
-            let body_turn = slope(turn(&bp.plate_frame(&fp)), turn(&bm.plate_frame(&fm)));
-            let arc_turn = slope(cp.rotation_vector(), cm.rotation_vector());
-            let scale = arc_turn.iter().map(|x| x.abs()).fold(0.0, f64::max);
+            let Slopes { body_turn, arc_turn, body_end, arc_end, factor } = slopes(&robot, l, direction);
+            let scale = largest(arc_turn);
             assert!(distance(body_turn, arc_turn) < 1e-6 * scale, "{direction:?}: {body_turn:?} vs {arc_turn:?}");
-            let links = bp.tube(0).lengths();
-            let factor = 1.0 + links.iter().map(|e| e * e).sum::<f64>() / (plus[0] * plus[0]);
-            let body_end = slope(bp.endpoint(&fp), bm.endpoint(&fm));
-            let arc_end = slope(cp.endpoint(), cm.endpoint());
-            let axis = column(&r0, 0);
+            let axis = column(&rot_z(f64::to_radians(angle)), 0);
             let axial = arc_end[0] * axis[0] + arc_end[1] * axis[1] + arc_end[2] * axis[2];
             let expected: Vec3 = std::array::from_fn(|k| axial * axis[k] + factor * (arc_end[k] - axial * axis[k]));
             assert!(distance(body_end, expected) < 1e-6 * l * scale, "{element} {direction:?}: {body_end:?} vs {expected:?}");
             // Not the arcs' endpoint: the discretization's offset is there.
             assert!(distance(body_end, arc_end) > 0.1 * (factor - 1.0) * l * scale);
         }
+    }
+}
+
+/// With `b != c` (the built-in robot, no gravity) the body's first-order
+/// turn is that of arcs of some radius between `r_t` and `r_b`; the mean
+/// radius the model takes is nearer to it than either end's (each end's
+/// arcs turn `r / r_t` or `r / r_b` times as much as the mean's, since
+/// `theta a` is proportional to `1/r`).
+#[test]
+fn with_unequal_spacings_the_mean_radius_is_the_nearest() {
+    let robot = robot(0.017, 0.012, 0.0, 90.0);
+    let (rb, rt) = (0.017 / 1.5, 0.012 / 1.5);
+    let r = 0.5 * (rb + rt);
+    for direction in [[0.0, 1.0, -1.0], [-1.0, 0.5, 0.5]] {
+        let Slopes { body_turn, arc_turn, .. } = slopes(&robot, 0.2437, direction);
+        let off = |radius: f64| distance(body_turn, arc_turn.map(|x| x * r / radius));
+        println!("{direction:?}: body {body_turn:?}, arcs (mean radius) {arc_turn:?}");
+        assert!(off(r) < off(rt) && off(r) < off(rb), "{direction:?}: {} {} {}", off(r), off(rt), off(rb));
+        assert!(off(r) < 0.05 * largest(arc_turn), "{direction:?}: {}", off(r));
     }
 }
