@@ -101,11 +101,13 @@
 //! The elastic body is not constant-curvature even without gravity: the
 //! weld makes the tubes push and pull on one another along their axes
 //! (tube 1 against tubes 2 and 3), and those forces keep their direction in
-//! the world while the sections turn, so the bending moment they balance
-//! varies along the body. To first order in the bend the two agree: the
-//! plate's rotation vector to the CC model's `theta a` exactly, the
-//! endpoint up to the `paper` scheme's `O(l)` offset (docs/model3d.md
-//! section 9). [`ConstantCurvature3::difference`] measures the rest.
+//! the world while the tubes curve, so each tube's bending moment varies
+//! along it. To first order in the bend (`g = 0`, `b = c`) the two agree:
+//! the plate's rotation vector with the arcs' `theta a` exactly, since
+//! `L_i - L_1 = -theta r d . (u_i - u_1)` is the axial balance of any shape
+//! to first order; the endpoint up to the `paper` scheme's offset, its
+//! lateral part times `1 + sum_j e_j^2 / L1^2` (docs/model3d.md section 9).
+//! [`ConstantCurvature3::difference`] measures the rest.
 
 use super::body3::{angle_between, Body3, Frames};
 use super::rotation::{apply, axpy, cross, dot, exp, mul, rot_z, scale, Mat3, Vec3};
