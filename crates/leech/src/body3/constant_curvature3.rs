@@ -132,7 +132,7 @@ const DIRECTIONS: [Vec3; 3] = [[0.0, 1.0, 0.0], [0.0, -0.5, 0.5 * SQRT_3], [0.0,
 /// let arc = cc.arc();
 /// assert!(arc.plane.abs() < 1e-15 && arc.bend > 0.0);
 /// let [x, y, z] = cc.endpoint();
-/// assert!(x < -robot.body.base_spacing_m / 1.5 && y > 0.15 && z.abs() < 1e-15);
+/// assert!(x < -robot.body.base_spacing_m / 1.5 && y > 0.1 && z.abs() < 1e-15);
 /// ```
 #[derive(Clone, Debug, PartialEq)]
 pub struct ConstantCurvature3 {
