@@ -50,7 +50,8 @@
 //! * [`cantilever`]: a single clamped tube under gravity.
 //! * [`batch`]: many clamped bodies at once (lengths and base angles as arrays), on all cores.
 //! * [`body`]: the two-chain body and its endpoint weld.
-//! * [`body3`]: the three-tube body in 3D (twist, turning) and its static solver.
+//! * [`body3`]: the three-tube body in 3D (twist, turning) and its static solver; the
+//!   robot's tri-tube constant-curvature model in the same conventions.
 //! * [`calibration`]: fitting `k` (and `m`) to measured tubes and bodies; model comparison.
 //! * [`constant_curvature`]: the kinematic constant-curvature model, planar and tri-tube.
 //! * [`cup`]: whether a suction cup holds under a hold's reaction: pull-off, peel, slip.

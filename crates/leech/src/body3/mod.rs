@@ -69,11 +69,14 @@
 //! [`rotation`] (`Exp`, `Log`, `Jr^-1`, the local derivatives of linear and
 //! relative terms), [`tube3`] (one tube's links), [`body3`] (the body, its
 //! Lagrangian's derivatives), [`solve`] (Newton, continuation), [`planar`]
-//! (the comparison with the planar model), [`hold3`] (the rear cup's
-//! reaction and verdict).
+//! (the comparison with the planar model), [`hold3`] (holds: the rear
+//! cup, the front cup, a free front joint; each cup's reaction and
+//! verdict), [`constant_curvature3`] (the tri-tube constant-curvature model
+//! in the same conventions, and its difference from the body).
 
 #[allow(clippy::module_inception)]
 pub mod body3;
+pub mod constant_curvature3;
 pub mod hold3;
 pub mod planar;
 pub mod rotation;
@@ -81,6 +84,7 @@ pub mod solve;
 pub mod tube3;
 
 pub use body3::{Body3, Derivatives, Frames, PLATE_ROWS};
+pub use constant_curvature3::ConstantCurvature3;
 pub use hold3::{verdict3, CupState3, Hanging, Held3, Hold3, Wrench};
 pub use solve::Equilibrium3;
 pub use tube3::Tube3;
