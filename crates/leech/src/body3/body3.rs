@@ -159,6 +159,34 @@ impl Body3 {
         [self.tubes[0].len() - 1, self.tubes[1].len(), self.tubes[2].len()]
     }
 
+    /// The structure of the KKT matrix: the chains, and the border of the
+    /// plate's 3 coordinates and the 12 rows (`BORDER`, 3 primal) with where
+    /// each border row reaches each chain. Tube 1 carries both position
+    /// blocks, tube 2 and tube 3 their own, on every link; the plate's
+    /// coordinates reach each chain's last block only (tube 1's last joint,
+    /// the weld's rotation rows) and so do a side tube's rotation rows.
+    pub(crate) fn pattern(&self) -> crate::linalg::Pattern {
+        let chains = self.chain_blocks();
+        let mut pattern = crate::linalg::Pattern::new(3, &chains, BORDER, 3);
+        for (c, len) in chains.into_iter().enumerate() {
+            let last = len.saturating_sub(1);
+            for row in 0..BORDER {
+                // Border row 3 + 6 side + r is the plate's row 6 side + r.
+                let (side, rotation) = ((row as isize - 3).div_euclid(6), (row as isize - 3).rem_euclid(6) >= 3);
+                let first = match (c, side, rotation) {
+                    (_, -1, _) => last,
+                    (0, _, false) => 0,
+                    (0, _, true) => len,
+                    (_, s, false) if s + 1 == c as isize => 0,
+                    (_, s, true) if s + 1 == c as isize => last,
+                    _ => len,
+                };
+                pattern.set_border_start(c, row, first);
+            }
+        }
+        pattern
+    }
+
     /// Every link along the driving unit's direction.
     pub fn straight(&self) -> Frames {
         Frames(vec![self.base; self.links()])

@@ -26,7 +26,7 @@
 
 use super::body3::{distance, retract, Body3, Eval3, Frames, Param, BORDER, PLATE_ROWS};
 use super::rotation::{apply, axpy, cross};
-use crate::linalg::{BorderedLdl, Pattern};
+use crate::linalg::BorderedLdl;
 use crate::statics::{BranchRule, Equilibrium, Event, Side, SolveError, Solver, Stage, StopReason};
 
 /// Unstable landings left in one settle before it gives up.
@@ -117,7 +117,7 @@ impl Work {
         Work {
             ev: Eval3::new(body),
             trial: Eval3::new(body),
-            ldl: BorderedLdl::new(&Pattern::new(3, &body.chain_blocks(), BORDER, 3)),
+            ldl: BorderedLdl::new(&body.pattern()),
             border: vec![0.0; chain * BORDER],
             corner: vec![0.0; BORDER * BORDER],
             residual: vec![0.0; 3 * n],
