@@ -73,9 +73,22 @@ fn diagonal_pivots(d: &Matrix3<f64>, tiny: f64) -> Option<(Matrix3<f64>, Inertia
     if !accepted(d3, 0.0) {
         return None;
     }
-    // A^-1 = L^-T D^-1 L^-1, with L^-1 of the unit lower triangular L in closed form.
-    let l_inv = Matrix3::new(1.0, 0.0, 0.0, -l21, 1.0, 0.0, l21 * l32 - l31, -l32, 1.0);
-    let inverse = l_inv.transpose() * Matrix3::from_diagonal(&Vector3::new(1.0 / a11, 1.0 / d2, 1.0 / d3)) * l_inv;
+    // A^-1 = L^-T D^-1 L^-1 entry by entry, with the unit lower triangular
+    // L^-1 = [1 0 0; x 1 0; y z 1] in closed form.
+    let (x, y, z) = (-l21, l21 * l32 - l31, -l32);
+    let (p1, p2, p3) = (1.0 / a11, 1.0 / d2, 1.0 / d3);
+    let (i21, i31, i32) = (x * p2 + y * z * p3, y * p3, z * p3);
+    let inverse = Matrix3::new(
+        p1 + x * x * p2 + y * y * p3,
+        i21,
+        i31,
+        i21,
+        p2 + z * z * p3,
+        i32,
+        i31,
+        i32,
+        p3,
+    );
     let negative = [a11, d2, d3].iter().filter(|p| **p < 0.0).count();
     Some((inverse, InertiaCount { positive: 3 - negative, negative, zero: 0 }))
 }
