@@ -17,7 +17,8 @@
 //! couple the plate with the side tubes' last links).
 
 use super::rotation::{
-    add_scaled, apply, axpy, cross, linear_terms, mul_tn, pair_terms, rot_z, scale, transpose, Mat3, Vec3,
+    add_scaled, apply, axpy, cross, linear_terms, mul_tn, pair_terms, rot_z, scale, tangent_hessian, transpose, Mat3,
+    Vec3,
 };
 use super::tube3::Tube3;
 use crate::chain::{Chain, Discretization};
@@ -355,23 +356,27 @@ impl Body3 {
                 let r = &f[u];
                 self.add_joint(tube.stiffness(j), &prev, prev_index, r, u, ev);
                 let lever = g * s * tube.levers()[j];
-                if lever != 0.0 {
-                    ev.energy += lever * r[1][0];
-                    let (grad, hess) = linear_terms(r, [0.0, lever, 0.0], [1.0, 0.0, 0.0]);
-                    ev.add_gradient(u, grad, 1.0);
-                    ev.add_hessian(u, u, &hess);
-                }
                 let d = s * tube.lengths()[j];
                 tips[i] = axpy(d, [r[0][0], r[1][0], r[2][0]], tips[i]);
-                // Tube 1 enters both position blocks with -1, tube i + 1 its own with +1.
+                // The link's linear terms all lie along its tangent e_x, so
+                // they share one Hessian: its height under gravity, and its
+                // share `sign d R e_x` of the position rows (tube 1 enters
+                // both blocks with -1, tube i + 1 its own with +1), whose
+                // `-lambda . C` is the linear term of `w = -sign d lambda`.
+                let mut w = [0.0, lever, 0.0];
                 for side in 0..2 {
                     let sign = match i {
                         0 => -1.0,
                         _ if i == side + 1 => 1.0,
                         _ => continue,
                     };
-                    self.add_position_term(r, u, scale(sign * d, [1.0, 0.0, 0.0]), side, positions[side], ev);
+                    ev.add_position_jacobian(r, u, scale(sign * d, [1.0, 0.0, 0.0]), side);
+                    w = axpy(-sign * d, positions[side], w);
                 }
+                ev.energy += lever * r[1][0];
+                // d(lever (R e_x)_y) = e_x x R^T (lever e_y).
+                ev.add_gradient(u, [0.0, -lever * r[1][2], lever * r[1][1]], 1.0);
+                ev.add_hessian(u, u, &tangent_hessian(r, w));
                 (prev, prev_index) = (*r, Some(u));
             }
         }
@@ -387,10 +392,12 @@ impl Body3 {
             let rows = 6 * side + 3;
             let b = self.index(side + 1, self.tubes[side + 1].len() - 1);
             let mult = [-lambda[rows], -lambda[rows + 1], -lambda[rows + 2]];
-            let terms = pair_terms(&mul_tn(&plate, &f[b]), |_| mult, &[[0.0; 3]; 3]);
+            let m = mul_tn(&plate, &f[b]);
+            let terms = pair_terms(&m, |_| mult, [0.0; 3]);
             ev.constraints[rows..rows + 3].copy_from_slice(&terms.theta);
+            let jacobian_a = terms.jacobian_a(&m);
             for c in 0..3 {
-                ev.set_jacobian(p, rows + c, terms.jacobian_a[c]);
+                ev.set_jacobian(p, rows + c, jacobian_a[c]);
                 ev.set_jacobian(b, rows + c, terms.jacobian_b[c]);
             }
             ev.add_hessian(p, p, &terms.h_aa);
@@ -402,8 +409,7 @@ impl Body3 {
     /// A joint between `prev` (the driving unit, or frame `prev_index`) and
     /// frame `r` at index `u`: energy, gradient, Hessian.
     fn add_joint(&self, k: Vec3, prev: &Mat3, prev_index: Option<usize>, r: &Mat3, u: usize, ev: &mut Eval3) {
-        let stiffness = [[k[0], 0.0, 0.0], [0.0, k[1], 0.0], [0.0, 0.0, k[2]]];
-        let terms = pair_terms(&mul_tn(prev, r), |th| [k[0] * th[0], k[1] * th[1], k[2] * th[2]], &stiffness);
+        let terms = pair_terms(&mul_tn(prev, r), |th| [k[0] * th[0], k[1] * th[1], k[2] * th[2]], k);
         let th = terms.theta;
         ev.energy += 0.5 * (k[0] * th[0] * th[0] + k[1] * th[1] * th[1] + k[2] * th[2] * th[2]);
         ev.add_gradient(u, terms.grad_b, 1.0);
@@ -419,9 +425,7 @@ impl Body3 {
     /// `u` (`side` 0: tube 2's rows, 1: tube 3's): Jacobian and the
     /// Lagrangian's `-lambda . hess`.
     fn add_position_term(&self, r: &Mat3, u: usize, a: Vec3, side: usize, lambda: Vec3, ev: &mut Eval3) {
-        for c in 0..3 {
-            ev.add_jacobian(u, 6 * side + c, cross(a, r[c]));
-        }
+        ev.add_position_jacobian(r, u, a, side);
         let (_, hess) = linear_terms(r, lambda, a);
         ev.add_hessian(u, u, &add_scaled(-1.0, &hess, &[[0.0; 3]; 3]));
     }
@@ -495,6 +499,15 @@ impl Eval3 {
     fn add_gradient(&mut self, u: usize, g: Vec3, s: f64) {
         for (x, y) in self.gradient[3 * u..3 * u + 3].iter_mut().zip(g) {
             *x += s * y;
+        }
+    }
+
+    /// The Jacobian of a position row block's term `R Exp(delta) a` of frame
+    /// `r` at index `u` (`side` 0: tube 2's rows, 1: tube 3's): row `c` is
+    /// `a x (R^T e_c)`.
+    fn add_position_jacobian(&mut self, r: &Mat3, u: usize, a: Vec3, side: usize) {
+        for c in 0..3 {
+            self.add_jacobian(u, 6 * side + c, cross(a, r[c]));
         }
     }
 

@@ -217,7 +217,11 @@ fn jr_inv_coefficients(t2: f64) -> (f64, f64) {
 /// `Jr^-1(theta)`, the inverse right Jacobian: `Log(Exp(theta) Exp(eps)) =
 /// theta + Jr^-1(theta) eps + O(eps^2)`.
 pub fn jr_inv(theta: Vec3) -> Mat3 {
-    let (c, _) = jr_inv_coefficients(dot(theta, theta));
+    jr_inv_with(theta, jr_inv_coefficients(dot(theta, theta)).0)
+}
+
+/// `Jr^-1(theta)` given its coefficient `c(|theta|)`.
+fn jr_inv_with(theta: Vec3, c: f64) -> Mat3 {
     let h = hat(theta);
     add_scaled(c, &mul(&h, &h), &add_scaled(0.5, &h, &IDENTITY))
 }
@@ -227,10 +231,9 @@ pub fn jr_inv(theta: Vec3) -> Mat3 {
 pub struct PairTerms {
     /// `theta = Log(R_a^T R_b)` (rad).
     pub theta: Vec3,
-    /// `d theta / d delta_b = Jr^-1(theta)`; `d theta / d delta_a = -Jr^-1(theta) M^T`.
+    /// `d theta / d delta_b = Jr^-1(theta)`; `d theta / d delta_a = -Jr^-1(theta) M^T`
+    /// ([`PairTerms::jacobian_a`]).
     pub jacobian_b: Mat3,
-    /// `d theta / d delta_a`.
-    pub jacobian_a: Mat3,
     /// `dF/ddelta_a`.
     pub grad_a: Vec3,
     /// `dF/ddelta_b`.
@@ -243,11 +246,12 @@ pub struct PairTerms {
     pub h_bb: Mat3,
 }
 
-/// `Log(M)` and its Jacobians for `M = R_a^T R_b`, without a function of it.
-pub fn relative(m: &Mat3) -> (Vec3, Mat3, Mat3) {
-    let theta = log(m);
-    let p = jr_inv(theta);
-    (theta, p, scale_mat(-1.0, &mul(&p, &transpose(m))))
+impl PairTerms {
+    /// `d theta / d delta_a = -Jr^-1(theta) M^T` for the `M` the terms were
+    /// made from (only the weld's rows need it, so it is not formed for joints).
+    pub fn jacobian_a(&self, m: &Mat3) -> Mat3 {
+        scale_mat(-1.0, &mul(&self.jacobian_b, &transpose(m)))
+    }
 }
 
 fn scale_mat(s: f64, a: &Mat3) -> Mat3 {
@@ -255,12 +259,13 @@ fn scale_mat(s: f64, a: &Mat3) -> Mat3 {
 }
 
 /// The derivatives of `F(theta)`, `theta = Log(M)`, `M = R_a^T R_b`, given
-/// `w = dF/dtheta` (a function of `theta`: pass a closure) and the constant
-/// `H_theta = d2F/dtheta2` (module doc).
-pub fn pair_terms(m: &Mat3, gradient: impl Fn(Vec3) -> Vec3, h_theta: &Mat3) -> PairTerms {
-    let (theta, p, jacobian_a) = relative(m);
-    let w = gradient(theta);
+/// `w = dF/dtheta` (a function of `theta`: pass a closure) and the constant,
+/// diagonal `H_theta = d2F/dtheta2 = diag(h_theta)` (module doc).
+pub fn pair_terms(m: &Mat3, gradient: impl Fn(Vec3) -> Vec3, h_theta: Vec3) -> PairTerms {
+    let theta = log(m);
     let (c, dc_over_t) = jr_inv_coefficients(dot(theta, theta));
+    let p = jr_inv_with(theta, c);
+    let w = gradient(theta);
     // D = d(P^T w)/dtheta, P^T w = w - theta x w / 2 + c theta x (theta x w).
     let tw = dot(theta, w);
     let ttw = cross(theta, cross(theta, w));
@@ -269,12 +274,18 @@ pub fn pair_terms(m: &Mat3, gradient: impl Fn(Vec3) -> Vec3, h_theta: &Mat3) -> 
     let bracket = add_scaled(-2.0, &outer(w, theta), &add_scaled(1.0, &outer(theta, w), &scale_mat(tw, &IDENTITY)));
     d = add_scaled(c, &bracket, &d);
     let g = apply_t(&p, w);
-    let h_e = add_scaled(1.0, &mul_tn(&p, &mul(h_theta, &p)), &symmetric_part(&mul(&d, &p)));
+    // H_e = P^T diag(h_theta) P + sym(D P), entry by entry.
+    let dp = mul(&d, &p);
+    let h_e: Mat3 = std::array::from_fn(|r| {
+        std::array::from_fn(|c| {
+            let pkp = h_theta[0] * p[0][r] * p[0][c] + h_theta[1] * p[1][r] * p[1][c] + h_theta[2] * p[2][r] * p[2][c];
+            pkp + 0.5 * (dp[r][c] + dp[c][r])
+        })
+    });
     let mh = mul(m, &h_e);
     PairTerms {
         theta,
         jacobian_b: p,
-        jacobian_a,
         grad_a: scale(-1.0, apply(m, g)),
         grad_b: g,
         h_aa: mul(&mh, &transpose(m)),
@@ -289,6 +300,19 @@ pub fn linear_terms(r: &Mat3, w: Vec3, a: Vec3) -> (Vec3, Mat3) {
     let wl = apply_t(r, w);
     let sym = add_scaled(0.5, &outer(wl, a), &scale_mat(0.5, &outer(a, wl)));
     (cross(a, wl), add_scaled(-dot(wl, a), &IDENTITY, &sym))
+}
+
+/// The Hessian of [`linear_terms`] for `a = e_x` (a link's tangent: its
+/// height, its share of a tip position), written out: with `w' = R^T w`,
+///
+/// ```text
+/// [ 0       w'_y/2   w'_z/2 ]
+/// [ w'_y/2  -w'_x    0      ]
+/// [ w'_z/2  0        -w'_x  ]
+/// ```
+pub fn tangent_hessian(r: &Mat3, w: Vec3) -> Mat3 {
+    let wl = apply_t(r, w);
+    [[0.0, 0.5 * wl[1], 0.5 * wl[2]], [0.5 * wl[1], -wl[0], 0.0], [0.5 * wl[2], 0.0, -wl[0]]]
 }
 
 #[cfg(test)]
@@ -324,6 +348,12 @@ mod tests {
     fn coefficients_join_continuously_at_the_series_switch() {
         let (below, above) = (jr_inv_coefficients(0.3f64.powi(2) * (1.0 - 1e-12)), jr_inv_coefficients(0.09));
         assert!((below.0 - above.0).abs() < 1e-13 && (below.1 - above.1).abs() < 1e-11, "{below:?} {above:?}");
+    }
+
+    #[test]
+    fn tangent_hessian_is_the_linear_terms_along_x() {
+        let (r, w) = (exp([0.3, -1.1, 0.7]), [0.4, -2.0, 1.3]);
+        assert!(close(&tangent_hessian(&r, w), &linear_terms(&r, w, [1.0, 0.0, 0.0]).1, 1e-15));
     }
 
     #[test]
