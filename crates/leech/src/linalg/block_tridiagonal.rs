@@ -63,32 +63,26 @@ fn diagonal_pivots(d: &Matrix3<f64>, tiny: f64) -> Option<(Matrix3<f64>, Inertia
     if !accepted(a11, a21.abs().max(a31.abs())) {
         return None;
     }
-    let (l21, l31) = (a21 / a11, a31 / a11);
+    // Reciprocals once: they are D^-1, and products replace the divisions
+    // on the recurrence's critical path.
+    let p1 = 1.0 / a11;
+    let (l21, l31) = (a21 * p1, a31 * p1);
     let (d2, b32) = (a22 - l21 * a21, a32 - l31 * a21);
     if !accepted(d2, b32.abs()) {
         return None;
     }
-    let l32 = b32 / d2;
+    let p2 = 1.0 / d2;
+    let l32 = b32 * p2;
     let d3 = a33 - l31 * a31 - l32 * b32;
     if !accepted(d3, 0.0) {
         return None;
     }
+    let p3 = 1.0 / d3;
     // A^-1 = L^-T D^-1 L^-1 entry by entry, with the unit lower triangular
     // L^-1 = [1 0 0; x 1 0; y z 1] in closed form.
     let (x, y, z) = (-l21, l21 * l32 - l31, -l32);
-    let (p1, p2, p3) = (1.0 / a11, 1.0 / d2, 1.0 / d3);
     let (i21, i31, i32) = (x * p2 + y * z * p3, y * p3, z * p3);
-    let inverse = Matrix3::new(
-        p1 + x * x * p2 + y * y * p3,
-        i21,
-        i31,
-        i21,
-        p2 + z * z * p3,
-        i32,
-        i31,
-        i32,
-        p3,
-    );
+    let inverse = Matrix3::new(p1 + x * x * p2 + y * y * p3, i21, i31, i21, p2 + z * z * p3, i32, i31, i32, p3);
     let negative = [a11, d2, d3].iter().filter(|p| **p < 0.0).count();
     Some((inverse, InertiaCount { positive: 3 - negative, negative, zero: 0 }))
 }
@@ -141,8 +135,11 @@ impl Profile {
     /// Scratch for chains of 3 x 3 blocks bordered by up to `capacity` rows.
     pub fn new(chains: usize, capacity: usize) -> Profile {
         let stride = padded(capacity);
-        let layout =
-            Layout { rows: vec![0; chains * MAX_BORDER], starts: vec![0; chains * MAX_BORDER], counts: vec![0; chains] };
+        let layout = Layout {
+            rows: vec![0; chains * MAX_BORDER],
+            starts: vec![0; chains * MAX_BORDER],
+            counts: vec![0; chains],
+        };
         Profile { layout, local: vec![0.0; stride * stride], stride }
     }
 }

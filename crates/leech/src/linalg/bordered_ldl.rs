@@ -86,7 +86,10 @@ impl BorderedLdl {
                 multipliers: vec![0.0; (blocks + 1) * b * b],
                 w: vec![0.0; blocks * b * k],
             },
-            profile: block_tridiagonal::Profile::new(if b == 3 { pattern.chains() } else { 0 }, if b == 3 { k } else { 0 }),
+            profile: block_tridiagonal::Profile::new(
+                if b == 3 { pattern.chains() } else { 0 },
+                if b == 3 { k } else { 0 },
+            ),
             schur: vec![0.0; k * k],
             schur_pivots: vec![Pivot::default(); k],
             schur_scale: vec![1.0; k],
