@@ -179,11 +179,13 @@ pub fn log(r: &Mat3) -> Vec3 {
         }
     }
     let s = 2.0 * (1.0 + best).max(0.0).sqrt();
+    // One division: the others become products.
+    let (half, inv) = (0.25 * s, 1.0 / s);
     let q = match big {
-        0 => [0.25 * s, (r[2][1] - r[1][2]) / s, (r[0][2] - r[2][0]) / s, (r[1][0] - r[0][1]) / s],
-        1 => [(r[2][1] - r[1][2]) / s, 0.25 * s, (r[0][1] + r[1][0]) / s, (r[0][2] + r[2][0]) / s],
-        2 => [(r[0][2] - r[2][0]) / s, (r[0][1] + r[1][0]) / s, 0.25 * s, (r[1][2] + r[2][1]) / s],
-        _ => [(r[1][0] - r[0][1]) / s, (r[0][2] + r[2][0]) / s, (r[1][2] + r[2][1]) / s, 0.25 * s],
+        0 => [half, (r[2][1] - r[1][2]) * inv, (r[0][2] - r[2][0]) * inv, (r[1][0] - r[0][1]) * inv],
+        1 => [(r[2][1] - r[1][2]) * inv, half, (r[0][1] + r[1][0]) * inv, (r[0][2] + r[2][0]) * inv],
+        2 => [(r[0][2] - r[2][0]) * inv, (r[0][1] + r[1][0]) * inv, half, (r[1][2] + r[2][1]) * inv],
+        _ => [(r[1][0] - r[0][1]) * inv, (r[0][2] + r[2][0]) * inv, (r[1][2] + r[2][1]) * inv, half],
     };
     // The same rotation with w >= 0: angle = 2 atan2(|v|, w) in [0, pi].
     let sign = if q[0] < 0.0 { -1.0 } else { 1.0 };
@@ -192,10 +194,23 @@ pub fn log(r: &Mat3) -> Vec3 {
     if norm < 1e-300 {
         return [0.0; 3];
     }
-    // angle / |v|, with its series where atan2 would divide two small numbers.
-    let factor =
-        if norm < 1e-6 * w { 2.0 / w * (1.0 - norm * norm / (3.0 * w * w)) } else { 2.0 * norm.atan2(w) / norm };
-    scale(factor, v)
+    scale(angle_over_sine(norm, w), v)
+}
+
+/// `2 atan2(n, w) / n` (the rotation angle over `|v|` of a unit quaternion
+/// `(w, v)`, `n = |v|`, `w >= 0`). Below 0.25 rad (`x = n / w < 1/8`) by the
+/// series `(2 / w) atan(x) / x = (2 / w) sum_i (-x^2)^i / (2 i + 1)`, ten
+/// terms (truncation below 1e-17 relative): the joints' angles are mostly
+/// there, and the series costs a few products where `atan2` costs tens.
+fn angle_over_sine(n: f64, w: f64) -> f64 {
+    if n < 0.125 * w {
+        let inv_w = 1.0 / w;
+        let x2 = n * inv_w * (n * inv_w);
+        let series = (0..10).rev().fold(0.0, |acc, i| 1.0 / (2 * i + 1) as f64 - x2 * acc);
+        2.0 * inv_w * series
+    } else {
+        2.0 * n.atan2(w) / n
+    }
 }
 
 /// `c(t)` and `c'(t)/t` of `Jr^-1` (module doc), from `t^2`.
@@ -260,12 +275,27 @@ fn scale_mat(s: f64, a: &Mat3) -> Mat3 {
 
 /// The derivatives of `F(theta)`, `theta = Log(M)`, `M = R_a^T R_b`, given
 /// `w = dF/dtheta` (a function of `theta`: pass a closure) and the constant,
-/// diagonal `H_theta = d2F/dtheta2 = diag(h_theta)` (module doc).
-pub fn pair_terms(m: &Mat3, gradient: impl Fn(Vec3) -> Vec3, h_theta: Vec3) -> PairTerms {
+/// diagonal `H_theta = d2F/dtheta2 = diag(h_theta)` (module doc). Without
+/// `hessian` the second derivatives are left zero (and not computed).
+#[inline(always)]
+pub fn pair_terms(m: &Mat3, gradient: impl Fn(Vec3) -> Vec3, h_theta: Vec3, hessian: bool) -> PairTerms {
     let theta = log(m);
     let (c, dc_over_t) = jr_inv_coefficients(dot(theta, theta));
     let p = jr_inv_with(theta, c);
     let w = gradient(theta);
+    let g = apply_t(&p, w);
+    let mut terms = PairTerms {
+        theta,
+        jacobian_b: p,
+        grad_a: scale(-1.0, apply(m, g)),
+        grad_b: g,
+        h_aa: [[0.0; 3]; 3],
+        h_ab: [[0.0; 3]; 3],
+        h_bb: [[0.0; 3]; 3],
+    };
+    if !hessian {
+        return terms;
+    }
     // D = d(P^T w)/dtheta, P^T w = w - theta x w / 2 + c theta x (theta x w).
     let tw = dot(theta, w);
     let ttw = cross(theta, cross(theta, w));
@@ -273,7 +303,6 @@ pub fn pair_terms(m: &Mat3, gradient: impl Fn(Vec3) -> Vec3, h_theta: Vec3) -> P
     d = add_scaled(dc_over_t, &outer(ttw, theta), &d);
     let bracket = add_scaled(-2.0, &outer(w, theta), &add_scaled(1.0, &outer(theta, w), &scale_mat(tw, &IDENTITY)));
     d = add_scaled(c, &bracket, &d);
-    let g = apply_t(&p, w);
     // H_e = P^T diag(h_theta) P + sym(D P), entry by entry.
     let dp = mul(&d, &p);
     let h_e: Mat3 = std::array::from_fn(|r| {
@@ -283,15 +312,10 @@ pub fn pair_terms(m: &Mat3, gradient: impl Fn(Vec3) -> Vec3, h_theta: Vec3) -> P
         })
     });
     let mh = mul(m, &h_e);
-    PairTerms {
-        theta,
-        jacobian_b: p,
-        grad_a: scale(-1.0, apply(m, g)),
-        grad_b: g,
-        h_aa: mul(&mh, &transpose(m)),
-        h_ab: add_scaled(0.5, &mul(m, &hat(g)), &scale_mat(-1.0, &mh)),
-        h_bb: h_e,
-    }
+    terms.h_aa = mul(&mh, &transpose(m));
+    terms.h_ab = add_scaled(0.5, &mul(m, &hat(g)), &scale_mat(-1.0, &mh));
+    terms.h_bb = h_e;
+    terms
 }
 
 /// The local gradient and Hessian of a linear term `w . (R Exp(delta) a)`
@@ -335,6 +359,15 @@ mod tests {
         ] {
             let back = log(&exp(v));
             assert!((0..3).all(|i| (back[i] - v[i]).abs() < 1e-12), "{v:?} -> {back:?}");
+        }
+    }
+
+    #[test]
+    fn angle_series_joins_atan2() {
+        for angle in [1e-9, 1e-3, 0.1, 0.2499, 0.2501, 1.0] {
+            let (n, w) = ((0.5f64 * angle).sin(), (0.5f64 * angle).cos());
+            let exact = 2.0 * n.atan2(w) / n;
+            assert!((angle_over_sine(n, w) - exact).abs() <= 4.0 * f64::EPSILON * exact, "{angle}");
         }
     }
 
