@@ -342,6 +342,22 @@ impl Body3 {
     /// `param` (module doc): energy, gradient, constraints, Jacobian and the
     /// Lagrangian Hessian `hess V - sum_r lambda_r hess C_r` into `ev`.
     pub(crate) fn evaluate(&self, frames: &Frames, lambda: &[f64; PLATE_ROWS], param: Param, ev: &mut Eval3) {
+        self.evaluate_with::<true>(frames, lambda, param, ev);
+    }
+
+    /// [`Body3::evaluate`] without the Hessian (left zero): what a residual
+    /// needs, at about half the cost.
+    pub(crate) fn evaluate_residual(&self, frames: &Frames, lambda: &[f64; PLATE_ROWS], param: Param, ev: &mut Eval3) {
+        self.evaluate_with::<false>(frames, lambda, param, ev);
+    }
+
+    fn evaluate_with<const HESSIAN: bool>(
+        &self,
+        frames: &Frames,
+        lambda: &[f64; PLATE_ROWS],
+        param: Param,
+        ev: &mut Eval3,
+    ) {
         ev.clear();
         let f = &frames.0;
         let g = param.load * self.gravity;
@@ -354,7 +370,7 @@ impl Body3 {
             for j in 0..tube.len() {
                 let u = self.index(i, j);
                 let r = &f[u];
-                self.add_joint(tube.stiffness(j), &prev, prev_index, r, u, ev);
+                self.add_joint::<HESSIAN>(tube.stiffness(j), &prev, prev_index, r, u, ev);
                 let lever = g * s * tube.levers()[j];
                 let d = s * tube.lengths()[j];
                 tips[i] = axpy(d, [r[0][0], r[1][0], r[2][0]], tips[i]);
@@ -376,7 +392,9 @@ impl Body3 {
                 ev.energy += lever * r[1][0];
                 // d(lever (R e_x)_y) = e_x x R^T (lever e_y).
                 ev.add_gradient(u, [0.0, -lever * r[1][2], lever * r[1][1]], 1.0);
-                ev.add_hessian(u, u, &tangent_hessian(r, w));
+                if HESSIAN {
+                    ev.add_hessian(u, u, &tangent_hessian(r, w));
+                }
                 (prev, prev_index) = (*r, Some(u));
             }
         }
@@ -384,7 +402,11 @@ impl Body3 {
         let plate = f[p];
         for side in 0..2 {
             let offset = axpy(-1.0, self.plate[0], self.plate[side + 1]);
-            self.add_position_term(&plate, p, scale(-1.0, offset), side, positions[side], ev);
+            let a = scale(-1.0, offset);
+            ev.add_position_jacobian(&plate, p, a, side);
+            if HESSIAN {
+                ev.add_hessian(p, p, &linear_terms(&plate, scale(-1.0, positions[side]), a).1);
+            }
             let gap = axpy(-1.0, axpy(1.0, tips[0], apply(&plate, offset)), tips[side + 1]);
             let roots = axpy(-1.0, self.tubes[0].root(), self.tubes[side + 1].root());
             ev.constraints[6 * side..6 * side + 3].copy_from_slice(&axpy(1.0, roots, gap));
@@ -393,41 +415,46 @@ impl Body3 {
             let b = self.index(side + 1, self.tubes[side + 1].len() - 1);
             let mult = [-lambda[rows], -lambda[rows + 1], -lambda[rows + 2]];
             let m = mul_tn(&plate, &f[b]);
-            let terms = pair_terms(&m, |_| mult, [0.0; 3]);
+            let terms = pair_terms(&m, |_| mult, [0.0; 3], HESSIAN);
             ev.constraints[rows..rows + 3].copy_from_slice(&terms.theta);
             let jacobian_a = terms.jacobian_a(&m);
             for c in 0..3 {
                 ev.set_jacobian(p, rows + c, jacobian_a[c]);
                 ev.set_jacobian(b, rows + c, terms.jacobian_b[c]);
             }
-            ev.add_hessian(p, p, &terms.h_aa);
-            ev.add_hessian(b, b, &terms.h_bb);
-            ev.add_hessian(p, b, &terms.h_ab);
+            if HESSIAN {
+                ev.add_hessian(p, p, &terms.h_aa);
+                ev.add_hessian(b, b, &terms.h_bb);
+                ev.add_hessian(p, b, &terms.h_ab);
+            }
         }
     }
 
     /// A joint between `prev` (the driving unit, or frame `prev_index`) and
     /// frame `r` at index `u`: energy, gradient, Hessian.
-    fn add_joint(&self, k: Vec3, prev: &Mat3, prev_index: Option<usize>, r: &Mat3, u: usize, ev: &mut Eval3) {
-        let terms = pair_terms(&mul_tn(prev, r), |th| [k[0] * th[0], k[1] * th[1], k[2] * th[2]], k);
+    fn add_joint<const HESSIAN: bool>(
+        &self,
+        k: Vec3,
+        prev: &Mat3,
+        prev_index: Option<usize>,
+        r: &Mat3,
+        u: usize,
+        ev: &mut Eval3,
+    ) {
+        let terms = pair_terms(&mul_tn(prev, r), |th| [k[0] * th[0], k[1] * th[1], k[2] * th[2]], k, HESSIAN);
         let th = terms.theta;
         ev.energy += 0.5 * (k[0] * th[0] * th[0] + k[1] * th[1] * th[1] + k[2] * th[2] * th[2]);
         ev.add_gradient(u, terms.grad_b, 1.0);
-        ev.add_hessian(u, u, &terms.h_bb);
+        if HESSIAN {
+            ev.add_hessian(u, u, &terms.h_bb);
+        }
         if let Some(a) = prev_index {
             ev.add_gradient(a, terms.grad_a, 1.0);
-            ev.add_hessian(a, a, &terms.h_aa);
-            ev.add_hessian(a, u, &terms.h_ab);
+            if HESSIAN {
+                ev.add_hessian(a, a, &terms.h_aa);
+                ev.add_hessian(a, u, &terms.h_ab);
+            }
         }
-    }
-
-    /// A position row block's term `R Exp(delta) a` of frame `r` at index
-    /// `u` (`side` 0: tube 2's rows, 1: tube 3's): Jacobian and the
-    /// Lagrangian's `-lambda . hess`.
-    fn add_position_term(&self, r: &Mat3, u: usize, a: Vec3, side: usize, lambda: Vec3, ev: &mut Eval3) {
-        ev.add_position_jacobian(r, u, a, side);
-        let (_, hess) = linear_terms(r, lambda, a);
-        ev.add_hessian(u, u, &add_scaled(-1.0, &hess, &[[0.0; 3]; 3]));
     }
 }
 

@@ -510,7 +510,7 @@ impl Body3 {
         let mut dr = std::mem::take(&mut work.path_residual);
         dr.fill(0.0);
         for (sign, at) in [(1.0, tau + H), (-1.0, tau - H)] {
-            self.evaluate(&state.frames, &state.lambda, path(at), &mut work.trial);
+            self.evaluate_residual(&state.frames, &state.lambda, path(at), &mut work.trial);
             work.trial.stationarity(&state.lambda, &mut work.residual_trial);
             for (d, r) in dr.iter_mut().zip(&work.residual_trial) {
                 *d += sign * r / (2.0 * H);
@@ -608,7 +608,9 @@ impl Body3 {
 /// The error for a Newton run that stopped for `reason`.
 fn fail(solver: &Solver, stage: Stage, state: &State, residual: f64, reason: StopReason) -> SolveError {
     match solver.options.deadline.check() {
-        Some(halt) if reason == StopReason::TimeLimit => SolveError::Stopped { halt, iterations: state.iterations, residual },
+        Some(halt) if reason == StopReason::TimeLimit => {
+            SolveError::Stopped { halt, iterations: state.iterations, residual }
+        }
         _ => SolveError::NotConverged { stage, iterations: state.iterations, residual, reason },
     }
 }
