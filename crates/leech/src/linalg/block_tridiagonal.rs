@@ -132,15 +132,27 @@ fn padded(m: usize) -> usize {
 }
 
 impl Profile {
-    /// Scratch for chains of 3 x 3 blocks bordered by up to `capacity` rows.
-    pub fn new(chains: usize, capacity: usize) -> Profile {
+    /// The layout of `pattern` (chains of 3 x 3 blocks) and scratch for up to
+    /// `capacity` border rows; empty for scalar blocks, which do not use it.
+    pub fn new(pattern: &Pattern, capacity: usize) -> Profile {
+        let (chains, capacity) = if pattern.block_size() == 3 { (pattern.chains(), capacity) } else { (0, 0) };
         let stride = padded(capacity);
         let layout = Layout {
             rows: vec![0; chains * MAX_BORDER],
             starts: vec![0; chains * MAX_BORDER],
             counts: vec![0; chains],
         };
-        Profile { layout, local: vec![0.0; stride * stride], stride }
+        let mut profile = Profile { layout, local: vec![0.0; stride * stride], stride };
+        profile.update(pattern);
+        profile
+    }
+
+    /// Reads the pattern's border starts again, for its current number of
+    /// border rows (after [`Pattern::set_border_rows`]).
+    pub fn update(&mut self, pattern: &Pattern) {
+        if pattern.block_size() == 3 {
+            self.layout.update(pattern);
+        }
     }
 }
 
@@ -272,7 +284,6 @@ pub(super) fn factor(
 ) -> InertiaCount {
     let k = pattern.border_rows();
     let Profile { layout, local, stride } = profile;
-    layout.update(pattern);
     let stride = *stride;
     let mut inertia = InertiaCount::default();
     for c in 0..pattern.chains() {

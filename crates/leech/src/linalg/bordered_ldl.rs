@@ -86,10 +86,7 @@ impl BorderedLdl {
                 multipliers: vec![0.0; (blocks + 1) * b * b],
                 w: vec![0.0; blocks * b * k],
             },
-            profile: block_tridiagonal::Profile::new(
-                if b == 3 { pattern.chains() } else { 0 },
-                if b == 3 { k } else { 0 },
-            ),
+            profile: block_tridiagonal::Profile::new(pattern, k),
             schur: vec![0.0; k * k],
             schur_pivots: vec![Pivot::default(); k],
             schur_scale: vec![1.0; k],
@@ -113,6 +110,7 @@ impl BorderedLdl {
     pub fn set_border_rows(&mut self, rows: usize) {
         assert!(rows <= self.capacity, "{rows} border rows: this factorization holds {}", self.capacity);
         self.pattern.set_border_rows(rows);
+        self.profile.update(&self.pattern);
     }
 
     /// Factors the matrix and returns its inertia (Sylvester's law: that of
