@@ -151,17 +151,34 @@ pub fn rot_z(angle: f64) -> Mat3 {
     [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
 }
 
-/// `Exp(v) = I + sin t / t [v] + (1 - cos t) / t^2 [v]^2`, `t = |v|` (Rodrigues).
+/// `Exp(v) = I + sin t / t [v] + (1 - cos t) / t^2 [v]^2`, `t = |v|` (Rodrigues),
+/// written as `(1 - b t^2) I + a [v] + b v v^T` (`[v]^2 = v v^T - t^2 I`).
+/// Below 0.25 rad `a = sin t / t` and `b = (1 - cos t) / t^2` come from
+/// their series, seven terms each (truncation below 1e-17): the solver's
+/// steps are mostly that small, and the series costs a few products where
+/// `sin` and `cos` cost tens.
 pub fn exp(v: Vec3) -> Mat3 {
     let t2 = dot(v, v);
-    let (a, b) = if t2 < 1e-8 {
-        (1.0 - t2 / 6.0 + t2 * t2 / 120.0, 0.5 - t2 / 24.0 + t2 * t2 / 720.0)
+    let (a, b) = if t2 < 0.0625 {
+        // sin t / t = sum (-t^2)^i / (2i + 1)!, (1 - cos t) / t^2 = sum (-t^2)^i / (2i + 2)!.
+        const SIN: [f64; 7] =
+            [1.0, -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0, -1.0 / 39916800.0, 1.0 / 6227020800.0];
+        const COS: [f64; 7] =
+            [0.5, -1.0 / 24.0, 1.0 / 720.0, -1.0 / 40320.0, 1.0 / 3628800.0, -1.0 / 479001600.0, 1.0 / 87178291200.0];
+        let horner = |c: &[f64; 7]| c.iter().rev().fold(0.0, |acc, ci| ci + t2 * acc);
+        (horner(&SIN), horner(&COS))
     } else {
         let t = t2.sqrt();
         (t.sin() / t, (1.0 - t.cos()) / t2)
     };
-    let h = hat(v);
-    add_scaled(b, &mul(&h, &h), &add_scaled(a, &h, &IDENTITY))
+    let d = 1.0 - b * t2;
+    let (x, y, z) = (a * v[0], a * v[1], a * v[2]);
+    let outer = |i: usize, j: usize| b * v[i] * v[j];
+    [
+        [d + outer(0, 0), outer(0, 1) - z, outer(0, 2) + y],
+        [outer(1, 0) + z, d + outer(1, 1), outer(1, 2) - x],
+        [outer(2, 0) - y, outer(2, 1) + x, d + outer(2, 2)],
+    ]
 }
 
 /// `Log(R)`: the rotation vector of angle in `[0, pi]`, through the unit
@@ -204,10 +221,21 @@ pub fn log(r: &Mat3) -> Vec3 {
 /// there, and the series costs a few products where `atan2` costs tens.
 fn angle_over_sine(n: f64, w: f64) -> f64 {
     if n < 0.125 * w {
+        const ATAN: [f64; 10] = [
+            1.0,
+            -1.0 / 3.0,
+            1.0 / 5.0,
+            -1.0 / 7.0,
+            1.0 / 9.0,
+            -1.0 / 11.0,
+            1.0 / 13.0,
+            -1.0 / 15.0,
+            1.0 / 17.0,
+            -1.0 / 19.0,
+        ];
         let inv_w = 1.0 / w;
         let x2 = n * inv_w * (n * inv_w);
-        let series = (0..10).rev().fold(0.0, |acc, i| 1.0 / (2 * i + 1) as f64 - x2 * acc);
-        2.0 * inv_w * series
+        2.0 * inv_w * ATAN.iter().rev().fold(0.0, |acc, c| c + x2 * acc)
     } else {
         2.0 * n.atan2(w) / n
     }
@@ -368,6 +396,17 @@ mod tests {
             let (n, w) = ((0.5f64 * angle).sin(), (0.5f64 * angle).cos());
             let exact = 2.0 * n.atan2(w) / n;
             assert!((angle_over_sine(n, w) - exact).abs() <= 4.0 * f64::EPSILON * exact, "{angle}");
+        }
+    }
+
+    #[test]
+    fn exp_series_joins_the_closed_form() {
+        for t in [1e-9, 1e-3, 0.1, 0.2499, 0.2501, 1.0] {
+            let v = scale(t / 14f64.sqrt(), [1.0, -2.0, 3.0]);
+            let (s, c) = t.sin_cos();
+            let h = hat(v);
+            let closed = add_scaled((1.0 - c) / (t * t), &mul(&h, &h), &add_scaled(s / t, &h, &IDENTITY));
+            assert!(close(&exp(v), &closed, 4.0 * f64::EPSILON), "{t}");
         }
     }
 
