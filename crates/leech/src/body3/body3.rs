@@ -171,18 +171,19 @@ impl Body3 {
         let mut pattern = crate::linalg::Pattern::new(3, &chains, BORDER, 3);
         for (c, len) in chains.into_iter().enumerate() {
             let last = len.saturating_sub(1);
-            for row in 0..BORDER {
-                // Border row 3 + 6 side + r is the plate's row 6 side + r.
-                let (side, rotation) = ((row as isize - 3).div_euclid(6), (row as isize - 3).rem_euclid(6) >= 3);
-                let first = match (c, side, rotation) {
-                    (_, -1, _) => last,
-                    (0, _, false) => 0,
-                    (0, _, true) => len,
-                    (_, s, false) if s + 1 == c as isize => 0,
-                    (_, s, true) if s + 1 == c as isize => last,
+            for a in 0..3 {
+                pattern.set_border_start(c, a, last);
+            }
+            // Border row 3 + r is the plate's row r: 6 per side (3 position, 3 rotation).
+            for row in 0..PLATE_ROWS {
+                let (side, rotation) = (row / 6, row % 6 >= 3);
+                let first = match (c, rotation) {
+                    (0, false) => 0,
+                    (_, false) if c == side + 1 => 0,
+                    (_, true) if c == side + 1 => last,
                     _ => len,
                 };
-                pattern.set_border_start(c, row, first);
+                pattern.set_border_start(c, 3 + row, first);
             }
         }
         pattern
@@ -593,4 +594,45 @@ pub fn angle_between(a: &Mat3, b: &Mat3) -> f64 {
 /// The largest [`angle_between`] over the links of two states (rad).
 pub fn distance(a: &Frames, b: &Frames) -> f64 {
     a.0.iter().zip(&b.0).fold(0.0, |m, (x, y)| f64::max(m, angle_between(x, y)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::body3::rotation::exp;
+
+    /// The border reach declared to the factorization must hold: every
+    /// border entry of the evaluation before a row's declared start on a
+    /// chain is exactly zero (else the factorization would drop it).
+    #[test]
+    fn border_rows_reach_no_further_than_declared() {
+        let body = Body3::from_robot(&Robot::builtin(), [0.08, 0.07, 0.06]).unwrap();
+        let frames = Frames((0..body.links()).map(|u| exp([0.1, -0.2 + 0.03 * u as f64, 0.05])).collect());
+        let lambda: [f64; PLATE_ROWS] = std::array::from_fn(|r| 0.3 + r as f64);
+        let mut ev = Eval3::new(&body);
+        body.evaluate(&frames, &lambda, Param::FULL, &mut ev);
+        let pattern = body.pattern();
+        let (mut zeros, mut nonzeros) = (0, 0);
+        for c in 0..pattern.chains() {
+            let blocks = pattern.chain_blocks(c);
+            for (t, u) in blocks.enumerate() {
+                for a in 0..3 {
+                    let row: Vec<f64> = (0..3)
+                        .map(|p| ev.plate_border[9 * u + 3 * a + p])
+                        .chain((0..PLATE_ROWS).map(|r| ev.jacobian[(3 * u + a) * PLATE_ROWS + r]))
+                        .collect();
+                    for (r, v) in row.iter().enumerate() {
+                        if t < pattern.border_start(c, r) {
+                            assert_eq!(*v, 0.0, "chain {c}, block {t}, row {r}");
+                            zeros += 1;
+                        } else if *v != 0.0 {
+                            nonzeros += 1;
+                        }
+                    }
+                }
+            }
+        }
+        // Most of the border is declared zero; what is declared present is.
+        assert!(zeros > nonzeros && nonzeros > 0, "{zeros} {nonzeros}");
+    }
 }
