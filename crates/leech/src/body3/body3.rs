@@ -17,7 +17,8 @@
 //! couple the plate with the side tubes' last links).
 
 use super::rotation::{
-    add_scaled, apply, axpy, cross, linear_terms, mul_tn, pair_terms, rot_z, scale, transpose, Mat3, Vec3,
+    add_scaled, apply, axpy, cross, linear_terms, mul_tn, pair_terms, rot_z, scale, tangent_hessian, transpose, Mat3,
+    Vec3,
 };
 use super::tube3::Tube3;
 use crate::chain::{Chain, Discretization};
@@ -171,6 +172,35 @@ impl Body3 {
     /// The chains of the block factorization: tube 1 without its last link, tubes 2 and 3.
     pub(crate) fn chain_blocks(&self) -> [usize; 3] {
         [self.tubes[0].len() - 1, self.tubes[1].len(), self.tubes[2].len()]
+    }
+
+    /// The structure of the KKT matrix: the chains, and the border of the
+    /// plate's 3 coordinates and the 12 rows (`BORDER`, 3 primal) with where
+    /// each border row reaches each chain. Tube 1 carries both position
+    /// blocks, tube 2 and tube 3 their own, on every link; the plate's
+    /// coordinates reach each chain's last block only (tube 1's last joint,
+    /// the weld's rotation rows) and so do a side tube's rotation rows.
+    pub(crate) fn pattern(&self) -> crate::linalg::Pattern {
+        let chains = self.chain_blocks();
+        let mut pattern = crate::linalg::Pattern::new(3, &chains, BORDER, 3);
+        for (c, len) in chains.into_iter().enumerate() {
+            let last = len.saturating_sub(1);
+            for a in 0..3 {
+                pattern.set_border_start(c, a, last);
+            }
+            // Border row 3 + r is the plate's row r: 6 per side (3 position, 3 rotation).
+            for row in 0..PLATE_ROWS {
+                let (side, rotation) = (row / 6, row % 6 >= 3);
+                let first = match (c, rotation) {
+                    (0, false) => 0,
+                    (_, false) if c == side + 1 => 0,
+                    (_, true) if c == side + 1 => last,
+                    _ => len,
+                };
+                pattern.set_border_start(c, 3 + row, first);
+            }
+        }
+        pattern
     }
 
     /// Every link along the driving unit's direction.
@@ -327,6 +357,22 @@ impl Body3 {
     /// `param` (module doc): energy, gradient, constraints, Jacobian and the
     /// Lagrangian Hessian `hess V - sum_r lambda_r hess C_r` into `ev`.
     pub(crate) fn evaluate(&self, frames: &Frames, lambda: &[f64; PLATE_ROWS], param: Param, ev: &mut Eval3) {
+        self.evaluate_with::<true>(frames, lambda, param, ev);
+    }
+
+    /// [`Body3::evaluate`] without the Hessian (left zero): what a residual
+    /// needs, at about half the cost.
+    pub(crate) fn evaluate_residual(&self, frames: &Frames, lambda: &[f64; PLATE_ROWS], param: Param, ev: &mut Eval3) {
+        self.evaluate_with::<false>(frames, lambda, param, ev);
+    }
+
+    fn evaluate_with<const HESSIAN: bool>(
+        &self,
+        frames: &Frames,
+        lambda: &[f64; PLATE_ROWS],
+        param: Param,
+        ev: &mut Eval3,
+    ) {
         ev.clear();
         let f = &frames.0;
         // Hanging, gravity turns with the plate: added after the loop.
@@ -340,24 +386,30 @@ impl Body3 {
             for j in 0..tube.len() {
                 let u = self.index(i, j);
                 let r = &f[u];
-                self.add_joint(tube.stiffness(j), &prev, prev_index, r, u, ev);
+                self.add_joint::<HESSIAN>(tube.stiffness(j), &prev, prev_index, r, u, ev);
                 let lever = g * s * tube.levers()[j];
-                if lever != 0.0 {
-                    ev.energy += lever * r[1][0];
-                    let (grad, hess) = linear_terms(r, [0.0, lever, 0.0], [1.0, 0.0, 0.0]);
-                    ev.add_gradient(u, grad, 1.0);
-                    ev.add_hessian(u, u, &hess);
-                }
                 let d = s * tube.lengths()[j];
                 tips[i] = axpy(d, [r[0][0], r[1][0], r[2][0]], tips[i]);
-                // Tube 1 enters both position blocks with -1, tube i + 1 its own with +1.
+                // The link's linear terms all lie along its tangent e_x, so
+                // they share one Hessian: its height under gravity, and its
+                // share `sign d R e_x` of the position rows (tube 1 enters
+                // both blocks with -1, tube i + 1 its own with +1), whose
+                // `-lambda . C` is the linear term of `w = -sign d lambda`.
+                let mut w = [0.0, lever, 0.0];
                 for side in 0..2 {
                     let sign = match i {
                         0 => -1.0,
                         _ if i == side + 1 => 1.0,
                         _ => continue,
                     };
-                    self.add_position_term(r, u, scale(sign * d, [1.0, 0.0, 0.0]), side, positions[side], ev);
+                    ev.add_position_jacobian(r, u, scale(sign * d, [1.0, 0.0, 0.0]), side);
+                    w = axpy(-sign * d, positions[side], w);
+                }
+                ev.energy += lever * r[1][0];
+                // d(lever (R e_x)_y) = e_x x R^T (lever e_y).
+                ev.add_gradient(u, [0.0, -lever * r[1][2], lever * r[1][1]], 1.0);
+                if HESSIAN {
+                    ev.add_hessian(u, u, &tangent_hessian(r, w));
                 }
                 (prev, prev_index) = (*r, Some(u));
             }
@@ -366,7 +418,11 @@ impl Body3 {
         let plate = f[p];
         for side in 0..2 {
             let offset = axpy(-1.0, self.plate[0], self.plate[side + 1]);
-            self.add_position_term(&plate, p, scale(-1.0, offset), side, positions[side], ev);
+            let a = scale(-1.0, offset);
+            ev.add_position_jacobian(&plate, p, a, side);
+            if HESSIAN {
+                ev.add_hessian(p, p, &linear_terms(&plate, scale(-1.0, positions[side]), a).1);
+            }
             let gap = axpy(-1.0, axpy(1.0, tips[0], apply(&plate, offset)), tips[side + 1]);
             let roots = axpy(-1.0, self.tubes[0].root(), self.tubes[side + 1].root());
             ev.constraints[6 * side..6 * side + 3].copy_from_slice(&axpy(1.0, roots, gap));
@@ -374,15 +430,19 @@ impl Body3 {
             let rows = 6 * side + 3;
             let b = self.index(side + 1, self.tubes[side + 1].len() - 1);
             let mult = [-lambda[rows], -lambda[rows + 1], -lambda[rows + 2]];
-            let terms = pair_terms(&mul_tn(&plate, &f[b]), |_| mult, &[[0.0; 3]; 3]);
+            let m = mul_tn(&plate, &f[b]);
+            let terms = pair_terms(&m, |_| mult, [0.0; 3], HESSIAN);
             ev.constraints[rows..rows + 3].copy_from_slice(&terms.theta);
+            let jacobian_a = terms.jacobian_a(&m);
             for c in 0..3 {
-                ev.set_jacobian(p, rows + c, terms.jacobian_a[c]);
+                ev.set_jacobian(p, rows + c, jacobian_a[c]);
                 ev.set_jacobian(b, rows + c, terms.jacobian_b[c]);
             }
-            ev.add_hessian(p, p, &terms.h_aa);
-            ev.add_hessian(b, b, &terms.h_bb);
-            ev.add_hessian(p, b, &terms.h_ab);
+            if HESSIAN {
+                ev.add_hessian(p, p, &terms.h_aa);
+                ev.add_hessian(b, b, &terms.h_bb);
+                ev.add_hessian(p, b, &terms.h_ab);
+            }
         }
         if let Some(hang) = &param.hang {
             self.add_hanging(frames, hang, param, ev);
@@ -391,29 +451,29 @@ impl Body3 {
 
     /// A joint between `prev` (the driving unit, or frame `prev_index`) and
     /// frame `r` at index `u`: energy, gradient, Hessian.
-    fn add_joint(&self, k: Vec3, prev: &Mat3, prev_index: Option<usize>, r: &Mat3, u: usize, ev: &mut Eval3) {
-        let stiffness = [[k[0], 0.0, 0.0], [0.0, k[1], 0.0], [0.0, 0.0, k[2]]];
-        let terms = pair_terms(&mul_tn(prev, r), |th| [k[0] * th[0], k[1] * th[1], k[2] * th[2]], &stiffness);
+    fn add_joint<const HESSIAN: bool>(
+        &self,
+        k: Vec3,
+        prev: &Mat3,
+        prev_index: Option<usize>,
+        r: &Mat3,
+        u: usize,
+        ev: &mut Eval3,
+    ) {
+        let terms = pair_terms(&mul_tn(prev, r), |th| [k[0] * th[0], k[1] * th[1], k[2] * th[2]], k, HESSIAN);
         let th = terms.theta;
         ev.energy += 0.5 * (k[0] * th[0] * th[0] + k[1] * th[1] * th[1] + k[2] * th[2] * th[2]);
         ev.add_gradient(u, terms.grad_b, 1.0);
-        ev.add_hessian(u, u, &terms.h_bb);
+        if HESSIAN {
+            ev.add_hessian(u, u, &terms.h_bb);
+        }
         if let Some(a) = prev_index {
             ev.add_gradient(a, terms.grad_a, 1.0);
-            ev.add_hessian(a, a, &terms.h_aa);
-            ev.add_hessian(a, u, &terms.h_ab);
+            if HESSIAN {
+                ev.add_hessian(a, a, &terms.h_aa);
+                ev.add_hessian(a, u, &terms.h_ab);
+            }
         }
-    }
-
-    /// A position row block's term `R Exp(delta) a` of frame `r` at index
-    /// `u` (`side` 0: tube 2's rows, 1: tube 3's): Jacobian and the
-    /// Lagrangian's `-lambda . hess`.
-    fn add_position_term(&self, r: &Mat3, u: usize, a: Vec3, side: usize, lambda: Vec3, ev: &mut Eval3) {
-        for c in 0..3 {
-            ev.add_jacobian(u, 6 * side + c, cross(a, r[c]));
-        }
-        let (_, hess) = linear_terms(r, lambda, a);
-        ev.add_hessian(u, u, &add_scaled(-1.0, &hess, &[[0.0; 3]; 3]));
     }
 }
 
@@ -488,6 +548,15 @@ impl Eval3 {
         }
     }
 
+    /// The Jacobian of a position row block's term `R Exp(delta) a` of frame
+    /// `r` at index `u` (`side` 0: tube 2's rows, 1: tube 3's): row `c` is
+    /// `a x (R^T e_c)`.
+    fn add_position_jacobian(&mut self, r: &Mat3, u: usize, a: Vec3, side: usize) {
+        for c in 0..3 {
+            self.add_jacobian(u, 6 * side + c, cross(a, r[c]));
+        }
+    }
+
     fn add_jacobian(&mut self, u: usize, row: usize, v: Vec3) {
         for (c, x) in v.iter().enumerate() {
             self.jacobian[(3 * u + c) * PLATE_ROWS + row] += x;
@@ -553,4 +622,45 @@ pub fn angle_between(a: &Mat3, b: &Mat3) -> f64 {
 /// The largest [`angle_between`] over the links of two states (rad).
 pub fn distance(a: &Frames, b: &Frames) -> f64 {
     a.0.iter().zip(&b.0).fold(0.0, |m, (x, y)| f64::max(m, angle_between(x, y)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::body3::rotation::exp;
+
+    /// The border reach declared to the factorization must hold: every
+    /// border entry of the evaluation before a row's declared start on a
+    /// chain is exactly zero (else the factorization would drop it).
+    #[test]
+    fn border_rows_reach_no_further_than_declared() {
+        let body = Body3::from_robot(&Robot::builtin(), [0.08, 0.07, 0.06]).unwrap();
+        let frames = Frames((0..body.links()).map(|u| exp([0.1, -0.2 + 0.03 * u as f64, 0.05])).collect());
+        let lambda: [f64; PLATE_ROWS] = std::array::from_fn(|r| 0.3 + r as f64);
+        let mut ev = Eval3::new(&body);
+        body.evaluate(&frames, &lambda, Param::FULL, &mut ev);
+        let pattern = body.pattern();
+        let (mut zeros, mut nonzeros) = (0, 0);
+        for c in 0..pattern.chains() {
+            let blocks = pattern.chain_blocks(c);
+            for (t, u) in blocks.enumerate() {
+                for a in 0..3 {
+                    let row: Vec<f64> = (0..3)
+                        .map(|p| ev.plate_border[9 * u + 3 * a + p])
+                        .chain((0..PLATE_ROWS).map(|r| ev.jacobian[(3 * u + a) * PLATE_ROWS + r]))
+                        .collect();
+                    for (r, v) in row.iter().enumerate() {
+                        if t < pattern.border_start(c, r) {
+                            assert_eq!(*v, 0.0, "chain {c}, block {t}, row {r}");
+                            zeros += 1;
+                        } else if *v != 0.0 {
+                            nonzeros += 1;
+                        }
+                    }
+                }
+            }
+        }
+        // Most of the border is declared zero; what is declared present is.
+        assert!(zeros > nonzeros && nonzeros > 0, "{zeros} {nonzeros}");
+    }
 }

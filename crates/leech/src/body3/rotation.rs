@@ -151,17 +151,34 @@ pub fn rot_z(angle: f64) -> Mat3 {
     [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
 }
 
-/// `Exp(v) = I + sin t / t [v] + (1 - cos t) / t^2 [v]^2`, `t = |v|` (Rodrigues).
+/// `Exp(v) = I + sin t / t [v] + (1 - cos t) / t^2 [v]^2`, `t = |v|` (Rodrigues),
+/// written as `(1 - b t^2) I + a [v] + b v v^T` (`[v]^2 = v v^T - t^2 I`).
+/// Below 0.25 rad `a = sin t / t` and `b = (1 - cos t) / t^2` come from
+/// their series, seven terms each (truncation below 1e-17): the solver's
+/// steps are mostly that small, and the series costs a few products where
+/// `sin` and `cos` cost tens.
 pub fn exp(v: Vec3) -> Mat3 {
     let t2 = dot(v, v);
-    let (a, b) = if t2 < 1e-8 {
-        (1.0 - t2 / 6.0 + t2 * t2 / 120.0, 0.5 - t2 / 24.0 + t2 * t2 / 720.0)
+    let (a, b) = if t2 < 0.0625 {
+        // sin t / t = sum (-t^2)^i / (2i + 1)!, (1 - cos t) / t^2 = sum (-t^2)^i / (2i + 2)!.
+        const SIN: [f64; 7] =
+            [1.0, -1.0 / 6.0, 1.0 / 120.0, -1.0 / 5040.0, 1.0 / 362880.0, -1.0 / 39916800.0, 1.0 / 6227020800.0];
+        const COS: [f64; 7] =
+            [0.5, -1.0 / 24.0, 1.0 / 720.0, -1.0 / 40320.0, 1.0 / 3628800.0, -1.0 / 479001600.0, 1.0 / 87178291200.0];
+        let horner = |c: &[f64; 7]| c.iter().rev().fold(0.0, |acc, ci| ci + t2 * acc);
+        (horner(&SIN), horner(&COS))
     } else {
         let t = t2.sqrt();
         (t.sin() / t, (1.0 - t.cos()) / t2)
     };
-    let h = hat(v);
-    add_scaled(b, &mul(&h, &h), &add_scaled(a, &h, &IDENTITY))
+    let d = 1.0 - b * t2;
+    let (x, y, z) = (a * v[0], a * v[1], a * v[2]);
+    let outer = |i: usize, j: usize| b * v[i] * v[j];
+    [
+        [d + outer(0, 0), outer(0, 1) - z, outer(0, 2) + y],
+        [outer(1, 0) + z, d + outer(1, 1), outer(1, 2) - x],
+        [outer(2, 0) - y, outer(2, 1) + x, d + outer(2, 2)],
+    ]
 }
 
 /// `Log(R)`: the rotation vector of angle in `[0, pi]`, through the unit
@@ -179,11 +196,13 @@ pub fn log(r: &Mat3) -> Vec3 {
         }
     }
     let s = 2.0 * (1.0 + best).max(0.0).sqrt();
+    // One division: the others become products.
+    let (half, inv) = (0.25 * s, 1.0 / s);
     let q = match big {
-        0 => [0.25 * s, (r[2][1] - r[1][2]) / s, (r[0][2] - r[2][0]) / s, (r[1][0] - r[0][1]) / s],
-        1 => [(r[2][1] - r[1][2]) / s, 0.25 * s, (r[0][1] + r[1][0]) / s, (r[0][2] + r[2][0]) / s],
-        2 => [(r[0][2] - r[2][0]) / s, (r[0][1] + r[1][0]) / s, 0.25 * s, (r[1][2] + r[2][1]) / s],
-        _ => [(r[1][0] - r[0][1]) / s, (r[0][2] + r[2][0]) / s, (r[1][2] + r[2][1]) / s, 0.25 * s],
+        0 => [half, (r[2][1] - r[1][2]) * inv, (r[0][2] - r[2][0]) * inv, (r[1][0] - r[0][1]) * inv],
+        1 => [(r[2][1] - r[1][2]) * inv, half, (r[0][1] + r[1][0]) * inv, (r[0][2] + r[2][0]) * inv],
+        2 => [(r[0][2] - r[2][0]) * inv, (r[0][1] + r[1][0]) * inv, half, (r[1][2] + r[2][1]) * inv],
+        _ => [(r[1][0] - r[0][1]) * inv, (r[0][2] + r[2][0]) * inv, (r[1][2] + r[2][1]) * inv, half],
     };
     // The same rotation with w >= 0: angle = 2 atan2(|v|, w) in [0, pi].
     let sign = if q[0] < 0.0 { -1.0 } else { 1.0 };
@@ -192,10 +211,34 @@ pub fn log(r: &Mat3) -> Vec3 {
     if norm < 1e-300 {
         return [0.0; 3];
     }
-    // angle / |v|, with its series where atan2 would divide two small numbers.
-    let factor =
-        if norm < 1e-6 * w { 2.0 / w * (1.0 - norm * norm / (3.0 * w * w)) } else { 2.0 * norm.atan2(w) / norm };
-    scale(factor, v)
+    scale(angle_over_sine(norm, w), v)
+}
+
+/// `2 atan2(n, w) / n` (the rotation angle over `|v|` of a unit quaternion
+/// `(w, v)`, `n = |v|`, `w >= 0`). Below 0.25 rad (`x = n / w < 1/8`) by the
+/// series `(2 / w) atan(x) / x = (2 / w) sum_i (-x^2)^i / (2 i + 1)`, ten
+/// terms (truncation below 1e-17 relative): the joints' angles are mostly
+/// there, and the series costs a few products where `atan2` costs tens.
+fn angle_over_sine(n: f64, w: f64) -> f64 {
+    if n < 0.125 * w {
+        const ATAN: [f64; 10] = [
+            1.0,
+            -1.0 / 3.0,
+            1.0 / 5.0,
+            -1.0 / 7.0,
+            1.0 / 9.0,
+            -1.0 / 11.0,
+            1.0 / 13.0,
+            -1.0 / 15.0,
+            1.0 / 17.0,
+            -1.0 / 19.0,
+        ];
+        let inv_w = 1.0 / w;
+        let x2 = n * inv_w * (n * inv_w);
+        2.0 * inv_w * ATAN.iter().rev().fold(0.0, |acc, c| c + x2 * acc)
+    } else {
+        2.0 * n.atan2(w) / n
+    }
 }
 
 /// `c(t)` and `c'(t)/t` of `Jr^-1` (module doc), from `t^2`.
@@ -217,7 +260,11 @@ fn jr_inv_coefficients(t2: f64) -> (f64, f64) {
 /// `Jr^-1(theta)`, the inverse right Jacobian: `Log(Exp(theta) Exp(eps)) =
 /// theta + Jr^-1(theta) eps + O(eps^2)`.
 pub fn jr_inv(theta: Vec3) -> Mat3 {
-    let (c, _) = jr_inv_coefficients(dot(theta, theta));
+    jr_inv_with(theta, jr_inv_coefficients(dot(theta, theta)).0)
+}
+
+/// `Jr^-1(theta)` given its coefficient `c(|theta|)`.
+fn jr_inv_with(theta: Vec3, c: f64) -> Mat3 {
     let h = hat(theta);
     add_scaled(c, &mul(&h, &h), &add_scaled(0.5, &h, &IDENTITY))
 }
@@ -227,10 +274,9 @@ pub fn jr_inv(theta: Vec3) -> Mat3 {
 pub struct PairTerms {
     /// `theta = Log(R_a^T R_b)` (rad).
     pub theta: Vec3,
-    /// `d theta / d delta_b = Jr^-1(theta)`; `d theta / d delta_a = -Jr^-1(theta) M^T`.
+    /// `d theta / d delta_b = Jr^-1(theta)`; `d theta / d delta_a = -Jr^-1(theta) M^T`
+    /// ([`PairTerms::jacobian_a`]).
     pub jacobian_b: Mat3,
-    /// `d theta / d delta_a`.
-    pub jacobian_a: Mat3,
     /// `dF/ddelta_a`.
     pub grad_a: Vec3,
     /// `dF/ddelta_b`.
@@ -243,11 +289,12 @@ pub struct PairTerms {
     pub h_bb: Mat3,
 }
 
-/// `Log(M)` and its Jacobians for `M = R_a^T R_b`, without a function of it.
-pub fn relative(m: &Mat3) -> (Vec3, Mat3, Mat3) {
-    let theta = log(m);
-    let p = jr_inv(theta);
-    (theta, p, scale_mat(-1.0, &mul(&p, &transpose(m))))
+impl PairTerms {
+    /// `d theta / d delta_a = -Jr^-1(theta) M^T` for the `M` the terms were
+    /// made from (only the weld's rows need it, so it is not formed for joints).
+    pub fn jacobian_a(&self, m: &Mat3) -> Mat3 {
+        scale_mat(-1.0, &mul(&self.jacobian_b, &transpose(m)))
+    }
 }
 
 fn scale_mat(s: f64, a: &Mat3) -> Mat3 {
@@ -255,12 +302,28 @@ fn scale_mat(s: f64, a: &Mat3) -> Mat3 {
 }
 
 /// The derivatives of `F(theta)`, `theta = Log(M)`, `M = R_a^T R_b`, given
-/// `w = dF/dtheta` (a function of `theta`: pass a closure) and the constant
-/// `H_theta = d2F/dtheta2` (module doc).
-pub fn pair_terms(m: &Mat3, gradient: impl Fn(Vec3) -> Vec3, h_theta: &Mat3) -> PairTerms {
-    let (theta, p, jacobian_a) = relative(m);
-    let w = gradient(theta);
+/// `w = dF/dtheta` (a function of `theta`: pass a closure) and the constant,
+/// diagonal `H_theta = d2F/dtheta2 = diag(h_theta)` (module doc). Without
+/// `hessian` the second derivatives are left zero (and not computed).
+#[inline(always)]
+pub fn pair_terms(m: &Mat3, gradient: impl Fn(Vec3) -> Vec3, h_theta: Vec3, hessian: bool) -> PairTerms {
+    let theta = log(m);
     let (c, dc_over_t) = jr_inv_coefficients(dot(theta, theta));
+    let p = jr_inv_with(theta, c);
+    let w = gradient(theta);
+    let g = apply_t(&p, w);
+    let mut terms = PairTerms {
+        theta,
+        jacobian_b: p,
+        grad_a: scale(-1.0, apply(m, g)),
+        grad_b: g,
+        h_aa: [[0.0; 3]; 3],
+        h_ab: [[0.0; 3]; 3],
+        h_bb: [[0.0; 3]; 3],
+    };
+    if !hessian {
+        return terms;
+    }
     // D = d(P^T w)/dtheta, P^T w = w - theta x w / 2 + c theta x (theta x w).
     let tw = dot(theta, w);
     let ttw = cross(theta, cross(theta, w));
@@ -268,19 +331,19 @@ pub fn pair_terms(m: &Mat3, gradient: impl Fn(Vec3) -> Vec3, h_theta: &Mat3) -> 
     d = add_scaled(dc_over_t, &outer(ttw, theta), &d);
     let bracket = add_scaled(-2.0, &outer(w, theta), &add_scaled(1.0, &outer(theta, w), &scale_mat(tw, &IDENTITY)));
     d = add_scaled(c, &bracket, &d);
-    let g = apply_t(&p, w);
-    let h_e = add_scaled(1.0, &mul_tn(&p, &mul(h_theta, &p)), &symmetric_part(&mul(&d, &p)));
+    // H_e = P^T diag(h_theta) P + sym(D P), entry by entry.
+    let dp = mul(&d, &p);
+    let h_e: Mat3 = std::array::from_fn(|r| {
+        std::array::from_fn(|c| {
+            let pkp = h_theta[0] * p[0][r] * p[0][c] + h_theta[1] * p[1][r] * p[1][c] + h_theta[2] * p[2][r] * p[2][c];
+            pkp + 0.5 * (dp[r][c] + dp[c][r])
+        })
+    });
     let mh = mul(m, &h_e);
-    PairTerms {
-        theta,
-        jacobian_b: p,
-        jacobian_a,
-        grad_a: scale(-1.0, apply(m, g)),
-        grad_b: g,
-        h_aa: mul(&mh, &transpose(m)),
-        h_ab: add_scaled(0.5, &mul(m, &hat(g)), &scale_mat(-1.0, &mh)),
-        h_bb: h_e,
-    }
+    terms.h_aa = mul(&mh, &transpose(m));
+    terms.h_ab = add_scaled(0.5, &mul(m, &hat(g)), &scale_mat(-1.0, &mh));
+    terms.h_bb = h_e;
+    terms
 }
 
 /// The local gradient and Hessian of a linear term `w . (R Exp(delta) a)`
@@ -289,6 +352,19 @@ pub fn linear_terms(r: &Mat3, w: Vec3, a: Vec3) -> (Vec3, Mat3) {
     let wl = apply_t(r, w);
     let sym = add_scaled(0.5, &outer(wl, a), &scale_mat(0.5, &outer(a, wl)));
     (cross(a, wl), add_scaled(-dot(wl, a), &IDENTITY, &sym))
+}
+
+/// The Hessian of [`linear_terms`] for `a = e_x` (a link's tangent: its
+/// height, its share of a tip position), written out: with `w' = R^T w`,
+///
+/// ```text
+/// [ 0       w'_y/2   w'_z/2 ]
+/// [ w'_y/2  -w'_x    0      ]
+/// [ w'_z/2  0        -w'_x  ]
+/// ```
+pub fn tangent_hessian(r: &Mat3, w: Vec3) -> Mat3 {
+    let wl = apply_t(r, w);
+    [[0.0, 0.5 * wl[1], 0.5 * wl[2]], [0.5 * wl[1], -wl[0], 0.0], [0.5 * wl[2], 0.0, -wl[0]]]
 }
 
 #[cfg(test)]
@@ -315,6 +391,26 @@ mod tests {
     }
 
     #[test]
+    fn angle_series_joins_atan2() {
+        for angle in [1e-9, 1e-3, 0.1, 0.2499, 0.2501, 1.0] {
+            let (n, w) = ((0.5f64 * angle).sin(), (0.5f64 * angle).cos());
+            let exact = 2.0 * n.atan2(w) / n;
+            assert!((angle_over_sine(n, w) - exact).abs() <= 4.0 * f64::EPSILON * exact, "{angle}");
+        }
+    }
+
+    #[test]
+    fn exp_series_joins_the_closed_form() {
+        for t in [1e-9, 1e-3, 0.1, 0.2499, 0.2501, 1.0] {
+            let v = scale(t / 14f64.sqrt(), [1.0, -2.0, 3.0]);
+            let (s, c) = t.sin_cos();
+            let h = hat(v);
+            let closed = add_scaled((1.0 - c) / (t * t), &mul(&h, &h), &add_scaled(s / t, &h, &IDENTITY));
+            assert!(close(&exp(v), &closed, 4.0 * f64::EPSILON), "{t}");
+        }
+    }
+
+    #[test]
     fn exp_is_a_rotation() {
         let r = exp([0.3, -1.1, 0.7]);
         assert!(close(&mul_tn(&r, &r), &IDENTITY, 1e-15));
@@ -324,6 +420,12 @@ mod tests {
     fn coefficients_join_continuously_at_the_series_switch() {
         let (below, above) = (jr_inv_coefficients(0.3f64.powi(2) * (1.0 - 1e-12)), jr_inv_coefficients(0.09));
         assert!((below.0 - above.0).abs() < 1e-13 && (below.1 - above.1).abs() < 1e-11, "{below:?} {above:?}");
+    }
+
+    #[test]
+    fn tangent_hessian_is_the_linear_terms_along_x() {
+        let (r, w) = (exp([0.3, -1.1, 0.7]), [0.4, -2.0, 1.3]);
+        assert!(close(&tangent_hessian(&r, w), &linear_terms(&r, w, [1.0, 0.0, 0.0]).1, 1e-15));
     }
 
     #[test]

@@ -27,7 +27,7 @@
 use super::body3::{distance, retract, Body3, Eval3, Frames, Param, BORDER, PLATE_ROWS};
 use super::hold3::Hanging;
 use super::rotation::{apply, axpy, cross};
-use crate::linalg::{BorderedLdl, Pattern};
+use crate::linalg::BorderedLdl;
 use crate::statics::{BranchRule, Equilibrium, Event, Side, SolveError, Solver, Stage, StopReason};
 
 /// Unstable landings left in one settle before it gives up.
@@ -118,7 +118,7 @@ impl Work {
         Work {
             ev: Eval3::new(body),
             trial: Eval3::new(body),
-            ldl: BorderedLdl::new(&Pattern::new(3, &body.chain_blocks(), BORDER, 3)),
+            ldl: BorderedLdl::new(&body.pattern()),
             border: vec![0.0; chain * BORDER],
             corner: vec![0.0; BORDER * BORDER],
             residual: vec![0.0; 3 * n],
@@ -545,7 +545,7 @@ impl Body3 {
         let mut dr = std::mem::take(&mut work.path_residual);
         dr.fill(0.0);
         for (sign, at) in [(1.0, tau + H), (-1.0, tau - H)] {
-            self.evaluate(&state.frames, &state.lambda, path(at), &mut work.trial);
+            self.evaluate_residual(&state.frames, &state.lambda, path(at), &mut work.trial);
             work.trial.stationarity(&state.lambda, &mut work.residual_trial);
             for (d, r) in dr.iter_mut().zip(&work.residual_trial) {
                 *d += sign * r / (2.0 * H);

@@ -12,10 +12,22 @@
 //! Bunch-Kaufman factorization ([`super::dense_ldl`]), which also gives the
 //! inverse (with the directions of zero pivots dropped). The 3 x 3 arithmetic
 //! uses nalgebra's static matrices: unrolled, in registers, no allocation.
+//!
+//! `W_j` holds only the border rows present at block `j` or before it in its
+//! chain ([`Pattern::set_border_start`]): a row zero on a chain's blocks
+//! before `j0` has `W_j = 0` there, since the recurrence only carries
+//! entries forward. Ordered by first block, the rows present form a prefix
+//! of the chain's rows, `m_j` of them; each chain adds its
+//! `sum_j W_j^T D_j^-1 W_j` (`3 m_j (m_j + 1) / 2` products per block
+//! instead of `3 k (k + 1) / 2`) to a scratch in its own row order, then to
+//! `S`. Runs of blocks with the same `m_j` are computed at a width fixed at
+//! compile time (the next of [`WIDTHS`], the extra columns zero).
+
+use std::ops::Range;
 
 use nalgebra::{Matrix3, Vector3};
 
-use super::bordered_ldl::{subtract_outer, SchurFactors, SparseFactors, SparseInput};
+use super::bordered_ldl::{SchurFactors, SparseFactors, SparseInput};
 use super::dense_ldl::{self, Pivot, ALPHA};
 use super::pattern::Sweep;
 use super::{InertiaCount, Pattern, MAX_BORDER};
@@ -51,19 +63,26 @@ fn diagonal_pivots(d: &Matrix3<f64>, tiny: f64) -> Option<(Matrix3<f64>, Inertia
     if !accepted(a11, a21.abs().max(a31.abs())) {
         return None;
     }
-    let (l21, l31) = (a21 / a11, a31 / a11);
+    // Reciprocals once: they are D^-1, and products replace the divisions
+    // on the recurrence's critical path.
+    let p1 = 1.0 / a11;
+    let (l21, l31) = (a21 * p1, a31 * p1);
     let (d2, b32) = (a22 - l21 * a21, a32 - l31 * a21);
     if !accepted(d2, b32.abs()) {
         return None;
     }
-    let l32 = b32 / d2;
+    let p2 = 1.0 / d2;
+    let l32 = b32 * p2;
     let d3 = a33 - l31 * a31 - l32 * b32;
     if !accepted(d3, 0.0) {
         return None;
     }
-    // A^-1 = L^-T D^-1 L^-1, with L^-1 of the unit lower triangular L in closed form.
-    let l_inv = Matrix3::new(1.0, 0.0, 0.0, -l21, 1.0, 0.0, l21 * l32 - l31, -l32, 1.0);
-    let inverse = l_inv.transpose() * Matrix3::from_diagonal(&Vector3::new(1.0 / a11, 1.0 / d2, 1.0 / d3)) * l_inv;
+    let p3 = 1.0 / d3;
+    // A^-1 = L^-T D^-1 L^-1 entry by entry, with the unit lower triangular
+    // L^-1 = [1 0 0; x 1 0; y z 1] in closed form.
+    let (x, y, z) = (-l21, l21 * l32 - l31, -l32);
+    let (i21, i31, i32) = (x * p2 + y * z * p3, y * p3, z * p3);
+    let inverse = Matrix3::new(p1 + x * x * p2 + y * y * p3, i21, i31, i21, p2 + z * z * p3, i32, i31, i32, p3);
     let negative = [a11, d2, d3].iter().filter(|p| **p < 0.0).count();
     Some((inverse, InertiaCount { positive: 3 - negative, negative, zero: 0 }))
 }
@@ -82,82 +101,228 @@ fn bunch_kaufman(d: &Matrix3<f64>, tiny: f64) -> (Matrix3<f64>, InertiaCount) {
     (inverse, inertia)
 }
 
-/// The factorization pass: pivot blocks in the lanes, `W` three rows at a time.
-struct Factor<'a> {
-    input: &'a SparseInput<'a>,
-    k: usize,
-    factors: &'a mut SparseFactors,
+/// Which border rows each chain carries, from the pattern's
+/// [`Pattern::set_border_start`]: per chain its rows in the order of their
+/// first block, so that the rows present at any block are a prefix.
+#[derive(Clone, Debug)]
+pub(super) struct Layout {
+    /// Chain `c`'s rows at `c * MAX_BORDER ..`, ordered by first block.
+    rows: Vec<usize>,
+    /// Each of those rows' first block (numbered over all chains).
+    starts: Vec<usize>,
+    /// Rows per chain (those nonzero somewhere on it).
+    counts: Vec<usize>,
 }
 
-#[derive(Clone, Copy, Default)]
-struct FactorLane {
-    /// `D^-1` of the lane's previous block.
-    inv: Matrix3<f64>,
-    inertia: InertiaCount,
+/// The layout and the scratch of one chain's part of `W^T D^-1 W`.
+#[derive(Clone, Debug)]
+pub(super) struct Profile {
+    layout: Layout,
+    /// In the chain's row order, lower triangle, rows of `stride` entries.
+    local: Vec<f64>,
+    stride: usize,
 }
 
-impl Sweep for Factor<'_> {
-    type Lane = FactorLane;
+/// The run widths the kernels are compiled for: a run carrying `m` rows is
+/// computed `padded(m)` wide, the extra columns zero.
+const WIDTHS: [usize; 10] = [0, 3, 6, 9, 12, 16, 24, 32, 48, MAX_BORDER];
 
-    #[inline(always)]
-    fn step<const FRESH: bool>(&mut self, lane: &mut FactorLane, j: usize) {
-        let input = self.input;
-        let a = load(input.diag, j) + Matrix3::from_diagonal_element(input.shift);
-        let (l, d) = if FRESH {
-            (Matrix3::zeros(), a)
-        } else {
-            let e = load(input.off, j - 1);
-            let l = e.transpose() * lane.inv;
-            (l, a - l * e)
+fn padded(m: usize) -> usize {
+    WIDTHS.into_iter().find(|w| *w >= m).unwrap_or(MAX_BORDER)
+}
+
+impl Profile {
+    /// The layout of `pattern` (chains of 3 x 3 blocks) and scratch for up to
+    /// `capacity` border rows; empty for scalar blocks, which do not use it.
+    pub fn new(pattern: &Pattern, capacity: usize) -> Profile {
+        let (chains, capacity) = if pattern.block_size() == 3 { (pattern.chains(), capacity) } else { (0, 0) };
+        let stride = padded(capacity);
+        let layout = Layout {
+            rows: vec![0; chains * MAX_BORDER],
+            starts: vec![0; chains * MAX_BORDER],
+            counts: vec![0; chains],
         };
-        let (inv, inertia) = invert_pivot(&d, input.tiny);
-        lane.inv = inv;
-        lane.inertia += inertia;
-        store(&mut self.factors.inv_pivots, j, &inv);
-        store(&mut self.factors.multipliers, j, &l);
-        let k = self.k;
-        let rows = 3 * k;
-        let border = &input.border[j * rows..(j + 1) * rows];
-        if FRESH {
-            self.factors.w[j * rows..(j + 1) * rows].copy_from_slice(border);
-            return;
-        }
-        let (done, rest) = self.factors.w.split_at_mut(j * rows);
-        let previous = &done[(j - 1) * rows..];
-        for r in 0..k {
-            let p = Vector3::new(previous[r], previous[k + r], previous[2 * k + r]);
-            let w = l * p;
-            for a in 0..3 {
-                rest[a * k + r] = border[a * k + r] - w[a];
-            }
+        let mut profile = Profile { layout, local: vec![0.0; stride * stride], stride };
+        profile.update(pattern);
+        profile
+    }
+
+    /// Reads the pattern's border starts again, for its current number of
+    /// border rows (after [`Pattern::set_border_rows`]).
+    pub fn update(&mut self, pattern: &Pattern) {
+        if pattern.block_size() == 3 {
+            self.layout.update(pattern);
         }
     }
 }
 
-/// Factors chains of 3 x 3 blocks and subtracts `W^T D^-1 W` from `schur`.
+impl Layout {
+    /// Reads the pattern's border starts (for its current number of rows).
+    fn update(&mut self, pattern: &Pattern) {
+        for c in 0..pattern.chains() {
+            let blocks = pattern.chain_blocks(c);
+            let (rows, starts) = (&mut self.rows[c * MAX_BORDER..], &mut self.starts[c * MAX_BORDER..]);
+            let mut count = 0;
+            for r in 0..pattern.border_rows() {
+                let first = pattern.border_start(c, r);
+                if first < blocks.len() {
+                    // Insertion in order of first block, ties by row.
+                    let at = starts[..count].partition_point(|s| *s <= blocks.start + first);
+                    rows.copy_within(at..count, at + 1);
+                    starts.copy_within(at..count, at + 1);
+                    (rows[at], starts[at]) = (r, blocks.start + first);
+                    count += 1;
+                }
+            }
+            self.counts[c] = count;
+        }
+    }
+
+    /// Chain `c`'s rows in their order.
+    fn rows(&self, c: usize) -> &[usize] {
+        &self.rows[c * MAX_BORDER..c * MAX_BORDER + self.counts[c]]
+    }
+
+    /// Chain `c`'s blocks cut into runs that carry the same rows: each run's
+    /// blocks and how many of [`Layout::rows`] (a prefix) they carry.
+    fn runs(&self, c: usize, blocks: Range<usize>) -> impl Iterator<Item = (Range<usize>, usize)> + '_ {
+        let starts = &self.starts[c * MAX_BORDER..c * MAX_BORDER + self.counts[c]];
+        let (mut at, end) = (blocks.start, blocks.end);
+        std::iter::from_fn(move || {
+            if at >= end {
+                return None;
+            }
+            let present = starts.partition_point(|s| *s <= at);
+            let next = starts.get(present).map_or(end, |s| (*s).min(end));
+            let run = at..next;
+            at = next;
+            Some((run, present))
+        })
+    }
+}
+
+/// The factorization of one chain, run by run.
+struct ChainFactor<'a> {
+    input: &'a SparseInput<'a>,
+    k: usize,
+    factors: &'a mut SparseFactors,
+    rows: &'a [usize],
+    local: &'a mut [f64],
+    stride: usize,
+    /// `D^-1` of the previous block; `None` at the chain's first.
+    inv: Option<Matrix3<f64>>,
+    /// Rows carried by the previous block.
+    width: usize,
+    inertia: InertiaCount,
+}
+
+impl ChainFactor<'_> {
+    /// Blocks `blocks` carrying the first `m` of the chain's rows, computed
+    /// `M >= m` wide (the columns past `m` stay zero): pivots, multipliers,
+    /// `W_j` (3 x m, row `a` at `3 k j + k a`) and `W_j^T D_j^-1 W_j` added
+    /// to `local`. A width known to the compiler keeps `W_j` in registers.
+    fn run<const M: usize>(&mut self, blocks: Range<usize>, m: usize) {
+        let (input, k, stride) = (self.input, self.k, self.stride);
+        let rows = 3 * k;
+        let mut previous = [[0.0; M]; 3];
+        if self.inv.is_some() {
+            let w = &self.factors.w[(blocks.start - 1) * rows..];
+            for (a, p) in previous.iter_mut().enumerate() {
+                p[..self.width].copy_from_slice(&w[a * k..a * k + self.width]);
+            }
+        }
+        for j in blocks {
+            let a = load(input.diag, j) + Matrix3::from_diagonal_element(input.shift);
+            let (l, d) = match self.inv {
+                None => (Matrix3::zeros(), a),
+                Some(inv) => {
+                    let e = load(input.off, j - 1);
+                    let l = e.transpose() * inv;
+                    (l, a - l * e)
+                }
+            };
+            let (inv, inertia) = invert_pivot(&d, input.tiny);
+            store(&mut self.factors.inv_pivots, j, &inv);
+            store(&mut self.factors.multipliers, j, &l);
+            // W_j = B_j - L_j W_{j-1} and V_j = D_j^-1 W_j on the rows present.
+            let border = &input.border[j * rows..(j + 1) * rows];
+            let w: [[f64; M]; 3] = std::array::from_fn(|a| {
+                std::array::from_fn(|c| {
+                    let b = if c < m { border[a * k + self.rows[c]] } else { 0.0 };
+                    b - (l[(a, 0)] * previous[0][c] + l[(a, 1)] * previous[1][c] + l[(a, 2)] * previous[2][c])
+                })
+            });
+            let v: [[f64; M]; 3] = std::array::from_fn(|a| {
+                std::array::from_fn(|c| inv[(a, 0)] * w[0][c] + inv[(a, 1)] * w[1][c] + inv[(a, 2)] * w[2][c])
+            });
+            for c1 in 0..M {
+                let target = &mut self.local[c1 * stride..c1 * stride + c1 + 1];
+                for (c2, x) in target.iter_mut().enumerate() {
+                    *x += w[0][c1] * v[0][c2] + w[1][c1] * v[1][c2] + w[2][c1] * v[2][c2];
+                }
+            }
+            let out = &mut self.factors.w[j * rows..(j + 1) * rows];
+            for (a, row) in w.iter().enumerate() {
+                out[a * k..a * k + m].copy_from_slice(&row[..m]);
+            }
+            previous = w;
+            self.inv = Some(inv);
+            self.inertia += inertia;
+        }
+        self.width = m;
+    }
+}
+
+/// Factors chains of 3 x 3 blocks and subtracts `W^T D^-1 W` from `schur`,
+/// chain by chain, on the border rows each chain carries.
 pub(super) fn factor(
     pattern: &Pattern,
     input: &SparseInput,
     factors: &mut SparseFactors,
+    profile: &mut Profile,
     schur: &mut [f64],
 ) -> InertiaCount {
     let k = pattern.border_rows();
-    let (mut lane0, mut lane1) = (FactorLane::default(), FactorLane::default());
-    pattern.forward(&mut Factor { input, k, factors }, &mut lane0, &mut lane1);
-    // S -= W_j^T V_j with V_j = D_j^-1 W_j, block by block.
-    let mut v = [[0.0; MAX_BORDER]; 3];
-    for j in 0..pattern.blocks() {
-        let inv = load(&factors.inv_pivots, j);
-        let rows: [&[f64]; 3] = std::array::from_fn(|a| &factors.w[(3 * j + a) * k..(3 * j + a + 1) * k]);
-        for r in 0..k {
-            let vr = inv * Vector3::new(rows[0][r], rows[1][r], rows[2][r]);
-            for a in 0..3 {
-                v[a][r] = vr[a];
+    let Profile { layout, local, stride } = profile;
+    let stride = *stride;
+    let mut inertia = InertiaCount::default();
+    for c in 0..pattern.chains() {
+        let rows = layout.rows(c);
+        local[..padded(rows.len()) * stride].fill(0.0);
+        let mut chain = ChainFactor {
+            input,
+            k,
+            factors: &mut *factors,
+            rows,
+            local: &mut local[..],
+            stride,
+            inv: None,
+            width: 0,
+            inertia: InertiaCount::default(),
+        };
+        for (blocks, m) in layout.runs(c, pattern.chain_blocks(c)) {
+            match padded(m) {
+                0 => chain.run::<0>(blocks, m),
+                3 => chain.run::<3>(blocks, m),
+                6 => chain.run::<6>(blocks, m),
+                9 => chain.run::<9>(blocks, m),
+                12 => chain.run::<12>(blocks, m),
+                16 => chain.run::<16>(blocks, m),
+                24 => chain.run::<24>(blocks, m),
+                32 => chain.run::<32>(blocks, m),
+                48 => chain.run::<48>(blocks, m),
+                _ => chain.run::<MAX_BORDER>(blocks, m),
             }
         }
-        subtract_outer::<3>(schur, k, rows, &v);
+        inertia += chain.inertia;
+        // S -= the chain's part, from its row order to S's (lower triangle by columns).
+        for (c1, &r1) in rows.iter().enumerate() {
+            for (c2, &r2) in rows[..=c1].iter().enumerate() {
+                schur[r1.min(r2) * k + r1.max(r2)] -= local[c1 * stride + c2];
+            }
+        }
     }
-    lane0.inertia + lane1.inertia
+    inertia
 }
 
 fn block_of(values: &[f64], j: usize) -> Vector3<f64> {
@@ -188,9 +353,8 @@ impl Sweep for Forward<'_> {
     }
 }
 
-/// Back substitution `x = L^-T D^-1 (t - W y)` over `t` held in `x`.
+/// Back substitution `x = L^-T D^-1 h` over `h = t - W y` held in `x`.
 struct Backward<'a> {
-    y: &'a [f64],
     factors: &'a SparseFactors,
     x: &'a mut [f64],
 }
@@ -200,20 +364,19 @@ impl Sweep for Backward<'_> {
 
     #[inline(always)]
     fn step<const FRESH: bool>(&mut self, next: &mut Vector3<f64>, j: usize) {
-        let (f, k) = (self.factors, self.y.len());
-        let h = Vector3::from_fn(|a, _| {
-            let row = &f.w[(3 * j + a) * k..(3 * j + a + 1) * k];
-            self.x[3 * j + a] - row.iter().zip(self.y).map(|(w, y)| w * y).sum::<f64>()
-        });
-        *next = load(&f.inv_pivots, j) * h - load(&f.multipliers, j + 1).tr_mul(next);
+        let f = self.factors;
+        *next = load(&f.inv_pivots, j) * block_of(self.x, j) - load(&f.multipliers, j + 1).tr_mul(next);
         set_block(self.x, j, next);
     }
 }
 
-/// Solves with the factors of [`factor`].
+/// Solves with the factors of [`factor`], on the border rows each chain
+/// carries (`profile` as the factorization left it).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn solve(
     pattern: &Pattern,
     factors: &SparseFactors,
+    profile: &Profile,
     schur: &SchurFactors,
     r: &[f64],
     c: &[f64],
@@ -221,21 +384,39 @@ pub(super) fn solve(
     y: &mut [f64],
 ) {
     let k = c.len();
+    let layout = &profile.layout;
     let (mut t0, mut t1) = (Vector3::zeros(), Vector3::zeros());
     pattern.forward(&mut Forward { r, multipliers: &factors.multipliers, x }, &mut t0, &mut t1);
     // y = c - W^T D^-1 t, block by block.
     y.copy_from_slice(c);
-    for j in 0..pattern.blocks() {
-        let u = load(&factors.inv_pivots, j) * block_of(x, j);
-        for a in 0..3 {
-            for (yr, w) in y.iter_mut().zip(&factors.w[(3 * j + a) * k..(3 * j + a + 1) * k]) {
-                *yr -= w * u[a];
+    for chain in 0..pattern.chains() {
+        let rows = layout.rows(chain);
+        for (blocks, m) in layout.runs(chain, pattern.chain_blocks(chain)) {
+            for j in blocks {
+                let u = load(&factors.inv_pivots, j) * block_of(x, j);
+                let w = &factors.w[3 * k * j..];
+                for (c, &row) in rows[..m].iter().enumerate() {
+                    y[row] -= w[c] * u[0] + w[k + c] * u[1] + w[2 * k + c] * u[2];
+                }
             }
         }
     }
     schur.solve(y);
+    // h = t - W y, then the backward pass.
+    for chain in 0..pattern.chains() {
+        let rows = layout.rows(chain);
+        for (blocks, m) in layout.runs(chain, pattern.chain_blocks(chain)) {
+            for j in blocks {
+                let w = &factors.w[3 * k * j..];
+                for a in 0..3 {
+                    let dot: f64 = rows[..m].iter().zip(&w[a * k..a * k + m]).map(|(&row, w)| w * y[row]).sum();
+                    x[3 * j + a] -= dot;
+                }
+            }
+        }
+    }
     let (mut next0, mut next1) = (Vector3::zeros(), Vector3::zeros());
-    pattern.backward(&mut Backward { y, factors, x }, &mut next0, &mut next1);
+    pattern.backward(&mut Backward { factors, x }, &mut next0, &mut next1);
 }
 
 #[cfg(test)]

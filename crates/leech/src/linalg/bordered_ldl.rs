@@ -20,6 +20,8 @@ pub struct BorderedLdl {
     /// Border rows the buffers hold: the pattern's when made.
     capacity: usize,
     factors: SparseFactors,
+    /// The border rows each chain carries (3 x 3 blocks), and scratch.
+    profile: block_tridiagonal::Profile,
     /// `S`, then its Bunch-Kaufman factors (lower triangle by columns).
     schur: Vec<f64>,
     schur_pivots: Vec<Pivot>,
@@ -84,6 +86,7 @@ impl BorderedLdl {
                 multipliers: vec![0.0; (blocks + 1) * b * b],
                 w: vec![0.0; blocks * b * k],
             },
+            profile: block_tridiagonal::Profile::new(pattern, k),
             schur: vec![0.0; k * k],
             schur_pivots: vec![Pivot::default(); k],
             schur_scale: vec![1.0; k],
@@ -107,6 +110,7 @@ impl BorderedLdl {
     pub fn set_border_rows(&mut self, rows: usize) {
         assert!(rows <= self.capacity, "{rows} border rows: this factorization holds {}", self.capacity);
         self.pattern.set_border_rows(rows);
+        self.profile.update(&self.pattern);
     }
 
     /// Factors the matrix and returns its inertia (Sylvester's law: that of
@@ -141,7 +145,7 @@ impl BorderedLdl {
         let k = self.pattern.border_rows();
         self.load_corner(corner, shift);
         let input = SparseInput { diag, off, border, shift, tiny };
-        let (pattern, factors) = (&self.pattern, &mut self.factors);
+        let (pattern, factors, profile) = (&self.pattern, &mut self.factors, &mut self.profile);
         let (schur, pivots) = (&mut self.schur[..], (&mut self.schur_pivots[..], &mut self.schur_scale[..]));
         (self.sparse_inertia, self.schur_inertia) = match (pattern.block_size(), k) {
             (1, 0) => factor_fused::<0>(pattern, &input, factors, schur, pivots),
@@ -153,7 +157,7 @@ impl BorderedLdl {
                 (sparse, factor_schur(schur, k, pivots))
             }
             _ => {
-                let sparse = block_tridiagonal::factor(pattern, &input, factors, schur);
+                let sparse = block_tridiagonal::factor(pattern, &input, factors, profile, schur);
                 (sparse, factor_schur(schur, k, pivots))
             }
         };
@@ -178,7 +182,7 @@ impl BorderedLdl {
             (1, 2) => tridiagonal::solve_small::<2>(pattern, factors, &schur, r, c, x, y),
             (1, 3) => tridiagonal::solve_small::<3>(pattern, factors, &schur, r, c, x, y),
             (1, _) => tridiagonal::solve_wide(pattern, factors, &schur, r, c, x, y),
-            _ => block_tridiagonal::solve(pattern, factors, &schur, r, c, x, y),
+            _ => block_tridiagonal::solve(pattern, factors, &self.profile, &schur, r, c, x, y),
         }
     }
 

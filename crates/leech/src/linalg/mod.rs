@@ -69,6 +69,13 @@
 //! in two lanes whose instructions overlap in the pipeline; with one scalar
 //! unknown per block and at most three border rows, the border columns and
 //! the Schur complement live in registers (a monomorphized fast path).
+//!
+//! A border row that is zero on a chain, or on its first blocks, can be
+//! declared so ([`Pattern::set_border_start`]): `W = L^-1 B` keeps those
+//! zeros (the recurrence only carries entries forward), and the 3 x 3 block
+//! path computes `W` and `W^T D^-1 W` only on the rows present at each
+//! block, `O(sum_j m_j^2)` with `m_j` the rows present at block `j` instead
+//! of `O(n k^2)`, in kernels of a width fixed at compile time.
 
 //!
 //! ## Quasiseparable matrices

@@ -19,6 +19,10 @@ pub struct Pattern {
     border_rows: usize,
     primal_rows: usize,
     schedule: Vec<Segment>,
+    /// Per chain `c` and border row `r`, at `c * MAX_BORDER + r`: the first
+    /// block of the chain (counted from its start) where the row may be
+    /// nonzero; the chain's length or more when it is zero on the whole chain.
+    starts: Vec<usize>,
 }
 
 /// Which lanes a segment of the walk advances.
@@ -69,7 +73,30 @@ impl Pattern {
         }
         offsets.push(total);
         let schedule = schedule(&offsets);
-        Pattern { block_size, offsets, border_rows, primal_rows, schedule }
+        let starts = vec![0; chain_lengths.len() * MAX_BORDER];
+        Pattern { block_size, offsets, border_rows, primal_rows, schedule, starts }
+    }
+
+    /// Declares that border row `row` is zero on chain `c`'s blocks before
+    /// its block `first` (counted from the chain's start; the chain's length
+    /// or more: zero on the whole chain). The entries declared zero must be
+    /// exactly zero: the factorization of 3 x 3 blocks skips them (its work
+    /// per block is quadratic in the rows present there, so a border whose
+    /// rows each touch a few chains, or only a chain's end, costs little);
+    /// the scalar paths read them. By default every row may be nonzero
+    /// everywhere.
+    ///
+    /// # Panics
+    /// If `c` is not a chain or `row` is at least [`MAX_BORDER`].
+    pub fn set_border_start(&mut self, c: usize, row: usize, first: usize) {
+        assert!(c < self.chains() && row < MAX_BORDER, "chain {c}, border row {row}: out of the pattern");
+        self.starts[c * MAX_BORDER + row] = first;
+    }
+
+    /// The first block of chain `c` (from its start) where border row `row`
+    /// may be nonzero ([`Pattern::set_border_start`]).
+    pub fn border_start(&self, c: usize, row: usize) -> usize {
+        self.starts[c * MAX_BORDER + row]
     }
 
     /// Size of the diagonal blocks.

@@ -152,27 +152,49 @@ struct Case {
     primal_rows: usize,
     shift: f64,
     zero_constraint_corner: bool,
+    /// Whether border rows start late on some chains (zero before), declared.
+    profile: bool,
     seed: u64,
 }
 
 impl Case {
     fn problem(&self) -> Problem {
-        let pattern = Pattern::new(self.block, &self.lengths, self.border_rows, self.primal_rows);
-        Problem::random(pattern, self.shift, self.zero_constraint_corner, &mut Rng(self.seed))
+        let mut pattern = Pattern::new(self.block, &self.lengths, self.border_rows, self.primal_rows);
+        let mut rng = Rng(self.seed);
+        let mut starts = Vec::new();
+        if self.profile {
+            for (c, len) in self.lengths.iter().enumerate() {
+                for row in 0..self.border_rows {
+                    // Anywhere from the chain's start to past its end (absent).
+                    let first = (rng.next() * (len + 2) as f64) as usize;
+                    pattern.set_border_start(c, row, first);
+                    starts.push((pattern.chain_blocks(c), row, first));
+                }
+            }
+        }
+        let mut problem = Problem::random(pattern, self.shift, self.zero_constraint_corner, &mut rng);
+        let (b, k) = (self.block, self.border_rows);
+        for (blocks, row, first) in starts {
+            for j in blocks.start..(blocks.start + first).min(blocks.end) {
+                (0..b).for_each(|a| problem.border[(b * j + a) * k + row] = 0.0);
+            }
+        }
+        problem
     }
 }
 
 fn cases() -> impl Strategy<Value = Case> {
     let shape = (prop_oneof![Just(1usize), Just(3usize)], prop::collection::vec(1usize..40, 1..4), 0usize..24);
     let shift = prop_oneof![Just(0.0), 0.0..1.0f64];
-    (shape, 0.0..=1.0f64, shift, any::<bool>(), any::<u64>()).prop_map(
-        |((block, lengths, border_rows), primal_fraction, shift, zero_constraint_corner, seed)| Case {
+    (shape, 0.0..=1.0f64, shift, any::<bool>(), any::<bool>(), any::<u64>()).prop_map(
+        |((block, lengths, border_rows), primal_fraction, shift, zero_constraint_corner, profile, seed)| Case {
             block,
             lengths,
             border_rows,
             primal_rows: (primal_fraction * border_rows as f64).floor() as usize,
             shift,
             zero_constraint_corner,
+            profile,
             seed,
         },
     )
