@@ -179,14 +179,17 @@ impl Body3 {
     /// each border row reaches each chain. Tube 1 carries both position
     /// blocks, tube 2 and tube 3 their own, on every link; the plate's
     /// coordinates reach each chain's last block only (tube 1's last joint,
-    /// the weld's rotation rows) and so do a side tube's rotation rows.
-    pub(crate) fn pattern(&self) -> crate::linalg::Pattern {
+    /// the weld's rotation rows) and so do a side tube's rotation rows. A
+    /// body `hanging` from the front cup couples the plate with every link
+    /// (gravity turns with the plate: [`super::hold3`]), so there the
+    /// plate's coordinates reach every block.
+    pub(crate) fn pattern(&self, hanging: bool) -> crate::linalg::Pattern {
         let chains = self.chain_blocks();
         let mut pattern = crate::linalg::Pattern::new(3, &chains, BORDER, 3);
         for (c, len) in chains.into_iter().enumerate() {
             let last = len.saturating_sub(1);
             for a in 0..3 {
-                pattern.set_border_start(c, a, last);
+                pattern.set_border_start(c, a, if hanging { 0 } else { last });
             }
             // Border row 3 + r is the plate's row r: 6 per side (3 position, 3 rotation).
             for row in 0..PLATE_ROWS {
@@ -637,9 +640,16 @@ mod tests {
         let body = Body3::from_robot(&Robot::builtin(), [0.08, 0.07, 0.06]).unwrap();
         let frames = Frames((0..body.links()).map(|u| exp([0.1, -0.2 + 0.03 * u as f64, 0.05])).collect());
         let lambda: [f64; PLATE_ROWS] = std::array::from_fn(|r| 0.3 + r as f64);
-        let mut ev = Eval3::new(&body);
-        body.evaluate(&frames, &lambda, Param::FULL, &mut ev);
-        let pattern = body.pattern();
+        let hang = super::super::hold3::Hanging { up: [0.6, 0.0, 0.8], unit_mass_kg: 0.1 };
+        for param in [Param::FULL, Param { hang: Some(hang), ..Param::FULL }] {
+            let mut ev = Eval3::new(&body);
+            body.evaluate(&frames, &lambda, param, &mut ev);
+            border_reaches_as_declared(&body.pattern(param.hang.is_some()), &ev);
+        }
+    }
+
+    /// Every border entry `pattern` declares zero is zero in `ev`, and most are.
+    fn border_reaches_as_declared(pattern: &crate::linalg::Pattern, ev: &Eval3) {
         let (mut zeros, mut nonzeros) = (0, 0);
         for c in 0..pattern.chains() {
             let blocks = pattern.chain_blocks(c);

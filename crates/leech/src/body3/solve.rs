@@ -112,13 +112,13 @@ struct Work {
 }
 
 impl Work {
-    fn new(body: &Body3) -> Work {
+    fn new(body: &Body3, hang: Option<Hanging>) -> Work {
         let n = body.links();
         let chain = 3 * (n - 1);
         Work {
             ev: Eval3::new(body),
             trial: Eval3::new(body),
-            ldl: BorderedLdl::new(&body.pattern()),
+            ldl: BorderedLdl::new(&body.pattern(hang.is_some())),
             border: vec![0.0; chain * BORDER],
             corner: vec![0.0; BORDER * BORDER],
             residual: vec![0.0; 3 * n],
@@ -205,7 +205,7 @@ impl Body3 {
     /// [`Body3::solve`], hanging from the front cup when `hang` says so
     /// ([`super::hold3`]: gravity raised on the hanging body).
     pub(crate) fn solve_on(&self, solver: &Solver, hang: Option<Hanging>) -> Result<Equilibrium3, SolveError> {
-        let mut work = Work::new(self);
+        let mut work = Work::new(self, hang);
         let mut state = State::new(self.straight());
         let lengths = [0, 1, 2].map(|i| self.tube(i).tube_length());
         let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
@@ -237,7 +237,7 @@ impl Body3 {
         frames: &Frames,
         hang: Option<Hanging>,
     ) -> Result<Equilibrium3, SolveError> {
-        let mut work = Work::new(self);
+        let mut work = Work::new(self, hang);
         let mut state = State::new(frames.clone());
         let full = Param { hang, ..Param::FULL };
         let residual = self.settle_reporting(solver, &mut state, full, 1.0, Stage::WarmStart, &mut work)?;

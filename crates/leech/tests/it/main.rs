@@ -2,8 +2,8 @@
 
 mod batch;
 mod body3;
-mod body3_hold;
 mod body3_constant_curvature;
+mod body3_hold;
 mod body3_references;
 mod calibration;
 mod climb;
