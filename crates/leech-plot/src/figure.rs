@@ -108,6 +108,10 @@ const X_LABELS: u32 = 45;
 const Y_LABELS: u32 = 60;
 const CAPTION: u32 = 34;
 
+/// Tick labels across a figure, and across a panel (narrower).
+const X_TICKS: usize = 10;
+const PANEL_X_TICKS: usize = 6;
+
 /// The plotting area (pixels) of a chart drawn on an area of `(w, h)` pixels.
 fn plot_size((w, h): (u32, u32)) -> (f64, f64) {
     (
@@ -268,7 +272,7 @@ impl Figure {
         root.fill(&WHITE).map_err(draw_error)?;
         if self.panels.is_empty() {
             let plot = plot_size(root.dim_in_pixel());
-            self.draw_chart(&root, self.bounds_at(plot, self.units_per_px(plot)?)?)?;
+            self.draw_chart(&root, self.bounds_at(plot, self.units_per_px(plot)?)?, X_TICKS)?;
         } else {
             let below = root.titled(&self.title, (FONT, 20)).map_err(draw_error)?;
             let areas = below.split_evenly((1, self.panels.len()));
@@ -279,7 +283,7 @@ impl Figure {
                 per_px = per_px.max(panel.units_per_px(*plot)?);
             }
             for ((panel, area), plot) in self.panels.iter().zip(&areas).zip(plots) {
-                panel.draw_chart(area, panel.bounds_at(plot, per_px)?)?;
+                panel.draw_chart(area, panel.bounds_at(plot, per_px)?, PANEL_X_TICKS)?;
             }
         }
         root.present().map_err(draw_error)?;
@@ -287,11 +291,13 @@ impl Figure {
     }
 
     /// The chart of this figure's series on `area`, over `bounds` (axis
-    /// units), its title the caption; the legend only when a series has a label.
+    /// units) with at most `x_ticks` labels across, its title the caption;
+    /// the legend only when a series has a label.
     fn draw_chart<DB: DrawingBackend>(
         &self,
         area: &DrawingArea<DB, Shift>,
         ((x0, x1), (y0, y1)): ((f64, f64), (f64, f64)),
+        x_ticks: usize,
     ) -> Result<(), PlotError>
     where
         DB::ErrorType: 'static,
@@ -305,6 +311,7 @@ impl Figure {
             .map_err(draw_error)?;
         chart
             .configure_mesh()
+            .x_labels(x_ticks)
             .x_desc(self.axes.x_label.as_str())
             .y_desc(self.axes.y_label.as_str())
             .label_style((FONT, 14))

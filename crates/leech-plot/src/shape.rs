@@ -120,13 +120,14 @@ const TUBES: [(u8, u8, u8); 3] = [PALETTE[0], PALETTE[1], PALETTE[3]];
 /// the two views where it lies in the page.
 pub fn body3_figure(robot: &str, body: &Body3, frames: &Frames) -> Figure {
     let tubes: Vec<Vec<[f64; 3]>> = (0..3).map(|i| body.points(frames, i)).collect();
-    let closed = |pick: fn(&Vec<[f64; 3]>) -> [f64; 3]| {
-        let mut corners: Vec<[f64; 3]> = tubes.iter().map(pick).collect();
-        corners.push(corners[0]);
-        corners
+    // Each triangle's edges one by one: a thick line folding back on itself
+    // (a triangle seen edge-on) would draw a spike at its mitred corner.
+    let edges = |pick: fn(&Vec<[f64; 3]>) -> [f64; 3]| {
+        let corners: Vec<[f64; 3]> = tubes.iter().map(pick).collect();
+        (0..3).map(|k| vec![corners[k], corners[(k + 1) % 3]]).collect::<Vec<_>>()
     };
-    let unit = closed(|t| t[0]);
-    let plate = closed(|t| *t.last().expect("a tube has its root"));
+    let unit = edges(|t| t[0]);
+    let plate = edges(|t| *t.last().expect("a tube has its root"));
     let views: [(&str, &str, &str, fn([f64; 3]) -> [f64; 2]); 3] = [
         ("front (seen from +z)", "x (mm)", "y (mm)", |p| [p[0], p[1]]),
         ("side (seen from -x)", "z (mm)", "y (mm)", |p| [p[2], p[1]]),
@@ -140,11 +141,16 @@ pub fn body3_figure(robot: &str, body: &Body3, frames: &Frames) -> Figure {
             fig.axes = Axes { scale: 1e3, x_label: (*x).into(), y_label: (*y).into() };
             let flat = |points: &[[f64; 3]]| points.iter().map(|p| project(*p)).collect::<Vec<_>>();
             let label = |text: &str| if v == 0 { text.to_string() } else { String::new() };
-            fig.push(label("driving unit"), flat(&unit), SeriesStyle::Thick, GREY);
+            let triangle = |fig: &mut Figure, name: &str, edges: &[Vec<[f64; 3]>], color| {
+                for (k, edge) in edges.iter().enumerate() {
+                    fig.push(if k == 0 { label(name) } else { String::new() }, flat(edge), SeriesStyle::Thick, color);
+                }
+            };
+            triangle(&mut fig, "driving unit", &unit, GREY);
             for (i, (tube, color)) in tubes.iter().zip(TUBES).enumerate() {
                 fig.push(label(&format!("tube {}", i + 1)), flat(tube), SeriesStyle::LineAndDots, color);
             }
-            fig.push(label("endpoint plate"), flat(&plate), SeriesStyle::Thick, PALETTE[2]);
+            triangle(&mut fig, "endpoint plate", &plate, PALETTE[2]);
             fig.gravity_arrow = body.gravity() > 0.0 && v < 2;
             fig
         })

@@ -419,6 +419,7 @@ mod drive;
 mod harden;
 mod holds;
 mod serve;
+mod shape3d;
 mod tube;
 
 /// Help into a pipe closed early (`leech shape --help | head -0`) is not a panic.
