@@ -18,8 +18,8 @@ use leech::dynamics::Simulation;
 use leech::inverse_statics::Reach;
 use leech::prelude::*;
 use leech::report::{
-    Body3Report, BodyReport, CantileverReport, ClimbReport, ConstantCurvatureReport, SampleRow, SceneReport, ShapeReport,
-    PlanarCounterpart, SolveTiming, StanceReport, SweepRow, TubeInSceneReport,
+    Body3Report, BodyReport, CantileverReport, ClimbReport, ConstantCurvatureReport, PlanarCounterpart, SampleRow,
+    SceneReport, ShapeReport, SolveTiming, StanceReport, SweepRow, TubeInSceneReport,
 };
 use leech::scene::Scene;
 use leech::stance::{Held, TubeHeld};

@@ -9,8 +9,8 @@ use leech::dynamics::Simulation;
 use leech::inverse_statics::{Reach, ReachStatus};
 use leech::prelude::*;
 use leech::report::{
-    Body3Report, BodyReport, CantileverReport, ClimbReport, ConstantCurvatureReport, Solution, SolveTiming, StanceReport,
-    TubeInSceneReport,
+    Body3Report, BodyReport, CantileverReport, ClimbReport, ConstantCurvatureReport, Solution, SolveTiming,
+    StanceReport, TubeInSceneReport,
 };
 use leech::sweep::{Extreme, Sweep};
 
