@@ -205,6 +205,7 @@ fn generated(places: &Places) -> Vec<Case> {
     let keys: Vec<String> = places
         .robot
         .lines()
+        .filter(|l| !l.trim_start().starts_with('#'))
         .filter_map(|l| {
             let (key, value) = l.split_once(" = ")?;
             let value = value.split('#').next()?.trim();
