@@ -41,7 +41,7 @@ pub enum PlanarCounterpart {
     /// `L2 != L3`: the planar model has no body of these lengths.
     Unequal,
     /// The planar body at `(L1, L2)` and its equilibrium.
-    Solved(Body, Equilibrium),
+    Solved(Box<(Body, Equilibrium)>),
     /// The planar model refused the body (fewer than 4 links in all) or
     /// its solve failed where the 3D one did not: why.
     Failed(String),
@@ -61,7 +61,7 @@ impl PlanarCounterpart {
             Err(e) => return PlanarCounterpart::Failed(format!("the planar model refused the body: {e}")),
         };
         match body.solve(solver) {
-            Ok(eq) => PlanarCounterpart::Solved(body, eq),
+            Ok(eq) => PlanarCounterpart::Solved(Box::new((body, eq))),
             Err(e) => PlanarCounterpart::Failed(format!("the planar model's solve failed: {e}")),
         }
     }
@@ -124,7 +124,8 @@ impl Body3Report {
         let (planar, planar_note) = match planar {
             PlanarCounterpart::Unequal => (None, Some("L2 != L3: the planar model has no counterpart".to_string())),
             PlanarCounterpart::Failed(why) => (None, Some(why.clone())),
-            PlanarCounterpart::Solved(flat, flat_eq) => {
+            PlanarCounterpart::Solved(solved) => {
+                let (flat, flat_eq) = &**solved;
                 let origin = body.tube(0).root();
                 let [x, y] = flat.endpoint(&flat_eq.q);
                 let report = PlanarReport {
