@@ -108,7 +108,7 @@ pub fn shape3d(out: &mut String, r: &Body3Report) {
         fixed(r.shape_parameter, 0)
     );
     let links = r.tubes.iter().map(|t| t.links.to_string()).collect::<Vec<_>>().join(" + ");
-    let tangent = r.plate_frame.map(|row| row[0]);
+    let tangent = r.plate_frame.map(|row| unsigned_zero(row[0], 4));
     say!(
         out,
         "three-tube 3D: endpoint at {}, plate tangent ({:.4}, {:.4}, {:.4}) ({links} links)",
@@ -134,9 +134,20 @@ pub fn shape3d(out: &mut String, r: &Body3Report) {
     }
 }
 
-/// A point in 3D, in mm.
-fn mm3([x, y, z]: [f64; 3]) -> String {
-    format!("({:.3}, {:.3}, {:.3}) mm", x * 1e3, y * 1e3, z * 1e3)
+/// A point in 3D, in mm to 3 decimals.
+fn mm3(p: [f64; 3]) -> String {
+    let [x, y, z] = p.map(|v| unsigned_zero(v * 1e3, 3));
+    format!("({x:.3}, {y:.3}, {z:.3}) mm")
+}
+
+/// `v` shown to `digits` decimals, 0 where it rounds to 0: `0.000`, not
+/// `-0.000`, for the round-off of a symmetric body.
+fn unsigned_zero(v: f64, digits: i32) -> f64 {
+    if v.abs() < 0.5 * 10f64.powi(-digits) {
+        0.0
+    } else {
+        v
+    }
 }
 
 /// Where the holds put the driving unit, what each cup carries and whether
