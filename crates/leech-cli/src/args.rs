@@ -10,6 +10,7 @@ use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
+use leech::body3::Body3;
 use leech::budget::Deadline;
 
 use leech::calibration::{read_sag, read_shapes, BodyShape, Fit, SagTube};
@@ -52,6 +53,7 @@ pub enum Args {
     },
     Chain(Chain),
     Shape(Shape),
+    Shape3d(Shape3d),
     Figure(Figure),
     Workspace(Workspace),
     Reach(Reach),
@@ -137,6 +139,18 @@ impl Shape {
     }
 }
 
+/// `leech shape3d`: today's clamped body (the rear cup holding the driving
+/// unit at the origin); holds and scenes in 3D join as [`Shape`]'s do.
+pub struct Shape3d {
+    pub robot: Robot,
+    pub lengths: [f64; 3],
+    pub body: Body3,
+    pub free_axial_rotation: bool,
+    /// The 3D solve's and, with `L2 = L3`, the planar one's beside it.
+    pub solver: Solver,
+    pub outputs: Outputs,
+}
+
 /// `leech figure`.
 pub struct Figure {
     pub robot: Robot,
@@ -217,6 +231,7 @@ impl Args {
             }
             Command::Chain(a) => Args::Chain(chain(a)?),
             Command::Shape(a) => Args::Shape(shape(a)?),
+            Command::Shape3d(a) => Args::Shape3d(shape3d(a)?),
             Command::Figure(a) => Args::Figure(Figure {
                 robot: tuned(&a.robot, Ok)?,
                 names: match a.name.as_str() {
@@ -278,6 +293,7 @@ impl Args {
         let outputs = match self {
             Args::Chain(Chain { outputs, .. })
             | Args::Shape(Shape { outputs, .. })
+            | Args::Shape3d(Shape3d { outputs, .. })
             | Args::Simulate(Simulate { outputs, .. })
             | Args::Climb(Climb { outputs, .. }) => Some(outputs),
             Args::Workspace(w) => {
@@ -314,6 +330,7 @@ impl Args {
             Args::Climb(Climb { outputs, .. }) => outputs.json,
             Args::Chain(Chain { outputs, .. })
             | Args::Shape(Shape { outputs, .. })
+            | Args::Shape3d(Shape3d { outputs, .. })
             | Args::Workspace(Workspace { outputs, .. })
             | Args::Calibrate(Calibrate { outputs, .. })
             | Args::Simulate(Simulate { outputs, .. }) => outputs.json,
@@ -424,7 +441,7 @@ fn shape(a: flags::ShapeArgs) -> Result<Shape, Failure> {
         }
         Ok(robot)
     })?;
-    let [la, lb] = tube_lengths(&robot, "--lengths", a.lengths)?;
+    let [la, lb] = tube_lengths(&robot, "--lengths", a.lengths, ["LA", "LB"])?;
     // The body checks the lengths for both models.
     let body = robot.body(la, lb)?;
     let models = models(a.model);
@@ -448,6 +465,19 @@ fn shape(a: flags::ShapeArgs) -> Result<Shape, Failure> {
         ));
     }
     Ok(shape)
+}
+
+fn shape3d(a: flags::Shape3dArgs) -> Result<Shape3d, Failure> {
+    let robot = tuned(&a.robot, |robot| at_base_angle(robot, a.base_angle))?;
+    let lengths = tube_lengths(&robot, "--lengths", a.lengths, ["L1", "L2", "L3"])?;
+    // The body checks the robot for the 3D model (its discretization).
+    let mut body = Body3::from_robot(&robot, lengths)?;
+    if a.free_axial_rotation {
+        body = body.with_free_axial_rotation();
+    }
+    let solver = solver(a.max_iterations, a.time_limit)?;
+    let outputs = a.output.into();
+    Ok(Shape3d { robot, lengths, body, free_axial_rotation: a.free_axial_rotation, solver, outputs })
 }
 
 fn repeat(n: usize) -> Result<NonZeroUsize, Failure> {
@@ -488,8 +518,8 @@ fn simulate(a: flags::SimulateArgs) -> Result<Simulate, Failure> {
     }
     let robot = at_base_angle(tuned(&a.robot, Ok)?, a.base_angle)?;
     // The library checks these again as it runs; here each is named by its flag.
-    tube_lengths(&robot, "--lengths", a.lengths)?;
-    a.to.map(|to| tube_lengths(&robot, "--to", to)).transpose()?;
+    tube_lengths(&robot, "--lengths", a.lengths, ["LA", "LB"])?;
+    a.to.map(|to| tube_lengths(&robot, "--to", to, ["LA", "LB"])).transpose()?;
     positive("--rest-rate (rad/s)", a.rest_rate)?;
     non_negative("--ramp (s)", a.ramp)?;
     let actuation = match (a.to, a.step) {
@@ -562,12 +592,18 @@ impl<T> Flagged<T> for Result<T, InputError> {
     }
 }
 
-/// The two tube lengths `flag` gives, checked against the robot.
-fn tube_lengths(robot: &Robot, flag: &str, [la, lb]: [f64; 2]) -> Result<[f64; 2], InputError> {
-    Ok([
-        robot.check_tube_length("lengths[0] (LA)", la).flag(flag)?,
-        robot.check_tube_length("lengths[1] (LB)", lb).flag(flag)?,
-    ])
+/// The tube lengths `flag` gives, checked against the robot; `names` are
+/// the tubes' (`LA`, `LB`; `L1`, `L2`, `L3`).
+fn tube_lengths<const N: usize>(
+    robot: &Robot,
+    flag: &str,
+    mut lengths: [f64; N],
+    names: [&str; N],
+) -> Result<[f64; N], InputError> {
+    for (i, (length, name)) in lengths.iter_mut().zip(names).enumerate() {
+        *length = robot.check_tube_length(&format!("lengths[{i}] ({name})"), *length).flag(flag)?;
+    }
+    Ok(lengths)
 }
 
 /// The robot with the clamp angle the command line asks for, if it does.

@@ -31,6 +31,8 @@ pub enum Command {
     Chain(ChainArgs),
     /// Shape of the two-chain body for given tube lengths.
     Shape(ShapeArgs),
+    /// Shape of the three-tube body in 3D (tubes 2 and 3 may differ: the body turns).
+    Shape3d(Shape3dArgs),
     /// Regenerate one of the paper's figures (SVG and CSV) for a robot.
     Figure(FigureArgs),
     /// Sweep both tube lengths over a grid: endpoints, reach metrics (CSV, JSON, SVG).
@@ -674,6 +676,33 @@ pub struct ShapeArgs {
     /// With --scene: whether the free cups' faces rest on the solids (default pass-through).
     #[arg(long, value_enum, value_name = "MODE")]
     pub free_cups: Option<FreeCupsArg>,
+    #[command(flatten)]
+    pub output: Output,
+}
+
+/// `leech shape3d`: the body held by its rear cup at the origin (holds and
+/// scenes in 3D join here as `shape`'s `--hold` and `--scene`).
+#[derive(Debug, Args)]
+#[command(allow_negative_numbers = true)]
+pub struct Shape3dArgs {
+    #[command(flatten)]
+    pub robot: RobotChoice,
+    /// Tube lengths L1 (centre tube), L2 and L3 (side tubes, tube 2 towards +z), in m.
+    #[arg(long, value_name = "L1,L2,L3", value_parser = parse_triple, allow_hyphen_values = true)]
+    pub lengths: [f64; 3],
+    /// Clamp direction (deg), overriding the robot file.
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
+    pub base_angle: Option<f64>,
+    /// Leave each tube's axial rotation at the driving unit free (no torsional spring there).
+    #[arg(long)]
+    pub free_axial_rotation: bool,
+    /// Newton iterations allowed for the whole solve.
+    #[arg(long, value_name = "N", default_value_t = SolverOptions::default().max_iterations)]
+    pub max_iterations: usize,
+    /// Wall-clock limit of the command (s, at most a day): the 3D solve and, with L2 = L3, the
+    /// planar one beside it take milliseconds; 60 s only stops a runaway.
+    #[arg(long, value_name = "S", default_value_t = 60.0, allow_hyphen_values = true)]
+    pub time_limit: f64,
     #[command(flatten)]
     pub output: Output,
 }

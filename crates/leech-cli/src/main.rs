@@ -17,7 +17,7 @@ use clap::Parser;
 use leech::calibration::Calibration;
 use leech::inverse_statics::Reacher;
 use leech::prelude::*;
-use leech::report::SolveTiming;
+use leech::report::{PlanarCounterpart, SolveTiming};
 use leech::stance;
 
 use args::{Args, Shape};
@@ -182,6 +182,11 @@ fn run(args: Args, out: &mut String) -> Result<(), Failure> {
         Args::Shape(a) => {
             let solved = a.solver.as_ref().map(|solver| solve_shape(&a, solver)).transpose()?;
             render::shape(out, &a, solved.as_ref())
+        }
+        Args::Shape3d(a) => {
+            let eq = a.body.solve(&a.solver)?;
+            let planar = PlanarCounterpart::solve(&a.robot, a.lengths, &a.solver);
+            render::shape3d(out, &a, &eq, &planar)
         }
         Args::Figure(a) => {
             // The directory exists: resolving checked it (and made it).

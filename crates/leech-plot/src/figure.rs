@@ -89,6 +89,11 @@ pub struct Figure {
     pub size: (u32, u32),
     /// Axis units and titles (mm by default).
     pub axes: Axes,
+    /// Panels drawn side by side under the title, each with its own axes,
+    /// all at one scale (a body's views); a figure with panels draws them
+    /// instead of its own series. Each panel's title is its caption; its
+    /// size is unused (the figure's is split evenly).
+    pub panels: Vec<Figure>,
 }
 
 /// Colours that stay distinguishable in print and for common colour blindness.
@@ -96,6 +101,24 @@ pub const PALETTE: [(u8, u8, u8); 6] =
     [(0, 114, 178), (213, 94, 0), (0, 158, 115), (204, 121, 167), (86, 180, 233), (230, 159, 0)];
 
 const FONT: &str = "sans-serif";
+
+/// Space around a chart, for its tick labels and for a caption (pixels).
+const MARGIN: u32 = 12;
+const X_LABELS: u32 = 45;
+const Y_LABELS: u32 = 60;
+const CAPTION: u32 = 34;
+
+/// Tick labels across a figure, and across a panel (narrower).
+const X_TICKS: usize = 10;
+const PANEL_X_TICKS: usize = 6;
+
+/// The plotting area (pixels) of a chart drawn on an area of `(w, h)` pixels.
+fn plot_size((w, h): (u32, u32)) -> (f64, f64) {
+    (
+        w.saturating_sub(2 * MARGIN + Y_LABELS).max(1) as f64,
+        h.saturating_sub(2 * MARGIN + X_LABELS + CAPTION).max(1) as f64,
+    )
+}
 
 /// An arrow head's length as a fraction of the plot's width.
 const ARROW_HEAD: f64 = 0.022;
@@ -159,7 +182,17 @@ impl Figure {
             gravity_arrow: false,
             size: (760, 760),
             axes: Axes::default(),
+            panels: Vec::new(),
         }
+    }
+
+    /// A figure of `panels` side by side under `title`, each `panel_size`
+    /// pixels (width, height) below the title.
+    pub fn row(title: impl Into<String>, panels: Vec<Figure>, panel_size: (u32, u32)) -> Figure {
+        let mut fig = Figure::new(title);
+        fig.size = (panel_size.0 * panels.len().max(1) as u32, panel_size.1 + CAPTION);
+        fig.panels = panels;
+        fig
     }
 
     /// Adds a series.
@@ -167,9 +200,29 @@ impl Figure {
         self.series.push(Series { label: label.into(), points, style, color });
     }
 
-    /// Data bounds in axis units, padded, with the aspect ratio `width / height`
-    /// of the plotting area so that a millimetre is as long across as up.
-    fn bounds_mm(&self, aspect: f64) -> Result<((f64, f64), (f64, f64)), PlotError> {
+    /// Axis units per pixel that show the padded data in a plotting area of
+    /// `plot` pixels (width, height), the same across as up.
+    fn units_per_px(&self, plot: (f64, f64)) -> Result<f64, PlotError> {
+        let (lo, hi) = self.extent()?;
+        let least = 1e-3 * self.axes.scale;
+        let span = [(hi[0] - lo[0]).max(least) * 1.2, (hi[1] - lo[1]).max(least) * 1.2];
+        Ok((span[0] / plot.0).max(span[1] / plot.1))
+    }
+
+    /// Bounds in axis units of a plotting area of `plot` pixels at
+    /// `per_px` axis units a pixel, centred on the data.
+    fn bounds_at(&self, plot: (f64, f64), per_px: f64) -> Result<((f64, f64), (f64, f64)), PlotError> {
+        let (lo, hi) = self.extent()?;
+        let span = [plot.0 * per_px, plot.1 * per_px];
+        let centre = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
+        Ok((
+            (centre[0] - span[0] / 2.0, centre[0] + span[0] / 2.0),
+            (centre[1] - span[1] / 2.0, centre[1] + span[1] / 2.0),
+        ))
+    }
+
+    /// The data's lower and upper corners in axis units.
+    fn extent(&self) -> Result<([f64; 2], [f64; 2]), PlotError> {
         let mut lo = [f64::INFINITY; 2];
         let mut hi = [f64::NEG_INFINITY; 2];
         for p in self.series.iter().flat_map(|s| s.points.iter()) {
@@ -184,18 +237,7 @@ impl Figure {
         if !lo[0].is_finite() {
             return Err(PlotError::Empty);
         }
-        let least = 1e-3 * self.axes.scale;
-        let mut span = [(hi[0] - lo[0]).max(least) * 1.2, (hi[1] - lo[1]).max(least) * 1.2];
-        if span[0] / span[1] < aspect {
-            span[0] = span[1] * aspect;
-        } else {
-            span[1] = span[0] / aspect;
-        }
-        let centre = [(lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0];
-        Ok((
-            (centre[0] - span[0] / 2.0, centre[0] + span[0] / 2.0),
-            (centre[1] - span[1] / 2.0, centre[1] + span[1] / 2.0),
-        ))
+        Ok((lo, hi))
     }
 
     /// Corners of the plotting area ranked from the emptiest: the legend and
@@ -226,17 +268,41 @@ impl Figure {
     where
         DB::ErrorType: 'static,
     {
-        const MARGIN: u32 = 12;
-        const X_LABELS: u32 = 45;
-        const Y_LABELS: u32 = 60;
-        const CAPTION: u32 = 34;
         register_font();
         root.fill(&WHITE).map_err(draw_error)?;
-        let (w, h) = self.size;
-        let plot_w = w.saturating_sub(2 * MARGIN + Y_LABELS).max(1) as f64;
-        let plot_h = h.saturating_sub(2 * MARGIN + X_LABELS + CAPTION).max(1) as f64;
-        let ((x0, x1), (y0, y1)) = self.bounds_mm(plot_w / plot_h)?;
-        let mut chart = ChartBuilder::on(&root)
+        if self.panels.is_empty() {
+            let plot = plot_size(root.dim_in_pixel());
+            self.draw_chart(&root, self.bounds_at(plot, self.units_per_px(plot)?)?, X_TICKS)?;
+        } else {
+            let below = root.titled(&self.title, (FONT, 20)).map_err(draw_error)?;
+            let areas = below.split_evenly((1, self.panels.len()));
+            let plots: Vec<(f64, f64)> = areas.iter().map(|a| plot_size(a.dim_in_pixel())).collect();
+            // One scale for every panel: the coarsest any of them needs.
+            let mut per_px = 0.0f64;
+            for (panel, plot) in self.panels.iter().zip(&plots) {
+                per_px = per_px.max(panel.units_per_px(*plot)?);
+            }
+            for ((panel, area), plot) in self.panels.iter().zip(&areas).zip(plots) {
+                panel.draw_chart(area, panel.bounds_at(plot, per_px)?, PANEL_X_TICKS)?;
+            }
+        }
+        root.present().map_err(draw_error)?;
+        Ok(())
+    }
+
+    /// The chart of this figure's series on `area`, over `bounds` (axis
+    /// units) with at most `x_ticks` labels across, its title the caption;
+    /// the legend only when a series has a label.
+    fn draw_chart<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+        ((x0, x1), (y0, y1)): ((f64, f64), (f64, f64)),
+        x_ticks: usize,
+    ) -> Result<(), PlotError>
+    where
+        DB::ErrorType: 'static,
+    {
+        let mut chart = ChartBuilder::on(area)
             .caption(&self.title, (FONT, 20))
             .margin(MARGIN)
             .x_label_area_size(X_LABELS)
@@ -245,6 +311,7 @@ impl Figure {
             .map_err(draw_error)?;
         chart
             .configure_mesh()
+            .x_labels(x_ticks)
             .x_desc(self.axes.x_label.as_str())
             .y_desc(self.axes.y_label.as_str())
             .label_style((FONT, 14))
@@ -261,6 +328,9 @@ impl Figure {
         if self.gravity_arrow {
             gravity_arrow(&mut chart, corners[1], (x0, x1), (y0, y1))?;
         }
+        if self.series.iter().all(|s| s.label.is_empty()) {
+            return Ok(());
+        }
         let position = match corners[0] {
             0 => SeriesLabelPosition::UpperLeft,
             1 => SeriesLabelPosition::UpperRight,
@@ -274,9 +344,7 @@ impl Figure {
             .border_style(RGBColor(180, 180, 180))
             .position(position)
             .draw()
-            .map_err(draw_error)?;
-        root.present().map_err(draw_error)?;
-        Ok(())
+            .map_err(draw_error)
     }
 
     /// One series, with its legend entry when it has a label; `head` is the

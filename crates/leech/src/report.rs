@@ -13,9 +13,11 @@ use crate::dynamics::Sample;
 use crate::statics::{Equilibrium, Event, Solver};
 use crate::sweep::{Model, Point};
 
+mod body3;
 mod climb;
 mod held;
 
+pub use body3::{Body3Report, PlanarCounterpart, PlanarReport, TubeReport};
 pub use climb::{write_climb_csv, ClimbReport, ClimbRow, ClimbStep, SafetyFactors};
 pub use held::{Cups, HalfPlaneReport, HoldReport, Holds, PolygonReport, SceneReport, ShapeReport, StanceReport};
 

@@ -10,6 +10,7 @@ mod text;
 use std::path::Path;
 
 use anyhow::Context;
+use leech::body3::Equilibrium3;
 use leech::budget::Halt;
 use leech::calibration::{Calibration, ShapeComparison};
 use leech::constant_curvature::PlanarBody;
@@ -17,8 +18,8 @@ use leech::dynamics::Simulation;
 use leech::inverse_statics::Reach;
 use leech::prelude::*;
 use leech::report::{
-    BodyReport, CantileverReport, ClimbReport, ConstantCurvatureReport, SampleRow, SceneReport, ShapeReport,
-    SolveTiming, StanceReport, SweepRow, TubeInSceneReport,
+    Body3Report, BodyReport, CantileverReport, ClimbReport, ConstantCurvatureReport, PlanarCounterpart, SampleRow,
+    SceneReport, ShapeReport, SolveTiming, StanceReport, SweepRow, TubeInSceneReport,
 };
 use leech::scene::Scene;
 use leech::stance::{Held, TubeHeld};
@@ -28,7 +29,7 @@ use leech_plot::figures::Output;
 use serde::Serialize;
 use serde_json::json;
 
-use crate::args::{Calibrate, Chain, Climb, Shape, Simulate, Workspace};
+use crate::args::{Calibrate, Chain, Climb, Shape, Shape3d, Simulate, Workspace};
 use crate::failure::Failure;
 
 /// Writes to standard output; a closed pipe (`leech ... | head`) is not an
@@ -161,6 +162,18 @@ pub fn shape(out: &mut String, a: &Shape, solved: Option<&Solved>) -> Result<(),
         (Some((s, cups)), false) => leech_plot::stance::held_figure(&a.robot, &s.held, a.scene.as_ref(), cups),
         (None, _) => leech_plot::shape::constant_curvature_figure(&a.robot.name, &cc, la, lb),
     })
+}
+
+/// `leech shape3d`: the 3D body's report with the planar model beside it,
+/// and its three views.
+pub fn shape3d(out: &mut String, a: &Shape3d, eq: &Equilibrium3, planar: &PlanarCounterpart) -> Result<(), Failure> {
+    let report = Body3Report::new(&a.robot, &a.body, eq, a.free_axial_rotation, planar);
+    if a.outputs.json {
+        json(out, &report)?;
+    } else {
+        text::shape3d(out, &report);
+    }
+    files::pictures(&a.outputs, || leech_plot::shape::body3_figure(&a.robot.name, &a.body, &eq.frames))
 }
 
 /// `leech scene list`: each built-in scene's name and what it is.

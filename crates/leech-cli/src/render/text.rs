@@ -9,8 +9,8 @@ use leech::dynamics::Simulation;
 use leech::inverse_statics::{Reach, ReachStatus};
 use leech::prelude::*;
 use leech::report::{
-    BodyReport, CantileverReport, ClimbReport, ConstantCurvatureReport, Solution, SolveTiming, StanceReport,
-    TubeInSceneReport,
+    Body3Report, BodyReport, CantileverReport, ClimbReport, ConstantCurvatureReport, Solution, SolveTiming,
+    StanceReport, TubeInSceneReport,
 };
 use leech::sweep::{Extreme, Sweep};
 
@@ -98,6 +98,60 @@ pub fn shape(
     if let Some(r) = constant_curvature {
         let bend = format_args!("bend {:.3} rad", r.bend_rad);
         endpoint(out, "constant curvature", r.endpoint_m, r.endpoint_angle_rad, bend);
+    }
+}
+
+/// `leech shape3d`: the endpoint and the plate's tangent, the solve, the
+/// twist and the planar model beside the 3D body.
+pub fn shape3d(out: &mut String, r: &Body3Report) {
+    let [l1, l2, l3] = r.lengths_m;
+    let free = if r.free_axial_rotation { ", axial rotation free at the driving unit" } else { "" };
+    say!(
+        out,
+        "{}: L1 = {l1:.4} m, L2 = {l2:.4} m, L3 = {l3:.4} m (Pi = {}){free}",
+        r.robot,
+        fixed(r.shape_parameter, 0)
+    );
+    let links = r.tubes.iter().map(|t| t.links.to_string()).collect::<Vec<_>>().join(" + ");
+    let tangent = r.plate_frame.map(|row| unsigned_zero(row[0], 4));
+    say!(
+        out,
+        "three-tube 3D: endpoint at {}, plate tangent ({:.4}, {:.4}, {:.4}) ({links} links)",
+        mm3(r.endpoint_m),
+        tangent[0],
+        tangent[1],
+        tangent[2]
+    );
+    solution(out, &r.solution);
+    say!(out, "largest twist {:.2e} rad", r.max_twist_rad);
+    match (&r.planar, &r.planar_note) {
+        (Some(p), _) => say!(
+            out,
+            "planar model: endpoint at {}, {:.2e} m from the 3D body's (points up to {:.2e} m apart, {:.2e} m out of its plane){}",
+            mm3(p.endpoint_m),
+            p.difference.endpoint_m,
+            p.difference.max_point_m,
+            p.difference.out_of_plane_m,
+            if p.stable { "" } else { ", the planar equilibrium UNSTABLE" }
+        ),
+        (None, Some(note)) => say!(out, "planar model: none ({note})"),
+        (None, None) => {}
+    }
+}
+
+/// A point in 3D, in mm to 3 decimals.
+fn mm3(p: [f64; 3]) -> String {
+    let [x, y, z] = p.map(|v| unsigned_zero(v * 1e3, 3));
+    format!("({x:.3}, {y:.3}, {z:.3}) mm")
+}
+
+/// `v` shown to `digits` decimals, 0 where it rounds to 0: `0.000`, not
+/// `-0.000`, for the round-off of a symmetric body.
+fn unsigned_zero(v: f64, digits: i32) -> f64 {
+    if v.abs() < 0.5 * 10f64.powi(-digits) {
+        0.0
+    } else {
+        v
     }
 }
 

@@ -196,14 +196,16 @@ fn time_limit(args: &[OsString]) -> Option<f64> {
 fn generated(places: &Places) -> Vec<Case> {
     const VALUES: [&str; 12] =
         ["nan", "inf", "-inf", "-1", "0", "-0.0", "1e308", "1e-320", "\"x\"", "true", "[]", "1e5"];
-    let commands: [&[&str]; 3] = [
+    let commands: [&[&str]; 4] = [
         &["shape", "--lengths", "0.2,0.18", "--time-limit", "2"],
         &["robot", "--json"],
         &["shape", "--lengths", "0.12,0.3", "--model", "both", "--time-limit", "2"],
+        &["shape3d", "--lengths", "0.2,0.18,0.16", "--time-limit", "2"],
     ];
     let keys: Vec<String> = places
         .robot
         .lines()
+        .filter(|l| !l.trim_start().starts_with('#'))
         .filter_map(|l| {
             let (key, value) = l.split_once(" = ")?;
             let value = value.split('#').next()?.trim();

@@ -165,16 +165,22 @@ fn snap_through_is_reported() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-#[test]
-fn failed_solve_exits_3_with_status() {
-    let out = leech().args(["shape", "--lengths", "0.3,0.2", "--max-iterations", "2", "--json"]).output().unwrap();
-    assert_eq!(out.status.code(), Some(3));
+/// Runs a solve given 2 Newton iterations (with --json): exit 3, its
+/// status on standard output, the residual said on standard error.
+fn not_converged(args: &[&str]) {
+    let out = leech().args(args).args(["--max-iterations", "2", "--json"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(3), "{args:?}");
     let v: Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["status"], "not_converged");
     assert!(v["iterations"].as_u64().unwrap() <= 2);
     assert!(v["residual"].as_f64().unwrap() > 0.0);
     let err = String::from_utf8(out.stderr).unwrap();
     assert!(err.contains("not converged") && err.contains("residual"), "{err}");
+}
+
+#[test]
+fn failed_solve_exits_3_with_status() {
+    not_converged(&["shape", "--lengths", "0.3,0.2"]);
     let out = leech()
         .args([
             "chain",
@@ -435,6 +441,7 @@ mod drive;
 mod harden;
 mod holds;
 mod serve;
+mod shape3d;
 mod tube;
 
 /// Help into a pipe closed early (`leech shape --help | head -0`) is not a panic.
