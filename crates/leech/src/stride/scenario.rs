@@ -234,8 +234,8 @@ impl Scenario {
                 field: "scenario".into(),
                 value: format!("{name:?}"),
                 allowed: format!(
-                    "a planar scenario (the sideways maneuver bends the body out of this model's plane and \
-                     waits for the three-tube body in 3D): one of {}",
+                    "a planar scenario (the sideways maneuver bends the body out of this model's plane: the 3D \
+                     body plans it, `sideways-wall`): one of {}",
                     BUILTIN_SCENARIOS.map(|s| s.name).join(", ")
                 ),
             }),
@@ -250,6 +250,12 @@ impl Scenario {
     /// The built-in scenarios' names with their one-line descriptions.
     pub fn builtin_names() -> impl Iterator<Item = (&'static str, &'static str)> {
         BUILTIN_SCENARIOS.iter().map(|s| (s.name, description(s.toml)))
+    }
+
+    /// What `leech scenario list` lists: [`Scenario::builtin_names`], then
+    /// the sideways climbs of the 3D body ([`super::sideways::BUILTIN_SIDEWAYS`]).
+    pub fn listed() -> impl Iterator<Item = (&'static str, &'static str)> {
+        Scenario::builtin_names().chain(super::sideways::BUILTIN_SIDEWAYS.iter().map(|s| (s.name, description(s.toml))))
     }
 }
 

@@ -92,6 +92,12 @@ const FIRST_STEP_M: f64 = 1e-3;
 /// is checked with the joint locked.
 pub const SWING_SAMPLES: usize = 3;
 
+/// The built-in sideways scenarios (files under `crates/leech/scenarios/`).
+pub const BUILTIN_SIDEWAYS: [super::scenario::BuiltinScenario; 1] = [super::scenario::BuiltinScenario {
+    name: "sideways-wall",
+    toml: include_str!("../../scenarios/sideways-wall.toml"),
+}];
+
 /// The largest number of strides a plan may take.
 pub const MAX_STRIDES: usize = 200;
 
@@ -223,6 +229,18 @@ impl SidewaysScenario {
         crate::error::printable(&format!("{source}: name"), &raw.name)?;
         crate::error::printable(&format!("{source}: description"), &raw.description)?;
         Ok(SidewaysScenario { name: raw.name, description: raw.description, wall, start_m, lateral_m, tolerance_m })
+    }
+
+    /// The built-in sideways scenario called `name`, if there is one ([`BUILTIN_SIDEWAYS`]).
+    pub fn builtin(name: &str) -> Option<Result<SidewaysScenario, InputError>> {
+        let b = BUILTIN_SIDEWAYS.iter().find(|b| b.name == name)?;
+        Some(SidewaysScenario::parse(b.toml, &format!("built-in scenario {name}")))
+    }
+
+    /// Whether a scenario file's text is a sideways one: it has a `[wall]`
+    /// table (a planar scenario has a `scene`).
+    pub fn is_sideways(text: &str) -> bool {
+        text.parse::<toml::Table>().is_ok_and(|t| t.contains_key("wall"))
     }
 }
 
@@ -510,7 +528,9 @@ impl<'a> Planner<'a> {
         let d_max = options.max_difference_m;
         let (_, _, widest) = moved(d_max)?;
         if widest == 0.0 || !widest.is_finite() {
-            return Err(format!("a turn the tubes cannot make: side difference {d_max} m moves the front cup {widest} m"));
+            return Err(format!(
+                "a turn the tubes cannot make: side difference {d_max} m moves the front cup {widest} m"
+            ));
         }
         // dz is odd in D: the side to turn to is the goal's.
         let side = (target * widest).signum();
@@ -567,7 +587,10 @@ pub fn plan_sideways(
     options: &SidewaysOptions,
     solver: &Solver,
 ) -> Result<SidewaysPlan, InputError> {
-    robot.validate()?;
+    Body3::from_robot(
+        robot,
+        [options.rest_length_m.clamp(robot.limits.tube_length_min_m, robot.limits.tube_length_max_m); 3],
+    )?;
     for (field, v) in [
         ("rest_length_m", options.rest_length_m),
         ("turn_length_m", options.turn_length_m),
@@ -582,7 +605,10 @@ pub fn plan_sideways(
         return Err(InputError::Invalid {
             field: format!("{}: start.rear_cup_m", scenario.name),
             value: format!("[{}, {}] ({where_})", scenario.start_m[0], scenario.start_m[1]),
-            allowed: format!("a point where the rear cup's face ({} m across) lies wholly on the wall", robot.cup.diameter_m),
+            allowed: format!(
+                "a point where the rear cup's face ({} m across) lies wholly on the wall",
+                robot.cup.diameter_m
+            ),
         });
     }
     let mut plan = SidewaysPlan {
@@ -613,7 +639,8 @@ fn fill(
     }
     let rest = [options.rest_length_m; 3];
     let start = planner.rear(rest, scenario.start_m)?;
-    let step = |phase, stride, lengths_m, held| SidewaysStep { phase, stride, lengths_m, held, swing_safety_factor: None };
+    let step =
+        |phase, stride, lengths_m, held| SidewaysStep { phase, stride, lengths_m, held, swing_safety_factor: None };
     planner.holding("rear", &start, start.rear.as_ref())?;
     plan.steps.push(step(Phase::Start, 0, rest, start));
     if scenario.lateral_m.abs() <= scenario.tolerance_m {
@@ -632,7 +659,10 @@ fn fill(
         planner.holding("rear", &turned, turned.rear.as_ref())?;
         let (centre, plate) = planner.attached_front(&turned);
         if let Some(where_) = planner.wall.off([centre[1], centre[2]], planner.radius_m) {
-            return Err(format!("stride {stride}: the front cup would land at ({:.4}, {:.4}) m, {where_}", centre[1], centre[2]));
+            return Err(format!(
+                "stride {stride}: the front cup would land at ({:.4}, {:.4}) m, {where_}",
+                centre[1], centre[2]
+            ));
         }
         plan.steps.push(step(Phase::Push, stride, lengths.turn, turned.clone()));
         plan.steps.push(step(Phase::AttachFront, stride, lengths.turn, turned));
@@ -648,7 +678,10 @@ fn fill(
         let rear = settled.body.rear_cup_centre(&planner.robot);
         let landed = [rear[1], rear[2]];
         if let Some(where_) = planner.wall.off(landed, planner.radius_m) {
-            return Err(format!("stride {stride}: the rear cup would land at ({:.4}, {:.4}) m, {where_}", landed[0], landed[1]));
+            return Err(format!(
+                "stride {stride}: the rear cup would land at ({:.4}, {:.4}) m, {where_}",
+                landed[0], landed[1]
+            ));
         }
         plan.steps.push(step(Phase::Pull, stride, settle, settled.clone()));
         plan.steps.push(step(Phase::AttachRear, stride, settle, settled));
@@ -748,9 +781,34 @@ mod tests {
                 };
                 let [x, y, z] = cl.centre_m;
                 let mirrored = [x, y, -z];
-                assert!(cr.centre_m.iter().zip(mirrored).all(|(p, q)| (p - q).abs() < 1e-9), "{:?} {:?}", cr.centre_m, mirrored);
+                assert!(
+                    cr.centre_m.iter().zip(mirrored).all(|(p, q)| (p - q).abs() < 1e-9),
+                    "{:?} {:?}",
+                    cr.centre_m,
+                    mirrored
+                );
             }
         }
+    }
+
+    #[test]
+    fn the_builtin_parses_and_bad_files_name_the_field() {
+        let s = SidewaysScenario::builtin("sideways-wall").unwrap().unwrap();
+        assert!(s.lateral_m > s.tolerance_m && s.wall.x_m == 0.0 && !s.description.is_empty());
+        assert!(SidewaysScenario::is_sideways(BUILTIN_SIDEWAYS[0].toml));
+        assert!(!SidewaysScenario::is_sideways(super::super::BUILTIN_SCENARIOS[0].toml));
+        assert!(SidewaysScenario::builtin("crawl-floor").is_none());
+        let text = BUILTIN_SIDEWAYS[0].toml;
+        let bad =
+            |from: &str, to: &str| SidewaysScenario::parse(&text.replace(from, to), "s.toml").unwrap_err().to_string();
+        let e = bad("[-1.0, 1.0]  # bottom", "[1.0, -1.0]  # bottom");
+        assert!(e.contains("s.toml: wall.y_range_m: got [1, -1]"), "{e}");
+        let e = bad("[0.0, 0.0]", "[0.0]");
+        assert!(e.contains("start.rear_cup_m: got 1 numbers"), "{e}");
+        let e = bad("tolerance_m = 0.005", "tolerance_m = -1");
+        assert!(e.contains("goal.tolerance_m: got -1"), "{e}");
+        let e = bad("x_m = 0.0", "x_m = 0.0\ncolour = 1");
+        assert!(e.contains("unknown field `colour`") && !e.contains('\n'), "{e}");
     }
 
     #[test]
