@@ -153,14 +153,7 @@ impl Scenario {
                 })
             }
         };
-        let tolerance_m = raw.goal.tolerance_m;
-        if !(tolerance_m.is_finite() && tolerance_m > 0.0 && tolerance_m <= MAX_TOLERANCE_M) {
-            return Err(InputError::invalid(
-                format!("{source}: goal.tolerance_m"),
-                tolerance_m,
-                format!("a number of m above 0 and at most {MAX_TOLERANCE_M}"),
-            ));
-        }
+        let tolerance_m = goal_tolerance(source, raw.goal.tolerance_m)?;
         crate::error::printable(&format!("{source}: name"), &raw.name)?;
         crate::error::printable(&format!("{source}: description"), &raw.description)?;
         let scenario = Scenario {
@@ -290,6 +283,18 @@ fn scene(value: &toml::Value, text: &str, source: &str) -> Result<Scene, InputEr
             allowed: "a built-in scene's name, or a [scene] table holding a scene file's contents".into(),
         }),
     }
+}
+
+/// A scenario's `goal.tolerance_m`: above 0 and at most [`MAX_TOLERANCE_M`].
+pub(crate) fn goal_tolerance(source: &str, tolerance_m: f64) -> Result<f64, InputError> {
+    if tolerance_m.is_finite() && tolerance_m > 0.0 && tolerance_m <= MAX_TOLERANCE_M {
+        return Ok(tolerance_m);
+    }
+    Err(InputError::invalid(
+        format!("{source}: goal.tolerance_m"),
+        tolerance_m,
+        format!("a number of m above 0 and at most {MAX_TOLERANCE_M}"),
+    ))
 }
 
 fn count(n: usize) -> String {

@@ -217,15 +217,7 @@ impl SidewaysScenario {
         };
         let start_m = pair("start.rear_cup_m", &raw.start.rear_cup_m, "[y, z] (m) on the wall")?;
         let lateral_m = within(&format!("{source}: goal.lateral_m"), raw.goal.lateral_m, -m, m)?;
-        let tolerance_m = raw.goal.tolerance_m;
-        let max = super::scenario::MAX_TOLERANCE_M;
-        if !(tolerance_m.is_finite() && tolerance_m > 0.0 && tolerance_m <= max) {
-            return Err(InputError::invalid(
-                format!("{source}: goal.tolerance_m"),
-                tolerance_m,
-                format!("a number of m above 0 and at most {max}"),
-            ));
-        }
+        let tolerance_m = super::scenario::goal_tolerance(source, raw.goal.tolerance_m)?;
         crate::error::printable(&format!("{source}: name"), &raw.name)?;
         crate::error::printable(&format!("{source}: description"), &raw.description)?;
         Ok(SidewaysScenario { name: raw.name, description: raw.description, wall, start_m, lateral_m, tolerance_m })
@@ -587,10 +579,6 @@ pub fn plan_sideways(
     options: &SidewaysOptions,
     solver: &Solver,
 ) -> Result<SidewaysPlan, InputError> {
-    Body3::from_robot(
-        robot,
-        [options.rest_length_m.clamp(robot.limits.tube_length_min_m, robot.limits.tube_length_max_m); 3],
-    )?;
     for (field, v) in [
         ("rest_length_m", options.rest_length_m),
         ("turn_length_m", options.turn_length_m),
@@ -600,6 +588,11 @@ pub fn plan_sideways(
             return Err(InputError::invalid(format!("sideways options: {field}"), v, "a number of m in (0, 1]"));
         }
     }
+    // The robot must make a 3D body (the paper's discretization).
+    Body3::from_robot(
+        robot,
+        [options.rest_length_m.clamp(robot.limits.tube_length_min_m, robot.limits.tube_length_max_m); 3],
+    )?;
     let planner = Planner::new(robot, solver, scenario.wall);
     if let Some(where_) = scenario.wall.off(scenario.start_m, planner.radius_m) {
         return Err(InputError::Invalid {
@@ -747,7 +740,7 @@ mod tests {
                     assert!((c[2] - pivot[2]).abs() < 1e-9 && (c[0] - pivot[0]).abs() < 0.05, "{c:?} {pivot:?}");
                     assert!(c[1] < pivot[1] - 0.01, "{c:?} {pivot:?}");
                     assert!(s.swing_safety_factor.unwrap() >= 1.0);
-                    assert_eq!(s.lengths_m[0] == s.lengths_m[1], false);
+                    assert!(s.lengths_m[1] != s.lengths_m[2]);
                     // The stride moves the rear cup to the pivot's z.
                     assert!((pivot[2] - rear_z - p.stride_lateral_m).abs() < 1e-6, "{pivot:?} {rear_z}");
                 }
