@@ -39,7 +39,7 @@ pub(crate) mod serve;
 pub use link::{Action, Drive, Run, SimRobot};
 pub use serve::Serve;
 
-pub use climb::Climb;
+pub use climb::{Climb, ClimbSideways};
 use holds::{load_scene, pose, situation};
 
 /// A command with its resolved arguments.
@@ -71,6 +71,8 @@ pub enum Args {
         json: bool,
     },
     Climb(Climb),
+    /// `leech climb` of a sideways scenario (the 3D body).
+    ClimbSideways(ClimbSideways),
     /// `leech scenario list`.
     Scenarios {
         json: bool,
@@ -273,7 +275,10 @@ impl Args {
                     Args::SceneShow { scene, builtin, json }
                 }
             },
-            Command::Climb(a) => Args::Climb(climb::climb(a)?),
+            Command::Climb(a) => match climb::sideways(&a)? {
+                Some(sideways) => Args::ClimbSideways(sideways),
+                None => Args::Climb(climb::climb(a)?),
+            },
             Command::Scenario(a) => match a.command {
                 ScenarioCommand::List { json } => Args::Scenarios { json },
                 ScenarioCommand::Show { scenario, json } => {
@@ -326,7 +331,8 @@ impl Args {
             | Args::Scenes { json }
             | Args::SceneShow { json, .. }
             | Args::Scenarios { json }
-            | Args::ScenarioShow { json, .. } => *json,
+            | Args::ScenarioShow { json, .. }
+            | Args::ClimbSideways(ClimbSideways { json, .. }) => *json,
             Args::Climb(Climb { outputs, .. }) => outputs.json,
             Args::Chain(Chain { outputs, .. })
             | Args::Shape(Shape { outputs, .. })

@@ -243,6 +243,11 @@ fn run(args: Args, out: &mut String) -> Result<(), Failure> {
             bar.finish_and_clear();
             render::climb(out, &a, &plan, started.elapsed().as_secs_f64())
         }
+        Args::ClimbSideways(a) => {
+            let options = leech::stride::SidewaysOptions::default();
+            let plan = leech::stride::plan_sideways(&a.robot, &a.scenario, &options, &Solver::default())?;
+            render::sideways(out, &a, &plan)
+        }
         Args::Scenarios { json } => render::scenarios(out, json),
         Args::ScenarioShow { scenario, text, json } => render::scenario(out, &scenario, &text, json),
         Args::SimRobot(a) => link::sim_robot(a),

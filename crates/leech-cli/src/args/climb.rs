@@ -7,7 +7,8 @@ use leech::error::within;
 use leech::prelude::*;
 use leech::scene::MAX_COORDINATE_M;
 use leech::stride::scenario::MAX_TOLERANCE_M;
-use leech::stride::{Foothold, Goal, PlanOptions, Scenario, BUILTIN_SCENARIOS};
+use leech::stride::sideways::BUILTIN_SIDEWAYS;
+use leech::stride::{Foothold, Goal, PlanOptions, Scenario, SidewaysScenario, BUILTIN_SCENARIOS};
 
 use super::holds::{load_scene, pose};
 use super::{tuned, Outputs};
@@ -24,6 +25,38 @@ pub struct Climb {
     pub options: PlanOptions,
     /// JSON or text on standard output; `csv` the steps' table, `svg` the animation.
     pub outputs: Outputs,
+}
+
+/// `leech climb` of a sideways scenario: the robot and the climb (JSON or text).
+pub struct ClimbSideways {
+    pub robot: Robot,
+    pub scenario: SidewaysScenario,
+    pub json: bool,
+}
+
+/// The sideways climb `--scenario` names (a built-in one, or a file with a
+/// `[wall]` table), if it is one. Its plan has no picture or table yet.
+pub(super) fn sideways(a: &flags::ClimbArgs) -> Result<Option<ClimbSideways>, Failure> {
+    let Some(given) = &a.scenario else { return Ok(None) };
+    let scenario = match given.to_str().and_then(SidewaysScenario::builtin) {
+        Some(builtin) => builtin?,
+        None if given.is_file() => {
+            let text = leech::files::read_text(given, "--scenario", leech::files::SCENE_FILE)?;
+            if !SidewaysScenario::is_sideways(&text) {
+                return Ok(None);
+            }
+            SidewaysScenario::parse(&text, &given.display().to_string())?
+        }
+        None => return Ok(None),
+    };
+    for (flag, given) in [("--csv", a.csv.is_some()), ("--svg", a.svg.is_some())] {
+        if given {
+            return Err(Failure::Input(format!(
+                "{flag}: a sideways climb (the 3D body) has no table or picture yet; drop {flag}"
+            )));
+        }
+    }
+    Ok(Some(ClimbSideways { robot: tuned(&a.robot, Ok)?, scenario, json: a.json }))
 }
 
 pub(super) fn climb(a: flags::ClimbArgs) -> Result<Climb, Failure> {
@@ -83,6 +116,12 @@ pub(super) fn load_scenario(given: &Path, flag: &str) -> Result<(Scenario, Strin
         return Ok((Scenario::builtin(b.name)?, b.toml.to_string()));
     }
     if !given.exists() {
+        if let Some(b) = given.to_str().and_then(|name| BUILTIN_SIDEWAYS.iter().find(|s| s.name == name)) {
+            return Err(Failure::Input(format!(
+                "{flag}: got '{}', a sideways climb (the 3D body): `leech climb --scenario {}` plans it",
+                b.name, b.name
+            )));
+        }
         // Not a file: the library says which names it knows (and why a sideways climb is not one).
         let allowed = match Scenario::builtin(&given.to_string_lossy()) {
             Err(InputError::Invalid { allowed, .. }) => allowed,

@@ -10,7 +10,7 @@ mod text;
 use std::path::Path;
 
 use anyhow::Context;
-use leech::body3::Equilibrium3;
+use leech::body3::{Equilibrium3, Hold3};
 use leech::budget::Halt;
 use leech::calibration::{Calibration, ShapeComparison};
 use leech::constant_curvature::PlanarBody;
@@ -23,13 +23,13 @@ use leech::report::{
 };
 use leech::scene::Scene;
 use leech::stance::{Held, TubeHeld};
-use leech::stride::{Plan, Scenario, Status};
+use leech::stride::{Plan, Scenario, SidewaysPlan, Status};
 use leech::sweep::{Model, Sweep};
 use leech_plot::figures::Output;
 use serde::Serialize;
 use serde_json::json;
 
-use crate::args::{Calibrate, Chain, Climb, Shape, Shape3d, Simulate, Workspace};
+use crate::args::{Calibrate, Chain, Climb, ClimbSideways, Shape, Shape3d, Simulate, Workspace};
 use crate::failure::Failure;
 
 /// Writes to standard output; a closed pipe (`leech ... | head`) is not an
@@ -225,11 +225,67 @@ pub fn climb(out: &mut String, a: &Climb, plan: &Plan, elapsed_s: f64) -> Result
     }
 }
 
+/// `leech climb` of a sideways scenario: JSON (units in the keys) or one
+/// line per phase's end; an impossible climb fails with its reason (exit 3).
+pub fn sideways(out: &mut String, a: &ClimbSideways, plan: &SidewaysPlan) -> Result<(), Failure> {
+    let s = &a.scenario;
+    if a.json {
+        let cup = |c: &Option<leech::body3::CupState3>| serde_json::to_value(c).unwrap_or_default();
+        let steps: Vec<_> = plan
+            .steps
+            .iter()
+            .map(|step| {
+                let (body, frames) = (&step.held.body, &step.held.equilibrium.frames);
+                json!({
+                    "phase": step.phase.name(),
+                    "stride": step.stride,
+                    "lengths_m": step.lengths_m,
+                    "hold": match step.held.hold {
+                        Hold3::Rear => "rear",
+                        Hold3::Front { .. } => "front",
+                        Hold3::FrontPivot { .. } => "front_pivot",
+                    },
+                    "stable": step.held.equilibrium.summary.stable,
+                    "endpoint_m": body.endpoint(frames),
+                    "plate_frame": body.plate_frame(frames),
+                    "pivot_turn_rad": step.held.pivot_turn_rad,
+                    "swing_safety_factor": step.swing_safety_factor,
+                    "rear_cup": cup(&step.held.rear),
+                    "front_cup": cup(&step.held.front),
+                    "tubes": (0..3).map(|i| json!({ "points_m": body.points(frames, i) })).collect::<Vec<_>>(),
+                })
+            })
+            .collect();
+        json(
+            out,
+            &json!({
+                "scenario": s.name,
+                "robot": a.robot.name,
+                "status": plan.status,
+                "reason": plan.reason,
+                "goal_lateral_m": s.lateral_m,
+                "tolerance_m": s.tolerance_m,
+                "lateral_m": plan.lateral_m,
+                "strides": plan.strides,
+                "stride_lateral_m": plan.stride_lateral_m,
+                "steps": steps,
+            }),
+        )?;
+    } else {
+        text::sideways(out, a, plan);
+    }
+    match (&plan.status, &plan.reason) {
+        (Status::Reached, _) => Ok(()),
+        (Status::Impossible, reason) => {
+            Err(Failure::Unsolved(format!("sideways climb impossible: {}", reason.as_deref().unwrap_or("no reason"))))
+        }
+    }
+}
+
 /// `leech scenario list`: each built-in scenario's name and what it is.
 pub fn scenarios(out: &mut String, as_json: bool) -> Result<(), Failure> {
     if as_json {
-        let list: Vec<_> =
-            Scenario::builtin_names().map(|(name, d)| json!({ "name": name, "description": d })).collect();
+        let list: Vec<_> = Scenario::listed().map(|(name, d)| json!({ "name": name, "description": d })).collect();
         return json(out, &json!({ "scenarios": list }));
     }
     text::scenarios(out);

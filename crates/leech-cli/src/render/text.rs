@@ -215,8 +215,45 @@ pub fn scenes(out: &mut String) {
 
 /// `leech scenario list`.
 pub fn scenarios(out: &mut String) {
-    for (name, description) in leech::stride::Scenario::builtin_names() {
+    for (name, description) in leech::stride::Scenario::listed() {
         say!(out, "{name:<16} {description}");
+    }
+}
+
+/// `leech climb` of a sideways scenario: one line per phase's end (the
+/// lengths, each holding cup's face centre y, z and safety factor), then the totals.
+pub fn sideways(out: &mut String, a: &crate::args::ClimbSideways, plan: &leech::stride::SidewaysPlan) {
+    use leech::stride::Status;
+    let s = &a.scenario;
+    say!(out, "{} ({}): {} m sideways within {} m", s.name, a.robot.name, s.lateral_m, s.tolerance_m);
+    say!(out, "stride  phase          L1/L2/L3 (mm)          rear cup y, z (mm)  SF     front cup y, z (mm)  SF");
+    let cup = |c: &Option<leech::body3::CupState3>| match c {
+        Some(c) => {
+            format!("({:7.1}, {:7.1})  {:5.2}", c.centre_m[1] * 1e3, c.centre_m[2] * 1e3, c.verdict.safety_factor)
+        }
+        None => format!("{:<25}", "-"),
+    };
+    for step in &plan.steps {
+        let [l1, l2, l3] = step.lengths_m.map(|l| l * 1e3);
+        say!(
+            out,
+            "{:>6}  {:<13}  {l1:6.1}/{l2:6.1}/{l3:6.1}  {}  {}",
+            step.stride,
+            step.phase.name(),
+            cup(&step.held.rear),
+            cup(&step.held.front)
+        );
+    }
+    say!(
+        out,
+        "{}: {} strides of {:.4} m, {:.4} m sideways",
+        if plan.status == Status::Reached { "reached" } else { "IMPOSSIBLE" },
+        plan.strides,
+        plan.stride_lateral_m,
+        plan.lateral_m
+    );
+    if let Some(reason) = &plan.reason {
+        say!(out, "reason: {reason}");
     }
 }
 

@@ -204,13 +204,14 @@ fn scenarios_are_listed_and_shown() {
         "wall-to-floor",
         "over-thin-wall",
         "wall-to-ceiling",
+        "sideways-wall",
     ];
     assert_eq!(text.lines().count(), names.len(), "{text}");
     for (line, name) in text.lines().zip(names) {
         assert!(line.starts_with(name), "{line}");
     }
     let list = json_of(&["scenario", "list"]);
-    assert_eq!(list["scenarios"].as_array().unwrap().len(), 7);
+    assert_eq!(list["scenarios"].as_array().unwrap().len(), 8);
     let shown = leech().args(["scenario", "show", "climb-wall-down"]).output().unwrap();
     let text = String::from_utf8(shown.stdout).unwrap();
     assert!(text.starts_with('#') && text.contains("ESTIMATE"), "the file with its comments:\n{text}");
@@ -229,7 +230,16 @@ fn free_cups_need_a_scene() {
 }
 
 #[test]
-fn a_sideways_climb_says_it_waits_for_the_3d_body() {
+fn a_sideways_climb_is_planned_with_the_3d_body() {
     let e = rejected(&["climb", "--scenario", "sideways"]);
-    assert!(e.contains("sideways maneuver") && e.contains("3D") && e.contains("crawl-floor"), "{e}");
+    assert!(e.contains("sideways maneuver") && e.contains("3D") && e.contains("sideways-wall"), "{e}");
+    let v = json_of(&["climb", "--scenario", "sideways-wall"]);
+    assert_eq!(v["status"], "reached");
+    let goal = v["goal_lateral_m"].as_f64().unwrap();
+    assert!((v["lateral_m"].as_f64().unwrap() - goal).abs() <= v["tolerance_m"].as_f64().unwrap());
+    let steps = v["steps"].as_array().unwrap();
+    assert_eq!(steps.len(), 1 + 6 * v["strides"].as_u64().unwrap() as usize);
+    assert!(steps.iter().any(|s| s["hold"] == "front_pivot" && s["front_cup"]["verdict"]["holds"] == true));
+    let e = rejected(&["climb", "--scenario", "sideways-wall", "--svg", "x.svg"]);
+    assert!(e.contains("--svg") && e.contains("no table or picture"), "{e}");
 }

@@ -153,14 +153,7 @@ impl Scenario {
                 })
             }
         };
-        let tolerance_m = raw.goal.tolerance_m;
-        if !(tolerance_m.is_finite() && tolerance_m > 0.0 && tolerance_m <= MAX_TOLERANCE_M) {
-            return Err(InputError::invalid(
-                format!("{source}: goal.tolerance_m"),
-                tolerance_m,
-                format!("a number of m above 0 and at most {MAX_TOLERANCE_M}"),
-            ));
-        }
+        let tolerance_m = goal_tolerance(source, raw.goal.tolerance_m)?;
         crate::error::printable(&format!("{source}: name"), &raw.name)?;
         crate::error::printable(&format!("{source}: description"), &raw.description)?;
         let scenario = Scenario {
@@ -234,8 +227,8 @@ impl Scenario {
                 field: "scenario".into(),
                 value: format!("{name:?}"),
                 allowed: format!(
-                    "a planar scenario (the sideways maneuver bends the body out of this model's plane and \
-                     waits for the three-tube body in 3D): one of {}",
+                    "a planar scenario (the sideways maneuver bends the body out of this model's plane: the 3D \
+                     body plans it, `sideways-wall`): one of {}",
                     BUILTIN_SCENARIOS.map(|s| s.name).join(", ")
                 ),
             }),
@@ -250,6 +243,12 @@ impl Scenario {
     /// The built-in scenarios' names with their one-line descriptions.
     pub fn builtin_names() -> impl Iterator<Item = (&'static str, &'static str)> {
         BUILTIN_SCENARIOS.iter().map(|s| (s.name, description(s.toml)))
+    }
+
+    /// What `leech scenario list` lists: [`Scenario::builtin_names`], then
+    /// the sideways climbs of the 3D body ([`super::sideways::BUILTIN_SIDEWAYS`]).
+    pub fn listed() -> impl Iterator<Item = (&'static str, &'static str)> {
+        Scenario::builtin_names().chain(super::sideways::BUILTIN_SIDEWAYS.iter().map(|s| (s.name, description(s.toml))))
     }
 }
 
@@ -284,6 +283,18 @@ fn scene(value: &toml::Value, text: &str, source: &str) -> Result<Scene, InputEr
             allowed: "a built-in scene's name, or a [scene] table holding a scene file's contents".into(),
         }),
     }
+}
+
+/// A scenario's `goal.tolerance_m`: above 0 and at most [`MAX_TOLERANCE_M`].
+pub(crate) fn goal_tolerance(source: &str, tolerance_m: f64) -> Result<f64, InputError> {
+    if tolerance_m.is_finite() && tolerance_m > 0.0 && tolerance_m <= MAX_TOLERANCE_M {
+        return Ok(tolerance_m);
+    }
+    Err(InputError::invalid(
+        format!("{source}: goal.tolerance_m"),
+        tolerance_m,
+        format!("a number of m above 0 and at most {MAX_TOLERANCE_M}"),
+    ))
 }
 
 fn count(n: usize) -> String {
