@@ -27,9 +27,6 @@ use crate::robot::Robot;
 /// Number of the plate's constraint rows: position and rotation of tubes 2 and 3.
 pub const PLATE_ROWS: usize = 12;
 
-/// Border rows of the factorization: the plate's 3 coordinates and the 12 rows.
-pub(crate) const BORDER: usize = 3 + PLATE_ROWS;
-
 /// The three-tube body under gravity, driving unit fixed.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Body3 {

@@ -74,6 +74,7 @@
 
 #[allow(clippy::module_inception)]
 pub mod body3;
+pub mod contact3;
 pub mod hold3;
 pub mod planar;
 pub mod rotation;
@@ -81,6 +82,7 @@ pub mod solve;
 pub mod tube3;
 
 pub use body3::{Body3, Derivatives, Frames, PLATE_ROWS};
+pub use contact3::ContactRow3;
 pub use hold3::{verdict3, CupState3, Hanging, Held3, Hold3, Wrench};
 pub use solve::Equilibrium3;
 pub use tube3::Tube3;

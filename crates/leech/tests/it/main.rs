@@ -2,6 +2,7 @@
 
 mod batch;
 mod body3;
+mod body3_contact;
 mod body3_hold;
 mod body3_references;
 mod calibration;
