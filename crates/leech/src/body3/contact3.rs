@@ -1,7 +1,23 @@
 //! Contact rows of the 3D body with a [`Scene3`]'s solids (docs/model3d.md
 //! section 9): unilateral, at the link points (each link's tip, as the
 //! planar stance uses its points), each against the plane of the solid
-//! nearest to it ([`Scene3::nearest`], frozen while the row is active).
+//! nearest to it ([`Scene3::nearest`], frozen while the row is active)
+//! moved out by the tube's radius (the clearance the centre line keeps).
+//! [`Body3::solve_held_among`] is the entry point:
+//!
+//! ```
+//! use leech::body3::{Body3, Hold3};
+//! use leech::prelude::*;
+//! use leech::scene::{Scene3, Solid3};
+//! let mut robot = Robot::builtin();
+//! robot.world.base_angle_deg = 0.0; // the driving unit along a floor
+//! let body = Body3::from_robot(&robot, [0.34, 0.36, 0.28]).unwrap();
+//! // The floor under the rear cup's face.
+//! let floor = Solid3::HalfSpace { point_m: body.rear_cup_centre(&robot), normal: [0.0, 1.0, 0.0] };
+//! let scene = Scene3::new("floor", vec![floor]).unwrap();
+//! let held = body.solve_held_among(&robot, Hold3::Rear, &scene, &Solver::default()).unwrap();
+//! assert!(held.equilibrium.contacts.iter().all(|c| c.force_n >= 0.0));
+//! ```
 //!
 //! # The row
 //!
@@ -14,6 +30,7 @@
 //! mu g = 0                                   force only where the gap is closed
 //! ```
 //!
+//! (with the clearance `r`, `x0` is the solid's plane point moved by `r n`).
 //! The Lagrangian gets `-mu g`. In local rotation coordinates
 //! (`R_ik <- R_ik Exp(delta_k)`) each link `k <= j` of the tube enters `g`
 //! through a linear term `n . (R_ik Exp(delta_k) a_k)`, `a_k = l_ik e_x`
@@ -28,6 +45,15 @@
 //! diagonal 3 x 3 blocks only, and its Jacobian (dense along the tube up to
 //! link `j`) is one more border row of the factorization, as the weld's
 //! are. The multiplier `mu` is the normal force (N) on the point.
+//!
+//! # The active set
+//!
+//! Gravity is raised in stages; at each, the body is settled (Newton with
+//! the inertia test) and the active set updated until it stands: the row
+//! pulling hardest (`mu < -tol k / l`) is released, else each tube's
+//! deepest link tip inside a solid (`g < -tol l`) gets a row with `mu = 0`
+//! (docs/model3d.md section 9). The rear cup's reaction takes the contact
+//! forces off the tubes' root forces ([`super::hold3`]).
 
 use super::body3::{Body3, Eval3, Frames, Param, PLATE_ROWS};
 use super::hold3::{Held3, Hold3};

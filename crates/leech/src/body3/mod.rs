@@ -60,9 +60,13 @@
 //! assert!(front.body.tube(0).root()[1] < 0.5);
 //! ```
 //!
-//! Both cups holding (a closed loop) and contacts with scene solids are not
-//! yet in 3D: they need rows beyond the weld's 12 (and an active set for
-//! contacts), as the planar `stance` systems add theirs.
+//! # Contacts
+//!
+//! Among a [`crate::scene::Scene3`]'s solids (planes, boxes, planar scenes
+//! as prisms) the link tips keep the tube's radius from the solids:
+//! unilateral rows, one more border row each, with an active set
+//! ([`contact3`]); [`Body3::solve_held_among`] solves the rear hold among
+//! them (the front holds and both cups holding are not yet among solids).
 
 //! # Layout
 //!
@@ -70,7 +74,7 @@
 //! relative terms), [`tube3`] (one tube's links), [`body3`] (the body, its
 //! Lagrangian's derivatives), [`solve`] (Newton, continuation), [`planar`]
 //! (the comparison with the planar model), [`hold3`] (the rear cup's
-//! reaction and verdict).
+//! reaction and verdict), [`contact3`] (contacts with scene solids).
 
 #[allow(clippy::module_inception)]
 pub mod body3;
@@ -82,7 +86,7 @@ pub mod solve;
 pub mod tube3;
 
 pub use body3::{Body3, Derivatives, Frames, PLATE_ROWS};
-pub use contact3::ContactRow3;
+pub use contact3::{Contact3, ContactRow3};
 pub use hold3::{verdict3, CupState3, Hanging, Held3, Hold3, Wrench};
 pub use solve::Equilibrium3;
 pub use tube3::Tube3;

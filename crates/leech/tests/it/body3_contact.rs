@@ -132,3 +132,21 @@ fn a_bad_clearance_or_hold_is_refused() {
     let e = body.solve_held_among(&robot, hold, &floor, &Solver::default()).unwrap_err().to_string();
     assert!(e.starts_with("hold"), "{e}");
 }
+
+#[test]
+fn a_turning_body_rests_on_a_box_on_the_floor() {
+    let robot = flat();
+    let body = Body3::from_robot(&robot, [0.34, 0.36, 0.28]).unwrap();
+    let floor = floor_under(&body, &robot);
+    let y = body.rear_cup_centre(&robot)[1];
+    // A low block under the front half, turned a little about y.
+    let block = Solid3::Box {
+        centre_m: [0.3, y - 0.045, 0.0],
+        half_extents_m: [0.12, 0.05, 0.3],
+        frame: leech::body3::rotation::exp([0.0, 0.2, 0.0]),
+    };
+    let scene = Scene3::new("floor and block", vec![floor.solids[0].clone(), block]).unwrap();
+    let held = body.solve_held_among(&robot, Hold3::Rear, &scene, &Solver::default()).unwrap();
+    check(&robot, &held, &scene);
+    assert!(held.equilibrium.contacts.iter().any(|c| c.row.solid == 1), "nothing rests on the block");
+}
