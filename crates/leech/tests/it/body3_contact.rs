@@ -93,6 +93,12 @@ fn the_planar_body_on_a_floor_is_reproduced_in_the_plane() {
     let total: f64 = eq.contacts.iter().map(|c| c.force_n).sum();
     let planar_total: f64 = planar.contacts.iter().map(|c| c.force_n).sum();
     assert!((total - planar_total).abs() < 1e-7 * planar_total, "{total} against {planar_total}");
+    eprintln!(
+        "planar floor: endpoint {:.2e} m apart, contact force {total:.9} N against {planar_total:.9} N ({} rows in 3D, {} planar)",
+        (tip[0] - planar_tip[0]).hypot(tip[1] - planar_tip[1]),
+        eq.contacts.len(),
+        planar.contacts.len()
+    );
     let rear = held.rear.as_ref().unwrap().reaction.force_n;
     let planar_rear = planar.rear.unwrap().force_n;
     for a in 0..2 {
