@@ -28,9 +28,6 @@ use crate::robot::Robot;
 /// Number of the plate's constraint rows: position and rotation of tubes 2 and 3.
 pub const PLATE_ROWS: usize = 12;
 
-/// Border rows of the factorization: the plate's 3 coordinates and the 12 rows.
-pub(crate) const BORDER: usize = 3 + PLATE_ROWS;
-
 /// The three-tube body under gravity, driving unit fixed.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Body3 {
@@ -175,7 +172,8 @@ impl Body3 {
     }
 
     /// The structure of the KKT matrix: the chains, and the border of the
-    /// plate's 3 coordinates and the 12 rows (`BORDER`, 3 primal) with where
+    /// plate's 3 coordinates, the 12 rows and `contacts` contact rows (3
+    /// primal) with where
     /// each border row reaches each chain. Tube 1 carries both position
     /// blocks, tube 2 and tube 3 their own, on every link; the plate's
     /// coordinates reach each chain's last block only (tube 1's last joint,
@@ -183,9 +181,11 @@ impl Body3 {
     /// body `hanging` from the front cup couples the plate with every link
     /// (gravity turns with the plate: [`super::hold3`]), so there the
     /// plate's coordinates reach every block.
-    pub(crate) fn pattern(&self, hanging: bool) -> crate::linalg::Pattern {
+    /// A contact row reaches one link only, but is declared on every block
+    /// (the pattern is made once per active set, not per link).
+    pub(crate) fn pattern(&self, hanging: bool, contacts: usize) -> crate::linalg::Pattern {
         let chains = self.chain_blocks();
-        let mut pattern = crate::linalg::Pattern::new(3, &chains, BORDER, 3);
+        let mut pattern = crate::linalg::Pattern::new(3, &chains, 3 + PLATE_ROWS + contacts, 3);
         for (c, len) in chains.into_iter().enumerate() {
             let last = len.saturating_sub(1);
             for a in 0..3 {
@@ -360,16 +360,16 @@ impl Body3 {
     /// `param` (module doc): energy, gradient, constraints, Jacobian and the
     /// Lagrangian Hessian `hess V - sum_r lambda_r hess C_r` into `ev`.
     pub(crate) fn evaluate(&self, frames: &Frames, lambda: &[f64; PLATE_ROWS], param: Param, ev: &mut Eval3) {
-        self.evaluate_with::<true>(frames, lambda, param, ev);
+        self.evaluate_terms::<true>(frames, lambda, param, ev);
     }
 
     /// [`Body3::evaluate`] without the Hessian (left zero): what a residual
     /// needs, at about half the cost.
     pub(crate) fn evaluate_residual(&self, frames: &Frames, lambda: &[f64; PLATE_ROWS], param: Param, ev: &mut Eval3) {
-        self.evaluate_with::<false>(frames, lambda, param, ev);
+        self.evaluate_terms::<false>(frames, lambda, param, ev);
     }
 
-    fn evaluate_with<const HESSIAN: bool>(
+    fn evaluate_terms<const HESSIAN: bool>(
         &self,
         frames: &Frames,
         lambda: &[f64; PLATE_ROWS],
@@ -644,7 +644,7 @@ mod tests {
         for param in [Param::FULL, Param { hang: Some(hang), ..Param::FULL }] {
             let mut ev = Eval3::new(&body);
             body.evaluate(&frames, &lambda, param, &mut ev);
-            border_reaches_as_declared(&body.pattern(param.hang.is_some()), &ev);
+            border_reaches_as_declared(&body.pattern(param.hang.is_some(), 0), &ev);
         }
     }
 

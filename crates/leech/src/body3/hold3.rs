@@ -57,11 +57,12 @@
 //! `s + 1`'s tip and `-lambda_s` on the plate, which is tube 1's):
 //!
 //! ```text
-//! F_i = (0, g M_i, 0) - W_i,     W_2 = lambda_pos,2,  W_3 = lambda_pos,3,  W_1 = -(W_2 + W_3)     (N)
+//! F_i = (0, g M_i, 0) - W_i - sum_c mu_c n_c,     W_2 = lambda_pos,2,  W_3 = lambda_pos,3,  W_1 = -(W_2 + W_3)     (N)
 //! M_i = -R_i1 Jr^-1(theta_1)^T K_1 theta_1,    theta_1 = Log(R0^T R_i1)                          (N m)
 //! ```
 //!
-//! (the spring's moment on the tube's first link: `-dE/ddelta` in the
+//! (the sum over the tube's contacts with a scene's solids, forces `mu_c`
+//! along their planes' normals `n_c`, [`super::contact3`]; the spring's moment on the tube's first link: `-dE/ddelta` in the
 //! link's frame, turned to the world). The unit is in balance under the
 //! tubes' reactions, its weight and the surface, so the surface exerts, about
 //! the cup's centre `c`,
@@ -292,7 +293,10 @@ impl Body3 {
         let mut moment = cross(axpy(-1.0, about, self.unit_centre()), unit_weight);
         for (i, w) in weld.iter().enumerate() {
             let tube = self.tube(i);
-            let f = axpy(-1.0, *w, [0.0, g * tube.total_mass(), 0.0]);
+            // Contacts on the tube push it as the weld does: the root carries the rest.
+            let pushed = eq.contacts.iter().filter(|c| c.row.tube == i);
+            let w = pushed.fold(*w, |w, c| axpy(c.force_n, c.row.plane.normal, w));
+            let f = axpy(-1.0, w, [0.0, g * tube.total_mass(), 0.0]);
             let first = self.frame(&eq.frames, i, 0);
             let theta = log(&mul_tn(&self.base_frame(), &first));
             let k = tube.stiffness(0);

@@ -60,9 +60,13 @@
 //! assert!(front.body.tube(0).root()[1] < 0.5);
 //! ```
 //!
-//! Both cups holding (a closed loop) and contacts with scene solids are not
-//! yet in 3D: they need rows beyond the weld's 12 (and an active set for
-//! contacts), as the planar `stance` systems add theirs.
+//! # Contacts
+//!
+//! Among a [`crate::scene::Scene3`]'s solids (planes, boxes, planar scenes
+//! as prisms) the link tips keep the tube's radius from the solids:
+//! unilateral rows, one more border row each, with an active set
+//! ([`contact3`]); [`Body3::solve_held_among`] solves the rear hold among
+//! them (the front holds and both cups holding are not yet among solids).
 
 //! # Layout
 //!
@@ -71,12 +75,14 @@
 //! Lagrangian's derivatives), [`solve`] (Newton, continuation), [`planar`]
 //! (the comparison with the planar model), [`hold3`] (holds: the rear
 //! cup, the front cup, a free front joint; each cup's reaction and
-//! verdict), [`constant_curvature3`] (the tri-tube constant-curvature model
-//! in the same conventions, and its difference from the body).
+//! verdict), [`contact3`] (contacts with scene solids),
+//! [`constant_curvature3`] (the tri-tube constant-curvature model in the
+//! same conventions, and its difference from the body).
 
 #[allow(clippy::module_inception)]
 pub mod body3;
 pub mod constant_curvature3;
+pub mod contact3;
 pub mod hold3;
 pub mod planar;
 pub mod rotation;
@@ -85,6 +91,7 @@ pub mod tube3;
 
 pub use body3::{Body3, Derivatives, Frames, PLATE_ROWS};
 pub use constant_curvature3::ConstantCurvature3;
+pub use contact3::{Contact3, ContactRow3};
 pub use hold3::{verdict3, CupState3, Hanging, Held3, Hold3, Wrench};
 pub use solve::Equilibrium3;
 pub use tube3::Tube3;

@@ -24,10 +24,12 @@
 //! Newton corrector, halving on failure; a persisting jump at the smallest
 //! step is a fold, reported as [`Event::Snap`].
 
-use super::body3::{distance, retract, Body3, Eval3, Frames, Param, BORDER, PLATE_ROWS};
+use super::body3::{distance, retract, Body3, Eval3, Frames, Param, PLATE_ROWS};
+use super::contact3::{Contact3, ContactEval, ContactRow3};
 use super::hold3::Hanging;
 use super::rotation::{apply, axpy, cross};
-use crate::linalg::BorderedLdl;
+use crate::linalg::{BorderedLdl, MAX_BORDER};
+use crate::scene::Scene3;
 use crate::statics::{BranchRule, Equilibrium, Event, Side, SolveError, Solver, Stage, StopReason};
 
 /// Unstable landings left in one settle before it gives up.
@@ -38,6 +40,14 @@ const ESCAPE_KICK_GROWTH: f64 = 3.0;
 
 /// Bisections of the shift that brackets the most negative curvature.
 const ESCAPE_BISECTIONS: usize = 30;
+
+/// Stages gravity is raised in among a scene's solids, each settled with
+/// the contact rows' active set.
+pub const LOAD_STAGES: usize = 8;
+
+/// Active-set changes allowed per link before the solve among solids gives
+/// up ([`StopReason::ActiveSetCycling`]).
+const ACTIVE_SET_CHANGES: usize = 4;
 
 /// A converged equilibrium of the 3D body: its frames, and the solve's
 /// summary as the planar solver gives it, whose `q` holds every link's
@@ -50,6 +60,9 @@ pub struct Equilibrium3 {
     pub frames: Frames,
     /// Energy, residual, stability, counters and events.
     pub summary: Equilibrium,
+    /// The contacts with a scene's solids that push (empty without a
+    /// scene; their forces follow the weld's 12 in `multipliers`).
+    pub contacts: Vec<Contact3>,
 }
 
 impl std::ops::Deref for Equilibrium3 {
@@ -64,7 +77,8 @@ impl std::ops::Deref for Equilibrium3 {
 #[derive(Clone, Debug)]
 struct State {
     frames: Frames,
-    lambda: [f64; PLATE_ROWS],
+    /// The weld's 12 multipliers, then the contact rows' forces.
+    lambda: Vec<f64>,
     iterations: usize,
     steps: usize,
     events: Vec<Event>,
@@ -72,7 +86,7 @@ struct State {
 
 impl State {
     fn new(frames: Frames) -> State {
-        State { frames, lambda: [0.0; PLATE_ROWS], iterations: 0, steps: 0, events: Vec::new() }
+        State { frames, lambda: vec![0.0; PLATE_ROWS], iterations: 0, steps: 0, events: Vec::new() }
     }
 }
 
@@ -89,6 +103,16 @@ struct Budget {
 struct Work {
     ev: Eval3,
     trial: Eval3,
+    /// Whether the body hangs from the front cup (its factorization's pattern).
+    hanging: bool,
+    /// The contact rows (docs/model3d.md section 12) and their values.
+    contacts: Vec<ContactRow3>,
+    cev: ContactEval,
+    cev_trial: ContactEval,
+    /// The weld's and contact rows' right-hand side of a solve.
+    cons: Vec<f64>,
+    lambda_trial: Vec<f64>,
+    lambda_start: Vec<f64>,
     ldl: BorderedLdl,
     border: Vec<f64>,
     corner: Vec<f64>,
@@ -98,11 +122,11 @@ struct Work {
     x: Vec<f64>,
     y: Vec<f64>,
     step: Vec<f64>,
-    dual: [f64; PLATE_ROWS],
+    dual: Vec<f64>,
     tangent: Vec<f64>,
     /// `dF/dtau` of the residual's moments (the tangent's right-hand side).
     path_residual: Vec<f64>,
-    lambda_tangent: [f64; PLATE_ROWS],
+    lambda_tangent: Vec<f64>,
     frames_trial: Frames,
     /// Where the last Newton run started (its leash) and the continuation step's start.
     frames_saved: Frames,
@@ -115,61 +139,112 @@ impl Work {
     fn new(body: &Body3, hang: Option<Hanging>) -> Work {
         let n = body.links();
         let chain = 3 * (n - 1);
-        Work {
+        let mut work = Work {
             ev: Eval3::new(body),
             trial: Eval3::new(body),
-            ldl: BorderedLdl::new(&body.pattern(hang.is_some())),
-            border: vec![0.0; chain * BORDER],
-            corner: vec![0.0; BORDER * BORDER],
+            contacts: Vec::new(),
+            cev: ContactEval::default(),
+            cev_trial: ContactEval::default(),
+            cons: Vec::new(),
+            lambda_trial: Vec::new(),
+            lambda_start: Vec::new(),
+            ldl: BorderedLdl::new(&body.pattern(hang.is_some(), 0)),
+            hanging: hang.is_some(),
+            border: Vec::new(),
+            corner: Vec::new(),
             residual: vec![0.0; 3 * n],
             residual_trial: vec![0.0; 3 * n],
-            rhs_c: vec![0.0; BORDER],
+            rhs_c: Vec::new(),
             x: vec![0.0; chain],
-            y: vec![0.0; BORDER],
+            y: Vec::new(),
             step: vec![0.0; 3 * n],
-            dual: [0.0; PLATE_ROWS],
+            dual: Vec::new(),
             tangent: vec![0.0; 3 * n],
             path_residual: vec![0.0; 3 * n],
-            lambda_tangent: [0.0; PLATE_ROWS],
+            lambda_tangent: Vec::new(),
             frames_trial: body.straight(),
             frames_saved: body.straight(),
             frames_start: body.straight(),
             damping: 0.0,
             rho: 0.0,
+        };
+        work.set_contacts(body, &[]);
+        work
+    }
+
+    /// The weld's and contact rows' count.
+    fn rows(&self) -> usize {
+        PLATE_ROWS + self.contacts.len()
+    }
+
+    /// Takes `contacts` as the contact rows: the border (the plate's 3
+    /// coordinates, the weld's 12 rows and one per contact) sized to match.
+    fn set_contacts(&mut self, body: &Body3, contacts: &[ContactRow3]) {
+        self.contacts.clear();
+        self.contacts.extend_from_slice(contacts);
+        let (rows, chain) = (self.rows(), self.x.len());
+        let border = 3 + rows;
+        self.ldl = BorderedLdl::new(&body.pattern(self.hanging, contacts.len()));
+        self.border.resize(chain * border, 0.0);
+        self.corner.resize(border * border, 0.0);
+        for v in [&mut self.rhs_c, &mut self.y] {
+            v.resize(border, 0.0);
         }
+        for v in [&mut self.cons, &mut self.dual, &mut self.lambda_tangent, &mut self.lambda_trial] {
+            v.resize(rows, 0.0);
+        }
+    }
+
+    /// The weld's and contact rows' values of the current point into `cons`.
+    fn gather_constraints(&mut self) {
+        self.cons[..PLATE_ROWS].copy_from_slice(&self.ev.constraints);
+        self.cons[PLATE_ROWS..].copy_from_slice(&self.cev.gaps);
     }
 
     /// Factors the KKT matrix of `ev` shifted by `shift`; whether the reduced
     /// Hessian is positive definite, and whether the count was singular.
     fn factor(&mut self, shift: f64, tiny: f64) -> (bool, bool) {
-        let ev = &self.ev;
+        let (ev, cev) = (&self.ev, &self.cev);
         let chain = ev.diag.len() / 3;
+        let (rows, m) = (self.rows(), self.contacts.len());
+        let border = 3 + rows;
+        // Row `i`'s entries of the rows: the weld's 12, then the contacts'.
+        let entry = |i: usize, r: usize| {
+            if r < PLATE_ROWS {
+                ev.jacobian[i * PLATE_ROWS + r]
+            } else {
+                cev.jacobian[i * m + r - PLATE_ROWS]
+            }
+        };
         for i in 0..chain {
-            let row = &mut self.border[i * BORDER..(i + 1) * BORDER];
+            let row = &mut self.border[i * border..(i + 1) * border];
             row[..3].copy_from_slice(&ev.plate_border[3 * i..3 * i + 3]);
-            row[3..].copy_from_slice(&ev.jacobian[i * PLATE_ROWS..(i + 1) * PLATE_ROWS]);
+            for (r, dst) in row[3..].iter_mut().enumerate() {
+                *dst = entry(i, r);
+            }
         }
         self.corner.fill(0.0);
         for a in 0..3 {
-            self.corner[a * BORDER..a * BORDER + 3].copy_from_slice(&ev.plate_corner[a]);
-            for r in 0..PLATE_ROWS {
-                let j = ev.jacobian[(chain + a) * PLATE_ROWS + r];
-                self.corner[(3 + r) * BORDER + a] = j;
-                self.corner[a * BORDER + 3 + r] = j;
+            self.corner[a * border..a * border + 3].copy_from_slice(&ev.plate_corner[a]);
+            for r in 0..rows {
+                let j = entry(chain + a, r);
+                self.corner[(3 + r) * border + a] = j;
+                self.corner[a * border + 3 + r] = j;
             }
         }
         let count = self.ldl.factor(&ev.diag, &ev.off, &self.border, &self.corner, shift, tiny);
-        (count.zero == 0 && count.negative == PLATE_ROWS, count.zero > 0)
+        (count.zero == 0 && count.negative == rows, count.zero > 0)
     }
 
-    /// Solves the factored system for `-(r, c)`: the primal step into `step`
-    /// and `-y` (the multipliers' change) into `dual`.
-    fn solve(&mut self, r: &[f64], c: &[f64; PLATE_ROWS]) {
+    /// Solves the factored system for `-(r, c)`, `c` the rows' values in
+    /// `cons`: the primal step into `step` and `-y` (the multipliers'
+    /// change) into `dual`.
+    fn solve(&mut self, r: &[f64]) {
         let chain = self.x.len();
         for (dst, v) in self.rhs_c[..3].iter_mut().zip(&r[chain..]) {
             *dst = -v;
         }
-        for (dst, v) in self.rhs_c[3..].iter_mut().zip(c) {
+        for (dst, v) in self.rhs_c[3..].iter_mut().zip(&self.cons) {
             *dst = -v;
         }
         self.step[..chain].iter_mut().zip(&r[..chain]).for_each(|(s, v)| *s = -v);
@@ -207,20 +282,91 @@ impl Body3 {
     pub(crate) fn solve_on(&self, solver: &Solver, hang: Option<Hanging>) -> Result<Equilibrium3, SolveError> {
         let mut work = Work::new(self, hang);
         let mut state = State::new(self.straight());
-        let lengths = [0, 1, 2].map(|i| self.tube(i).tube_length());
-        let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
-        let feed =
-            |tau: f64| Param { load: 0.0, scale: lengths.map(|l| (shortest + tau * (l - shortest)) / l), hang: None };
-        let mut residual = if lengths.iter().all(|l| *l == shortest) {
-            self.settle_reporting(solver, &mut state, feed(1.0), 1.0, Stage::Feed, &mut work)?
-        } else {
-            self.continuation(solver, &mut state, &feed, Stage::Feed, &mut work)?
-        };
+        let mut residual = self.feed(solver, &mut state, &mut work)?;
         if self.gravity() != 0.0 {
             let load = |t: f64| Param { load: t, scale: [1.0; 3], hang };
             residual = self.continuation(solver, &mut state, &load, Stage::Load, &mut work)?;
         }
         Ok(self.finish(solver, state, residual, hang, &mut work))
+    }
+
+    /// The tubes fed from the shortest length at `g = 0` (each tube's links
+    /// scaled from `L_min / L_i` up to 1); the residual at the end.
+    fn feed(&self, solver: &Solver, state: &mut State, work: &mut Work) -> Result<f64, SolveError> {
+        let lengths = [0, 1, 2].map(|i| self.tube(i).tube_length());
+        let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
+        let feed =
+            |tau: f64| Param { load: 0.0, scale: lengths.map(|l| (shortest + tau * (l - shortest)) / l), hang: None };
+        if lengths.iter().all(|l| *l == shortest) {
+            self.settle_reporting(solver, state, feed(1.0), 1.0, Stage::Feed, work)
+        } else {
+            self.continuation(solver, state, &feed, Stage::Feed, work)
+        }
+    }
+
+    /// The equilibrium among `scene`'s solids on the default path: the
+    /// tubes fed at `g = 0` as [`Body3::solve`] does, then gravity raised
+    /// in [`LOAD_STAGES`] stages, each settled with the contact rows'
+    /// active set (docs/model3d.md section 12): a row whose force pulls is
+    /// released (the one pulling hardest first), then every link tip
+    /// inside a solid gets a row against the plane of the solid nearest to
+    /// it, until neither happens.
+    pub(crate) fn solve_among_on(
+        &self,
+        solver: &Solver,
+        scene: &Scene3,
+        clearance: f64,
+    ) -> Result<Equilibrium3, SolveError> {
+        let mut work = Work::new(self, None);
+        let mut state = State::new(self.straight());
+        let mut residual = self.feed(solver, &mut state, &mut work)?;
+        let k = self.moment_scale();
+        // A gap within the tolerance is closed; a force within it is zero.
+        let gap_tolerance = solver.options.tolerance * self.row_scale(0);
+        let force_tolerance = solver.options.tolerance * k / self.row_scale(0);
+        let mut candidates = Vec::new();
+        let mut changes = 0;
+        for stage in 1..=LOAD_STAGES {
+            let at = stage as f64 / LOAD_STAGES as f64;
+            let param = Param { load: at, scale: [1.0; 3], hang: None };
+            loop {
+                residual = self.settle_reporting(solver, &mut state, param, at, Stage::Load, &mut work)?;
+                let forces = &state.lambda[PLATE_ROWS..];
+                let pulling = (0..forces.len()).filter(|r| forces[*r] < -force_tolerance);
+                let mut rows = work.contacts.clone();
+                if let Some(r) = pulling.min_by(|a, b| forces[*a].total_cmp(&forces[*b])) {
+                    rows.remove(r);
+                    state.lambda.remove(PLATE_ROWS + r);
+                } else {
+                    // Each tube's deepest point inside, one at a time: a body
+                    // sagging through a floor would otherwise bring all its
+                    // points at once, where a few rows lift the rest.
+                    self.contact_rows(&state.frames, scene, clearance, -gap_tolerance, &mut candidates);
+                    let before = rows.len();
+                    for tube in 0..3 {
+                        let new = candidates.iter().filter(|c| c.tube == tube);
+                        let new = new.filter(|c| !rows.iter().any(|r| r.tube == c.tube && r.link == c.link));
+                        let gap = |c: &&ContactRow3| self.contact_gap(&state.frames, c);
+                        if let Some(c) = new.min_by(|a, b| gap(a).total_cmp(&gap(b))) {
+                            rows.push(*c);
+                            state.lambda.push(0.0);
+                        }
+                    }
+                    if rows.len() == before {
+                        break;
+                    }
+                    if 3 + PLATE_ROWS + rows.len() > MAX_BORDER {
+                        return Err(fail(solver, Stage::Load, &state, residual, StopReason::TooManyActiveRows));
+                    }
+                }
+                changes += 1;
+                if changes > ACTIVE_SET_CHANGES * self.links() {
+                    return Err(fail(solver, Stage::Load, &state, residual, StopReason::ActiveSetCycling));
+                }
+                work.set_contacts(self, &rows);
+            }
+        }
+        Ok(self.finish(solver, state, residual, None, &mut work))
     }
 
     /// The equilibrium reached from `frames` with gravity on, without
@@ -253,15 +399,24 @@ impl Body3 {
         hang: Option<Hanging>,
         work: &mut Work,
     ) -> Equilibrium3 {
-        self.evaluate(&state.frames, &state.lambda, Param { hang, ..Param::FULL }, &mut work.ev);
+        let param = Param { hang, ..Param::FULL };
+        let (ev, cev, residual_v) = (&mut work.ev, &mut work.cev, &mut work.residual);
+        self.evaluate_with(&state.frames, &state.lambda, param, &work.contacts, ev, cev, residual_v);
         let tiny = solver.options.tuning.tiny_pivot * self.moment_scale();
         let stable = work.factor(0.0, tiny).0;
         let q = state.frames.0.iter().flat_map(super::rotation::log).collect();
+        let contacts = (work.contacts.iter().zip(&state.lambda[PLATE_ROWS..]))
+            .map(|(row, f)| Contact3 {
+                row: *row,
+                point_m: self.link_tip(&state.frames, row.tube, row.link),
+                force_n: *f,
+            })
+            .collect();
         Equilibrium3 {
             frames: state.frames,
             summary: Equilibrium {
                 q,
-                multipliers: state.lambda.to_vec(),
+                multipliers: state.lambda.clone(),
                 energy: work.ev.energy,
                 residual,
                 stable,
@@ -269,25 +424,32 @@ impl Body3 {
                 steps: state.steps,
                 events: state.events,
             },
+            contacts,
         }
     }
 
+    /// The weld's and contact rows' scaled values `C_r / s_r`.
+    fn scaled_rows<'a>(&'a self, ev: &'a Eval3, cev: &'a ContactEval) -> impl Iterator<Item = f64> + 'a {
+        let values = ev.constraints.iter().chain(&cev.gaps);
+        values.enumerate().map(|(r, c)| c / self.any_row_scale(r))
+    }
+
     /// The scaled sup norm of `(grad V - J^T lambda, C)`.
-    fn residual_norm(&self, ev: &Eval3, r: &[f64]) -> f64 {
+    fn residual_norm(&self, ev: &Eval3, cev: &ContactEval, r: &[f64]) -> f64 {
         let moments = sup(r) / self.moment_scale();
-        (0..PLATE_ROWS).fold(moments, |m, row| m.max((ev.constraints[row] / self.row_scale(row)).abs()))
+        self.scaled_rows(ev, cev).fold(moments, |m, c| m.max(c.abs()))
     }
 
     /// Squared scaled Euclidean norm of the same.
-    fn residual_l2(&self, ev: &Eval3, r: &[f64]) -> f64 {
+    fn residual_l2(&self, ev: &Eval3, cev: &ContactEval, r: &[f64]) -> f64 {
         let k = self.moment_scale();
         let moments = r.iter().fold(0.0, |s, x| s + (x / k) * (x / k));
-        (0..PLATE_ROWS).fold(moments, |s, row| s + (ev.constraints[row] / self.row_scale(row)).powi(2))
+        self.scaled_rows(ev, cev).fold(moments, |s, c| s + c * c)
     }
 
     /// The exact-penalty merit `V/k + rho |C/s|_1`.
-    fn merit(&self, ev: &Eval3, rho: f64) -> f64 {
-        let infeasibility = (0..PLATE_ROWS).fold(0.0, |s, r| s + (ev.constraints[r] / self.row_scale(r)).abs());
+    fn merit(&self, ev: &Eval3, cev: &ContactEval, rho: f64) -> f64 {
+        let infeasibility = self.scaled_rows(ev, cev).fold(0.0, |s, c| s + c.abs());
         ev.energy / self.moment_scale() + rho * infeasibility
     }
 
@@ -318,7 +480,7 @@ impl Body3 {
                 (residual, Err(reason)) => return Err(fail(solver, stage, state, residual, reason)),
             }
         }
-        let residual = self.residual_norm(&work.ev, &work.residual);
+        let residual = self.residual_norm(&work.ev, &work.cev, &work.residual);
         Err(fail(solver, stage, state, residual, StopReason::StillUnstable))
     }
 
@@ -356,8 +518,9 @@ impl Body3 {
         // A fixed start with every component present, so no mode is missed.
         let n = work.tangent.len();
         let mut v: Vec<f64> = (0..n).map(|i| 1.0 + 0.5 * ((i * 7919) % 13) as f64 / 13.0).collect();
+        work.cons.fill(0.0);
         for _ in 0..tuning.escape_iterations {
-            work.solve(&v, &[0.0; PLATE_ROWS]);
+            work.solve(&v);
             let norm = sup(&work.step);
             if norm == 0.0 || !norm.is_finite() {
                 return Err(StopReason::StillUnstable);
@@ -420,12 +583,12 @@ impl Body3 {
         let k = self.moment_scale();
         let tiny = tuning.tiny_pivot * k;
         work.frames_saved.clone_from(&state.frames);
-        self.evaluate(&state.frames, &state.lambda, param, &mut work.ev);
-        work.ev.stationarity(&state.lambda, &mut work.residual);
+        let (ev, cev, residual) = (&mut work.ev, &mut work.cev, &mut work.residual);
+        self.evaluate_with(&state.frames, &state.lambda, param, &work.contacts, ev, cev, residual);
         work.damping = 0.0;
         let (mut iter, mut best, mut best_at, mut fresh) = (0, f64::INFINITY, 0, false);
         loop {
-            let res = self.residual_norm(&work.ev, &work.residual);
+            let res = self.residual_norm(&work.ev, &work.cev, &work.residual);
             if !res.is_finite() {
                 return (res, Err(StopReason::NonFinite));
             }
@@ -473,13 +636,13 @@ impl Body3 {
             // start begins with zero multipliers, whose Hessian can look
             // stable where the true one is a saddle.
             let moved_multipliers =
-                (0..PLATE_ROWS).fold(0.0f64, |m, r| m.max(work.dual[r].abs() * self.row_scale(r) / k));
+                (0..work.rows()).fold(0.0f64, |m, r| m.max(work.dual[r].abs() * self.any_row_scale(r) / k));
             fresh = min_shift == 0.0
                 && work.damping == 0.0
                 && sup(&work.step) < tuning.reuse_factors_step
                 && moved_multipliers < tuning.reuse_factors_step;
             if budget.leash.is_finite() && distance(&state.frames, &work.frames_saved) > budget.leash {
-                let res = self.residual_norm(&work.ev, &work.residual);
+                let res = self.residual_norm(&work.ev, &work.cev, &work.residual);
                 return (res, Err(StopReason::LeftBranch));
             }
         }
@@ -493,28 +656,31 @@ impl Body3 {
         let k = self.moment_scale();
         let tiny = tuning.tiny_pivot * k;
         let mut shift = if min_shift == 0.0 { 0.0 } else { min_shift.max(work.damping) };
-        let base_l2 = self.residual_l2(&work.ev, &work.residual);
+        let base_l2 = self.residual_l2(&work.ev, &work.cev, &work.residual);
         for attempt in 0..tuning.max_trials {
             if attempt > 0 || shift != min_shift {
                 work.factor(shift, tiny);
             }
             let residual = std::mem::take(&mut work.residual);
-            work.solve(&residual, &work.ev.constraints.clone());
+            work.gather_constraints();
+            work.solve(&residual);
             work.residual = residual;
             // Shifted steps stay within the trust radius; plain Newton steps
             // within the jump tolerance (the exponential map's good range).
             let radius = if shift > 0.0 { o.trust_radius } else { o.jump_tolerance };
             let alpha = (radius / sup(&work.step)).min(1.0);
             moved(&state.frames, &work.step, alpha, &mut work.frames_trial);
-            let mut lambda = state.lambda;
-            for (l, d) in lambda.iter_mut().zip(&work.dual) {
-                *l += alpha * d;
+            let lambda = &mut work.lambda_trial;
+            for ((l, s), d) in lambda.iter_mut().zip(&state.lambda).zip(&work.dual) {
+                *l = s + alpha * d;
             }
-            self.evaluate(&work.frames_trial, &lambda, param, &mut work.trial);
-            work.trial.stationarity(&lambda, &mut work.residual_trial);
-            let largest = (0..PLATE_ROWS).fold(0.0f64, |m, r| m.max(lambda[r].abs() * self.row_scale(r) / k));
+            let (ev, cev, residual) = (&mut work.trial, &mut work.cev_trial, &mut work.residual_trial);
+            self.evaluate_with(&work.frames_trial, lambda, param, &work.contacts, ev, cev, residual);
+            let largest =
+                lambda.iter().enumerate().fold(0.0f64, |m, (r, l)| m.max(l.abs() * self.any_row_scale(r) / k));
             work.rho = work.rho.max((1.0 + tuning.penalty_margin) * largest);
-            let (before, after) = (self.merit(&work.ev, work.rho), self.merit(&work.trial, work.rho));
+            let before = self.merit(&work.ev, &work.cev, work.rho);
+            let after = self.merit(&work.trial, &work.cev_trial, work.rho);
             let decreased = after < before - tuning.measurable_decrease * before.abs().max(1.0);
             // A plain Newton step may also be accepted on the residual; so may
             // any step that leaves the merit as it was (to rounding) while
@@ -522,11 +688,13 @@ impl Body3 {
             // wrong multipliers only they need to move.
             let level = after <= before + tuning.measurable_decrease * before.abs().max(1.0);
             let improved = (shift == 0.0 || level)
-                && self.residual_l2(&work.trial, &work.residual_trial) < (1.0 - tuning.residual_decrease) * base_l2;
+                && self.residual_l2(&work.trial, &work.cev_trial, &work.residual_trial)
+                    < (1.0 - tuning.residual_decrease) * base_l2;
             if (decreased || improved) && after.is_finite() {
                 std::mem::swap(&mut state.frames, &mut work.frames_trial);
-                state.lambda = lambda;
+                std::mem::swap(&mut state.lambda, &mut work.lambda_trial);
                 std::mem::swap(&mut work.ev, &mut work.trial);
+                std::mem::swap(&mut work.cev, &mut work.cev_trial);
                 std::mem::swap(&mut work.residual, &mut work.residual_trial);
                 work.damping = shift * tuning.damping_memory;
                 return true;
@@ -541,23 +709,31 @@ impl Body3 {
     /// difference of the residual at fixed frames and multipliers.
     fn tangent(&self, state: &State, path: &impl Fn(f64) -> Param, tau: f64, work: &mut Work) {
         const H: f64 = 1e-6;
-        let mut dc = [0.0; PLATE_ROWS];
         let mut dr = std::mem::take(&mut work.path_residual);
         dr.fill(0.0);
+        // The contact rows do not move with the path at fixed frames.
+        work.cons.fill(0.0);
         for (sign, at) in [(1.0, tau + H), (-1.0, tau - H)] {
-            self.evaluate_residual(&state.frames, &state.lambda, path(at), &mut work.trial);
-            work.trial.stationarity(&state.lambda, &mut work.residual_trial);
+            if work.contacts.is_empty() {
+                // The weld alone: the residual without the Hessian.
+                let weld: &[f64; PLATE_ROWS] = state.lambda[..PLATE_ROWS].try_into().expect("the weld's 12 come first");
+                self.evaluate_residual(&state.frames, weld, path(at), &mut work.trial);
+                work.trial.stationarity(weld, &mut work.residual_trial);
+            } else {
+                let (ev, cev, residual) = (&mut work.trial, &mut work.cev_trial, &mut work.residual_trial);
+                self.evaluate_with(&state.frames, &state.lambda, path(at), &work.contacts, ev, cev, residual);
+            }
             for (d, r) in dr.iter_mut().zip(&work.residual_trial) {
                 *d += sign * r / (2.0 * H);
             }
-            for (d, c) in dc.iter_mut().zip(&work.trial.constraints) {
+            for (d, c) in work.cons.iter_mut().zip(&work.trial.constraints) {
                 *d += sign * c / (2.0 * H);
             }
         }
-        work.solve(&dr, &dc);
+        work.solve(&dr);
         work.path_residual = dr;
         work.tangent.copy_from_slice(&work.step);
-        work.lambda_tangent = work.dual;
+        work.lambda_tangent.copy_from_slice(&work.dual);
     }
 
     /// Follows `path(tau)`, `tau` from 0 to 1, from a start that is
@@ -585,7 +761,7 @@ impl Body3 {
             // The step's start, and the prediction (the corrector's start is
             // the newton run's own `frames_saved`): buffers of `work`, no allocation.
             work.frames_start.clone_from(&state.frames);
-            let lambda_start = state.lambda;
+            work.lambda_start.clone_from(&state.lambda);
             moved(&work.frames_start, &work.tangent, dtau, &mut state.frames);
             for (l, d) in state.lambda.iter_mut().zip(&work.lambda_tangent) {
                 *l += dtau * d;
@@ -608,7 +784,7 @@ impl Body3 {
                 return Err(fail(solver, stage, state, res, StopReason::TimeLimit));
             }
             state.frames.clone_from(&work.frames_start);
-            state.lambda = lambda_start;
+            state.lambda.clone_from(&work.lambda_start);
             if dtau > o.min_step {
                 dtau *= 0.5;
                 // Re-evaluate and re-factor at the saved point for the tangent.

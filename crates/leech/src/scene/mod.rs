@@ -57,10 +57,12 @@ mod builtin;
 pub(crate) mod file;
 mod query;
 mod solid;
+mod solid3;
 
 pub use builtin::{BuiltinScene, BUILTIN_SCENES};
 pub use query::{Candidate, Corner};
 pub use solid::Solid;
+pub use solid3::{Plane3, Scene3, Solid3};
 
 use crate::error::InputError;
 

@@ -3,6 +3,7 @@
 mod batch;
 mod body3;
 mod body3_constant_curvature;
+mod body3_contact;
 mod body3_hold;
 mod body3_references;
 mod calibration;

@@ -1,0 +1,373 @@
+//! Contact rows of the 3D body with a [`Scene3`]'s solids (docs/model3d.md
+//! section 12): unilateral, at the link points (each link's tip, as the
+//! planar stance uses its points), each against the plane of the solid
+//! nearest to it ([`Scene3::nearest`], frozen while the row is active)
+//! moved out by the tube's radius (the clearance the centre line keeps).
+//! [`Body3::solve_held_among`] is the entry point:
+//!
+//! ```
+//! use leech::body3::{Body3, Hold3};
+//! use leech::prelude::*;
+//! use leech::scene::{Scene3, Solid3};
+//! let mut robot = Robot::builtin();
+//! robot.world.base_angle_deg = 0.0; // the driving unit along a floor
+//! let body = Body3::from_robot(&robot, [0.34, 0.36, 0.28]).unwrap();
+//! // The floor under the rear cup's face.
+//! let floor = Solid3::HalfSpace { point_m: body.rear_cup_centre(&robot), normal: [0.0, 1.0, 0.0] };
+//! let scene = Scene3::new("floor", vec![floor]).unwrap();
+//! let held = body.solve_held_among(&robot, Hold3::Rear, &scene, &Solver::default()).unwrap();
+//! assert!(held.equilibrium.contacts.iter().all(|c| c.force_n >= 0.0));
+//! ```
+//!
+//! # The row
+//!
+//! Link `j` of tube `i` ends at `p_ij = root_i + sum_{k <= j} l_ik R_ik e_x`.
+//! Against the plane `(x0, n)` its gap, and the sign rules of a contact, are
+//!
+//! ```text
+//! g = n . (p_ij - x0) >= 0           (m)     the point stays out of the solid
+//! mu >= 0                            (N)     the contact force mu n pushes
+//! mu g = 0                                   force only where the gap is closed
+//! ```
+//!
+//! (with the clearance `r`, `x0` is the solid's plane point moved by `r n`).
+//! The Lagrangian gets `-mu g`. In local rotation coordinates
+//! (`R_ik <- R_ik Exp(delta_k)`) each link `k <= j` of the tube enters `g`
+//! through a linear term `n . (R_ik Exp(delta_k) a_k)`, `a_k = l_ik e_x`
+//! (docs/model3d.md section 4), so
+//!
+//! ```text
+//! dg/ddelta_k        = a_k x (R_ik^T n)                                        (m/rad)
+//! d2(-mu g)/ddelta_k^2 = -mu ( sym(w a_k^T) - (w . a_k) I ),   w = R_ik^T n     (J/rad^2)
+//! ```
+//!
+//! and no second derivative couples two links: a contact row adds to the
+//! diagonal 3 x 3 blocks only, and its Jacobian (dense along the tube up to
+//! link `j`) is one more border row of the factorization, as the weld's
+//! are. The multiplier `mu` is the normal force (N) on the point.
+//!
+//! # The active set
+//!
+//! Gravity is raised in stages; at each, the body is settled (Newton with
+//! the inertia test) and the active set updated until it stands: the row
+//! pulling hardest (`mu < -tol k / l`) is released, else each tube's
+//! deepest link tip inside a solid (`g < -tol l`) gets a row with `mu = 0`
+//! (docs/model3d.md section 12). The rear cup's reaction takes the contact
+//! forces off the tubes' root forces ([`super::hold3`]).
+
+use super::body3::{Body3, Eval3, Frames, Param, PLATE_ROWS};
+use super::hold3::{Held3, Hold3};
+use super::rotation::{axpy, linear_terms, scale, Mat3, Vec3};
+use super::solve::Equilibrium3;
+use crate::error::InputError;
+use crate::robot::Robot;
+use crate::scene::{Plane3, Scene3};
+use crate::stance::StanceError;
+use crate::statics::Solver;
+
+/// A contact row: the tip of link `link` of tube `tube` (0, 1, 2) against
+/// `plane`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactRow3 {
+    /// The tube (0, 1, 2 for tubes 1, 2, 3).
+    pub tube: usize,
+    /// The link whose tip touches.
+    pub link: usize,
+    /// The solid's index in its scene.
+    pub solid: usize,
+    /// The plane the gap is measured to.
+    pub plane: Plane3,
+}
+
+/// A contact of an equilibrium: its row, the point (m) and the normal
+/// force `mu` (N, along the plane's normal: the multiplier of the row).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Contact3 {
+    /// The row.
+    pub row: ContactRow3,
+    /// The touching point (m).
+    pub point_m: Vec3,
+    /// The normal force on the body (N): `force_n * row.plane.normal`.
+    pub force_n: f64,
+}
+
+/// The contact rows' values and Jacobian at one point, beside an [`Eval3`].
+#[derive(Clone, Debug, Default)]
+pub(crate) struct ContactEval {
+    /// Gaps (m), one per row.
+    pub gaps: Vec<f64>,
+    /// `dg_r/ddelta_i` at `i * m + r` (`m` rows).
+    pub jacobian: Vec<f64>,
+}
+
+impl Body3 {
+    /// The body's evaluation with contact rows `rows`: the weld's
+    /// multipliers are `lambda[..12]`, the rows' forces `lambda[12..]`.
+    /// Fills `ev` (the rows' Hessian blocks added), `cev`, and the
+    /// stationarity residual `grad V - J^T lambda` into `residual`.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn evaluate_with(
+        &self,
+        frames: &Frames,
+        lambda: &[f64],
+        param: Param,
+        rows: &[ContactRow3],
+        ev: &mut Eval3,
+        cev: &mut ContactEval,
+        residual: &mut [f64],
+    ) {
+        let (weld, forces) = lambda.split_at(PLATE_ROWS);
+        let weld: &[f64; PLATE_ROWS] = weld.try_into().expect("the weld's 12 multipliers come first");
+        self.evaluate(frames, weld, param, ev);
+        let m = rows.len();
+        cev.gaps.resize(m, 0.0);
+        cev.jacobian.resize(3 * self.links() * m, 0.0);
+        cev.jacobian.fill(0.0);
+        for (r, (row, mu)) in rows.iter().zip(forces).enumerate() {
+            cev.gaps[r] = self.contact_gap(frames, row);
+            let jacobian = &mut cev.jacobian;
+            self.contact_terms(frames, row, *mu, |u, grad, hess| {
+                for (c, g) in grad.iter().enumerate() {
+                    jacobian[(3 * u + c) * m + r] = *g;
+                }
+                ev.add_hessian(u, u, &hess);
+            });
+        }
+        ev.stationarity(weld, residual);
+        if m > 0 {
+            for (o, j) in residual.iter_mut().zip(cev.jacobian.chunks_exact(m)) {
+                *o = j.iter().zip(forces).fold(*o, |acc, (a, f)| acc - a * f);
+            }
+        }
+    }
+
+    /// Scale of row `r` of the weld and contact rows (m, or 1 for the
+    /// weld's rotation rows): residuals are divided by it.
+    pub(crate) fn any_row_scale(&self, r: usize) -> f64 {
+        if r < PLATE_ROWS {
+            self.row_scale(r)
+        } else {
+            self.row_scale(0)
+        }
+    }
+
+    /// The equilibrium among `scene`'s solids, the driving unit fixed (the
+    /// rear hold): the tubes fed at `g = 0`, then gravity raised in
+    /// [`super::solve::LOAD_STAGES`] stages, each settled with the contact
+    /// rows' active set (module doc). Its `contacts` are the rows that push
+    /// at the end, with their forces (N).
+    /// The tubes' centre lines keep `clearance` (m, their radius) from the solids.
+    /// A clearance that is not a finite length of at least 0 is refused.
+    pub fn solve_among(&self, solver: &Solver, scene: &Scene3, clearance: f64) -> Result<Equilibrium3, StanceError> {
+        if !(clearance.is_finite() && clearance >= 0.0) {
+            return Err(InputError::invalid("clearance (m)", clearance, "a finite length of at least 0").into());
+        }
+        Ok(self.solve_among_on(solver, scene, clearance)?)
+    }
+
+    /// The body of `robot` held by `hold` among `scene`'s solids, with the
+    /// holding cup's reaction (the contacts' forces taken off it) and
+    /// verdict. Only the rear hold is solved among solids so far: a front
+    /// hold is refused, naming the field. The tubes keep their radius from
+    /// the solids.
+    pub fn solve_held_among(
+        &self,
+        robot: &Robot,
+        hold: Hold3,
+        scene: &Scene3,
+        solver: &Solver,
+    ) -> Result<Held3, StanceError> {
+        if hold != Hold3::Rear {
+            return Err(StanceError::from(InputError::Invalid {
+                field: "hold".into(),
+                value: format!("{hold:?}"),
+                allowed: "the rear hold (contacts in 3D are solved with the driving unit fixed)".into(),
+            }));
+        }
+        let equilibrium = self.solve_among(solver, scene, 0.5 * robot.tube.outer_diameter_m)?;
+        let rear = Some(self.rear_cup(robot, &equilibrium)?);
+        Ok(Held3 { hold, body: self.clone(), equilibrium, rear, front: None, pivot_turn_rad: None })
+    }
+
+    /// The tip of link `link` of tube `tube` (m).
+    pub fn link_tip(&self, frames: &Frames, tube: usize, link: usize) -> Vec3 {
+        let t = self.tube(tube);
+        t.lengths()[..=link].iter().enumerate().fold(t.root(), |p, (k, l)| {
+            let r = self.frame(frames, tube, k);
+            axpy(*l, [r[0][0], r[1][0], r[2][0]], p)
+        })
+    }
+
+    /// The row's gap `g` (m, module doc).
+    pub fn contact_gap(&self, frames: &Frames, row: &ContactRow3) -> f64 {
+        row.plane.gap(self.link_tip(frames, row.tube, row.link))
+    }
+
+    /// The row's Jacobian `dg/ddelta` (m/rad, 3 per link in the body's
+    /// order, [`Body3::index`]) into `out`, zero for links past the point.
+    ///
+    /// # Panics
+    /// If `out` does not hold 3 entries per link.
+    pub fn contact_jacobian(&self, frames: &Frames, row: &ContactRow3, out: &mut [f64]) {
+        assert_eq!(out.len(), 3 * self.links(), "contact_jacobian: one 3-vector per link");
+        out.fill(0.0);
+        self.contact_terms(frames, row, 0.0, |u, grad, _| out[3 * u..3 * u + 3].copy_from_slice(&grad));
+    }
+
+    /// Calls `each(u, dg/ddelta_u, d2(-force g)/ddelta_u^2)` for every link
+    /// `u` the row's point depends on (module doc): the Jacobian's 3-vectors
+    /// and the Lagrangian's diagonal Hessian blocks for the multiplier
+    /// `force` (N). No allocation: the solver's evaluation calls it per row.
+    pub fn contact_terms(
+        &self,
+        frames: &Frames,
+        row: &ContactRow3,
+        force: f64,
+        mut each: impl FnMut(usize, Vec3, Mat3),
+    ) {
+        let lengths = self.tube(row.tube).lengths();
+        for (k, l) in lengths[..=row.link].iter().enumerate() {
+            let u = self.index(row.tube, k);
+            let r = &frames.0[u];
+            let a = [*l, 0.0, 0.0];
+            let (grad, _) = linear_terms(r, row.plane.normal, a);
+            let (_, hess) = linear_terms(r, scale(-force, row.plane.normal), a);
+            each(u, grad, hess);
+        }
+    }
+
+    /// The candidate rows at `frames`: every link tip closer than
+    /// `clearance + margin` (m) to a solid of `scene` (inside it included),
+    /// each against the plane of the solid nearest to it moved out by
+    /// `clearance` (the tube's radius: the centre line keeps it).
+    pub fn contact_rows(
+        &self,
+        frames: &Frames,
+        scene: &Scene3,
+        clearance: f64,
+        margin: f64,
+        out: &mut Vec<ContactRow3>,
+    ) {
+        out.clear();
+        for tube in 0..3 {
+            for link in 0..self.tube(tube).len() {
+                let p = self.link_tip(frames, tube, link);
+                if let Some((solid, plane, d)) = scene.nearest(p) {
+                    if d - clearance <= margin {
+                        let point_m = axpy(clearance, plane.normal, plane.point_m);
+                        out.push(ContactRow3 { tube, link, solid, plane: Plane3 { point_m, ..plane } });
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::body3::body3::retract;
+    use crate::body3::rotation::exp;
+    use crate::robot::Robot;
+    use crate::scene::Solid3;
+
+    /// A bent, twisted state of an uneven body, and a tilted plane.
+    fn case() -> (Body3, Frames, ContactRow3) {
+        let body = Body3::from_robot(&Robot::builtin(), [0.25, 0.28, 0.22]).unwrap();
+        let frames = body
+            .frames_from(
+                (0..body.links())
+                    .map(|u| {
+                        let t = u as f64;
+                        exp([0.3 * (0.7 * t).sin(), 0.2 + 0.05 * t, -0.4 * (0.3 * t).cos()])
+                    })
+                    .collect(),
+            )
+            .unwrap();
+        let n: Vec3 = [0.3, 0.9, -0.2];
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        let plane = Plane3 { point_m: [0.1, -0.05, 0.02], normal: scale(1.0 / len, n) };
+        let link = body.tube(1).len() - 2;
+        (body, frames, ContactRow3 { tube: 1, link, solid: 0, plane })
+    }
+
+    /// The state moved by `(coordinate, h)` each: one retraction per link
+    /// of the summed local step (the pullback `R Exp(delta)`).
+    fn moved(frames: &Frames, moves: &[(usize, f64)]) -> Frames {
+        let mut steps = vec![[0.0; 3]; frames.0.len()];
+        for (c, h) in moves {
+            steps[c / 3][c % 3] += h;
+        }
+        let mut out = frames.clone();
+        for (f, v) in out.0.iter_mut().zip(steps) {
+            *f = retract(f, v);
+        }
+        out
+    }
+
+    #[test]
+    fn jacobian_matches_finite_differences() {
+        let (body, frames, row) = case();
+        let mut jac = vec![0.0; 3 * body.links()];
+        body.contact_jacobian(&frames, &row, &mut jac);
+        let h = 1e-6;
+        let mut nonzero = 0;
+        for (c, j) in jac.iter().enumerate() {
+            let fd = (body.contact_gap(&moved(&frames, &[(c, h)]), &row)
+                - body.contact_gap(&moved(&frames, &[(c, -h)]), &row))
+                / (2.0 * h);
+            assert!((fd - j).abs() < 1e-8, "coordinate {c}: {j} against {fd}");
+            nonzero += usize::from(fd.abs() > 1e-6);
+        }
+        // Every link up to the point moves it (two coordinates each at least).
+        assert!(nonzero >= 2 * (row.link + 1), "{nonzero}");
+    }
+
+    #[test]
+    fn hessian_blocks_match_second_differences() {
+        let (body, frames, row) = case();
+        let force = 2.5;
+        let lagrangian = |f: &Frames| -force * body.contact_gap(f, &row);
+        let mut blocks = Vec::new();
+        body.contact_terms(&frames, &row, force, |u, _, hess| blocks.push((u, hess)));
+        assert_eq!(blocks.len(), row.link + 1);
+        let h = 1e-4;
+        for (u, hess) in &blocks {
+            for a in 0..3 {
+                for b in 0..3 {
+                    let (ca, cb) = (3 * u + a, 3 * u + b);
+                    let second = (lagrangian(&moved(&frames, &[(ca, h), (cb, h)]))
+                        - lagrangian(&moved(&frames, &[(ca, h), (cb, -h)]))
+                        - lagrangian(&moved(&frames, &[(ca, -h), (cb, h)]))
+                        + lagrangian(&moved(&frames, &[(ca, -h), (cb, -h)])))
+                        / (4.0 * h * h);
+                    let exact = hess[a][b];
+                    assert!((second - exact).abs() < 1e-6, "link {u} ({a}, {b}): {exact} against {second}");
+                }
+            }
+        }
+        // Two different links: no coupling.
+        let (u, v) = (blocks[0].0, blocks[1].0);
+        let cross = (lagrangian(&moved(&frames, &[(3 * u + 1, h), (3 * v + 2, h)]))
+            - lagrangian(&moved(&frames, &[(3 * u + 1, h), (3 * v + 2, -h)]))
+            - lagrangian(&moved(&frames, &[(3 * u + 1, -h), (3 * v + 2, h)]))
+            + lagrangian(&moved(&frames, &[(3 * u + 1, -h), (3 * v + 2, -h)])))
+            / (4.0 * h * h);
+        assert!(cross.abs() < 1e-6, "{cross}");
+    }
+
+    #[test]
+    fn rows_are_found_at_the_points_near_a_floor() {
+        let body = Body3::from_robot(&Robot::builtin(), [0.25, 0.28, 0.22]).unwrap();
+        let frames = body.straight();
+        // A ceiling just above tube 1 (the unit's y axis up): only tube 1's points are near.
+        let base = body.base_frame();
+        let up = [base[0][1], base[1][1], base[2][1]];
+        let point_m = axpy(0.001, up, body.tube(0).root());
+        let scene = Scene3::new("ceiling", vec![Solid3::HalfSpace { point_m, normal: scale(-1.0, up) }]).unwrap();
+        let mut rows = Vec::new();
+        body.contact_rows(&frames, &scene, 0.0, 0.002, &mut rows);
+        assert_eq!(rows.len(), body.tube(0).len());
+        assert!(rows.iter().all(|r| r.tube == 0 && (body.contact_gap(&frames, r) - 0.001).abs() < 1e-12));
+    }
+}
