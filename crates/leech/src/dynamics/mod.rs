@@ -107,7 +107,8 @@ mod simulator;
 mod stability;
 
 pub use scenario::{
-    energy_gain, simulate, Actuation, Sample, Simulation, SimulationError, SimulationOptions, Start, MAX_STEPS,
+    energy_gain, simulate, Actuation, Sample, Simulation, SimulationError, SimulationOptions, Start, IMPLICIT_STEP_S,
+    MAX_STEPS,
 };
 pub use simulator::{Multibody, Simulator};
 
