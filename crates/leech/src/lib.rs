@@ -64,6 +64,7 @@
 //! * [`inverse_statics`]: tube lengths that put the endpoint on a target.
 //! * [`sweep`]: sweeps over tube lengths along the actuation path, reach metrics.
 //! * [`robot`]: robot files (TOML) and the built-in robot.
+//! * [`root`]: bracketed root finding (regula falsi with the Illinois rule).
 //! * [`scene`]: floors, walls, steps and thin walls (TOML) and the geometric queries of contact.
 //! * [`report`]: serializable results (what the command line prints and writes).
 //! * [`error`]: input errors.
@@ -89,6 +90,7 @@ pub mod least_squares;
 pub mod linalg;
 pub mod report;
 pub mod robot;
+pub mod root;
 pub mod scene;
 pub mod stance;
 pub mod statics;

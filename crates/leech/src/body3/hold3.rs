@@ -446,27 +446,18 @@ impl Body3 {
                 break;
             }
         }
-        if let Some(((mut a, mut ma), (mut b, mut mb))) = bracket {
-            // Illinois: the side kept twice has its moment halved.
-            let mut kept = 0i8;
+        if let Some((a, b)) = bracket {
+            let mut bracket = crate::root::Bracket::new(a, b);
             for _ in 0..PIVOT_ITERATIONS {
-                if m.abs() <= tolerance || (b - a).abs() <= 1e-13 {
+                if m.abs() <= tolerance || bracket.width() <= 1e-13 {
                     break;
                 }
-                let c = (a * mb - b * ma) / (mb - ma);
+                let c = bracket.next();
                 let here = settle(&picture, c)?;
                 iterations += here.iterations;
                 events.extend_from_slice(&here.events);
                 let (mc, held_c) = moment(&here, c)?;
-                if mc.signum() == mb.signum() {
-                    (b, mb) = (c, mc);
-                    ma = if kept == -1 { 0.5 * ma } else { ma };
-                    kept = -1;
-                } else {
-                    (a, ma) = (c, mc);
-                    mb = if kept == 1 { 0.5 * mb } else { mb };
-                    kept = 1;
-                }
+                bracket.narrow(c, mc);
                 (turn, m, picture, held) = (c, mc, here, held_c);
             }
         }

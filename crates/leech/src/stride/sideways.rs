@@ -528,28 +528,18 @@ impl<'a> Planner<'a> {
         let side = (target * widest).signum();
         let n = (target.abs() / widest.abs()).ceil().max(1.0);
         let per = target / n;
-        let (mut a, mut fa) = (0.0, -per.abs());
-        let (mut b, mut fb) = (d_max, widest.abs() - per.abs());
-        let mut kept = 0i8;
+        let mut bracket = crate::root::Bracket::new((0.0, -per.abs()), (d_max, widest.abs() - per.abs()));
         let mut found = None;
         for _ in 0..LATERAL_ITERATIONS {
-            let c = if fb.abs() <= LANDING_TOLERANCE_M { b } else { (a * fb - b * fa) / (fb - fa) };
+            let (b, fb) = bracket.b();
+            let c = if fb.abs() <= LANDING_TOLERANCE_M { b } else { bracket.next() };
             let (l, held, dz) = moved(side * c)?;
             let fc = dz.abs() - per.abs();
             if fc.abs() <= LANDING_TOLERANCE_M {
                 found = Some((l, held));
                 break;
             }
-            // Illinois: the end kept twice has its value halved.
-            if fc.signum() == fb.signum() {
-                (b, fb) = (c, fc);
-                fa = if kept == -1 { 0.5 * fa } else { fa };
-                kept = -1;
-            } else {
-                (a, fa) = (c, fc);
-                fb = if kept == 1 { 0.5 * fb } else { fb };
-                kept = 1;
-            }
+            bracket.narrow(c, fc);
         }
         let Some((turn, held)) = found else {
             return Err(format!("the lateral search did not converge on a stride of {per:.4} m"));
