@@ -245,7 +245,7 @@ fn run(args: Args, out: &mut String) -> Result<(), Failure> {
         }
         Args::ClimbSideways(a) => {
             let options = leech::stride::SidewaysOptions::default();
-            let plan = leech::stride::plan_sideways(&a.robot, &a.scenario, &options, &Solver::default())?;
+            let plan = leech::stride::plan_sideways(&a.robot, &a.scenario, &options, &a.solver)?;
             render::sideways(out, &a, &plan)
         }
         Args::Scenarios { json } => render::scenarios(out, json),

@@ -31,6 +31,8 @@ pub struct Climb {
 pub struct ClimbSideways {
     pub robot: Robot,
     pub scenario: SidewaysScenario,
+    /// Its solves share `--time-limit`'s deadline.
+    pub solver: Solver,
     pub json: bool,
 }
 
@@ -56,7 +58,8 @@ pub(super) fn sideways(a: &flags::ClimbArgs) -> Result<Option<ClimbSideways>, Fa
             )));
         }
     }
-    Ok(Some(ClimbSideways { robot: tuned(&a.robot, Ok)?, scenario, json: a.json }))
+    let solver = Solver::new(SolverOptions { deadline: super::deadline(a.time_limit)?, ..SolverOptions::default() });
+    Ok(Some(ClimbSideways { robot: tuned(&a.robot, Ok)?, scenario, solver, json: a.json }))
 }
 
 pub(super) fn climb(a: flags::ClimbArgs) -> Result<Climb, Failure> {
