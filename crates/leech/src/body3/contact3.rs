@@ -103,10 +103,11 @@ pub(crate) struct ContactEval {
 impl Body3 {
     /// The body's evaluation with contact rows `rows`: the weld's
     /// multipliers are `lambda[..12]`, the rows' forces `lambda[12..]`.
-    /// Fills `ev` (the rows' Hessian blocks added), `cev`, and the
+    /// Fills `ev` (with `HESSIAN`, the rows' Hessian blocks added; without
+    /// it, no Hessian at all: what a residual needs), `cev`, and the
     /// stationarity residual `grad V - J^T lambda` into `residual`.
     #[allow(clippy::too_many_arguments)]
-    pub(crate) fn evaluate_with(
+    pub(crate) fn evaluate_with<const HESSIAN: bool>(
         &self,
         frames: &Frames,
         lambda: &[f64],
@@ -118,7 +119,11 @@ impl Body3 {
     ) {
         let (weld, forces) = lambda.split_at(PLATE_ROWS);
         let weld: &[f64; PLATE_ROWS] = weld.try_into().expect("the weld's 12 multipliers come first");
-        self.evaluate(frames, weld, param, ev);
+        if HESSIAN {
+            self.evaluate(frames, weld, param, ev);
+        } else {
+            self.evaluate_residual(frames, weld, param, ev);
+        }
         let m = rows.len();
         cev.gaps.resize(m, 0.0);
         cev.jacobian.resize(3 * self.links() * m, 0.0);
@@ -130,7 +135,9 @@ impl Body3 {
                 for (c, g) in grad.iter().enumerate() {
                     jacobian[(3 * u + c) * m + r] = *g;
                 }
-                ev.add_hessian(u, u, &hess);
+                if HESSIAN {
+                    ev.add_hessian(u, u, &hess);
+                }
             });
         }
         ev.stationarity(weld, residual);

@@ -401,7 +401,7 @@ impl Body3 {
     ) -> Equilibrium3 {
         let param = Param { hang, ..Param::FULL };
         let (ev, cev, residual_v) = (&mut work.ev, &mut work.cev, &mut work.residual);
-        self.evaluate_with(&state.frames, &state.lambda, param, &work.contacts, ev, cev, residual_v);
+        self.evaluate_with::<true>(&state.frames, &state.lambda, param, &work.contacts, ev, cev, residual_v);
         let tiny = solver.options.tuning.tiny_pivot * self.moment_scale();
         let stable = work.factor(0.0, tiny).0;
         let q = state.frames.0.iter().flat_map(super::rotation::log).collect();
@@ -584,7 +584,7 @@ impl Body3 {
         let tiny = tuning.tiny_pivot * k;
         work.frames_saved.clone_from(&state.frames);
         let (ev, cev, residual) = (&mut work.ev, &mut work.cev, &mut work.residual);
-        self.evaluate_with(&state.frames, &state.lambda, param, &work.contacts, ev, cev, residual);
+        self.evaluate_with::<true>(&state.frames, &state.lambda, param, &work.contacts, ev, cev, residual);
         work.damping = 0.0;
         let (mut iter, mut best, mut best_at, mut fresh) = (0, f64::INFINITY, 0, false);
         loop {
@@ -675,7 +675,7 @@ impl Body3 {
                 *l = s + alpha * d;
             }
             let (ev, cev, residual) = (&mut work.trial, &mut work.cev_trial, &mut work.residual_trial);
-            self.evaluate_with(&work.frames_trial, lambda, param, &work.contacts, ev, cev, residual);
+            self.evaluate_with::<true>(&work.frames_trial, lambda, param, &work.contacts, ev, cev, residual);
             let largest =
                 lambda.iter().enumerate().fold(0.0f64, |m, (r, l)| m.max(l.abs() * self.any_row_scale(r) / k));
             work.rho = work.rho.max((1.0 + tuning.penalty_margin) * largest);
@@ -714,15 +714,9 @@ impl Body3 {
         // The contact rows do not move with the path at fixed frames.
         work.cons.fill(0.0);
         for (sign, at) in [(1.0, tau + H), (-1.0, tau - H)] {
-            if work.contacts.is_empty() {
-                // The weld alone: the residual without the Hessian.
-                let weld: &[f64; PLATE_ROWS] = state.lambda[..PLATE_ROWS].try_into().expect("the weld's 12 come first");
-                self.evaluate_residual(&state.frames, weld, path(at), &mut work.trial);
-                work.trial.stationarity(weld, &mut work.residual_trial);
-            } else {
-                let (ev, cev, residual) = (&mut work.trial, &mut work.cev_trial, &mut work.residual_trial);
-                self.evaluate_with(&state.frames, &state.lambda, path(at), &work.contacts, ev, cev, residual);
-            }
+            // A residual needs no Hessian.
+            let (ev, cev, residual) = (&mut work.trial, &mut work.cev_trial, &mut work.residual_trial);
+            self.evaluate_with::<false>(&state.frames, &state.lambda, path(at), &work.contacts, ev, cev, residual);
             for (d, r) in dr.iter_mut().zip(&work.residual_trial) {
                 *d += sign * r / (2.0 * H);
             }
