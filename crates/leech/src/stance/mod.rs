@@ -270,7 +270,15 @@ pub fn rear_held(
     let (b, unit_mass) = (robot.body.base_spacing_m, robot.driving_unit.mass_kg);
     let floating = FloatingBody::new(body, b, unit_mass, Hold::Rear(pose), Approach::Load);
     let mut ws = Scratch::for_system(&floating);
-    let eq = solver.warm_start(&floating, &with_pose(&eq.q, pose), &mut ws)?;
+    // The weld's rows come first and are the clamped body's, so its
+    // multipliers carry over (the Lagrangian's curvature is right from the
+    // start); the hold's rows are linear in the pose, one Newton step finds
+    // theirs.
+    let mut it = Iterate::new(with_pose(&eq.q, pose));
+    it.lambda = eq.multipliers.clone();
+    it.lambda.resize(crate::statics::Constraints::rows(&floating), 0.0);
+    it.active = vec![true; it.lambda.len()];
+    let eq = solver.warm_start_from(&floating, it, &mut ws)?;
     Ok(Held::new(&floating, eq))
 }
 

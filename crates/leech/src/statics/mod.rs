@@ -175,8 +175,22 @@ impl Solver {
         q0: &[f64],
         ws: &mut Scratch,
     ) -> Result<Equilibrium, SolveError> {
-        Solver::check_start(sys, q0)?;
-        let mut it = Iterate::new(q0.to_vec());
+        self.warm_start_from(sys, Iterate::new(q0.to_vec()), ws)
+    }
+
+    /// [`Solver::warm_start`] from an iterate whose multipliers may be
+    /// known already. The Lagrangian's Hessian holds the multipliers times
+    /// the rows' curvature: started from zero multipliers, a soft body whose
+    /// weld carries large forces can look unstable to the inertia test, which
+    /// then only accepts energy descent, and there is none at a point that
+    /// is already an equilibrium.
+    pub fn warm_start_from<S: StaticSystem + ?Sized>(
+        &self,
+        sys: &S,
+        mut it: Iterate,
+        ws: &mut Scratch,
+    ) -> Result<Equilibrium, SolveError> {
+        Solver::check_start(sys, &it.q)?;
         let residual = self.minimize(sys, &mut it, 1.0, Stage::WarmStart, ws)?;
         Ok(self.finish(sys, it, residual, ws))
     }

@@ -37,6 +37,26 @@ fn rear_hold_is_the_clamped_body() {
     check_balance(&moved);
 }
 
+/// A soft body (shape parameter 1 to 4) whose weld carries large forces:
+/// its rear hold is still the clamped body, stable, with the weight carried.
+/// (From zero multipliers the Lagrangian's curvature looked unstable there
+/// and the warm start found no descent.)
+#[test]
+fn a_soft_body_held_at_the_rear_is_the_clamped_body() {
+    for pi in [1.0, 2.0, 4.0] {
+        let robot = Robot::builtin().with_shape_parameter(pi).unwrap();
+        let body = robot.body(0.30, 0.20).unwrap();
+        let eq = body.solve(&Solver::default()).unwrap();
+        let pose = Pose::from_deg([0.0, 0.0], robot.world.base_angle_deg);
+        let held = stance::solve(&robot, [0.30, 0.20], Hold::Rear(pose), &Solver::default()).unwrap();
+        assert_eq!(held.equilibrium.stable, eq.stable, "Pi = {pi}");
+        for (a, b) in eq.q.iter().zip(&held.equilibrium.q) {
+            assert!((a - b).abs() < 1e-10, "Pi = {pi}: {a} vs {b}");
+        }
+        check_balance(&held);
+    }
+}
+
 #[test]
 fn both_holds_where_the_endpoint_is_change_nothing() {
     let rear = Pose::from_deg([0.0, 0.0], 90.0);
