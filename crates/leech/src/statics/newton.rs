@@ -293,8 +293,16 @@ impl Solver {
             match self.take_step(sys, it, t, ws, &mut state, min_shift) {
                 Some(shift) => {
                     residual_known = true;
-                    factors_fresh =
-                        inertia == Inertia::Minimum && shift == 0.0 && sup_norm(&ws.step) < tuning.reuse_factors_step;
+                    // The Lagrangian's Hessian holds the multipliers too (the
+                    // weld's curvature): the factors stay good only if they did
+                    // not move either (a warm start begins from zero).
+                    let moved = (0..ws.rows.len())
+                        .filter(|r| it.active[*r])
+                        .fold(0.0f64, |m, r| m.max((ws.dual_step[r] * ws.rows[r].scale / k).abs()));
+                    factors_fresh = inertia == Inertia::Minimum
+                        && shift == 0.0
+                        && sup_norm(&ws.step) < tuning.reuse_factors_step
+                        && moved < tuning.reuse_factors_step;
                 }
                 None => {
                     // Within a few orders of the tolerance no step can improve on

@@ -110,8 +110,9 @@ pub struct Tuning {
     pub residual_decrease: f64,
     /// Margin of the penalty weight over the largest scaled multiplier.
     pub penalty_margin: f64,
-    /// Steps (rad, sup norm) under which the last factors still serve for the
-    /// stability verdict and the next tangent.
+    /// Steps (rad, sup norm; the multipliers' change scaled as the residual)
+    /// under which the last factors still serve for the stability verdict and
+    /// the next tangent.
     pub reuse_factors_step: f64,
     /// Iterations without halving the residual after which a residual within
     /// `rounding_slack` counts as stalled at rounding.
