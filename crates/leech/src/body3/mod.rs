@@ -92,6 +92,6 @@ pub mod tube3;
 pub use body3::{Body3, Derivatives, Frames, PLATE_ROWS};
 pub use constant_curvature3::ConstantCurvature3;
 pub use contact3::{Contact3, ContactRow3};
-pub use hold3::{verdict3, CupState3, Hanging, Held3, Hold3, Wrench};
+pub use hold3::{verdict3, CupState3, Hanging, Held3, Hold3, Wrench, FRONT_ROWS};
 pub use solve::Equilibrium3;
 pub use tube3::Tube3;
