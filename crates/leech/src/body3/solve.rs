@@ -12,10 +12,11 @@
 //! with the Lagrangian Hessian `H` of [`Body3`] (3 x 3 blocks, tridiagonal
 //! along each tube, the plate's 3 coordinates dense) on
 //! [`BorderedLdl`] with 3 x 3 blocks and a border of 15 rows (the plate's
-//! coordinates and the 12 weld rows): O(n) per step. As in
+//! coordinates and the 12 weld rows) and the run-time rows after them (the
+//! front hold's six when both cups hold, then the contacts'): O(n) per step. As in
 //! [`crate::statics`]: the shift is the smallest of a geometric sequence
 //! that makes the reduced Hessian positive definite (Sylvester's inertia:
-//! exactly 12 negative eigenvalues), so steps head for stable equilibria;
+//! one negative eigenvalue per row), so steps head for stable equilibria;
 //! shifted steps stay within the trust radius and are accepted on the
 //! merit `V/k + rho |C/s|_1`, plain Newton steps also on the residual; a
 //! rejected step raises a Levenberg shift. Continuation uses a tangent
