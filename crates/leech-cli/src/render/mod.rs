@@ -244,6 +244,7 @@ pub fn sideways(out: &mut String, a: &ClimbSideways, plan: &SidewaysPlan) -> Res
                         Hold3::Rear => "rear",
                         Hold3::Front { .. } => "front",
                         Hold3::FrontPivot { .. } => "front_pivot",
+                        Hold3::Both { .. } => "both",
                     },
                     "stable": step.held.equilibrium.summary.stable,
                     "endpoint_m": body.endpoint(frames),

@@ -61,11 +61,14 @@ pub(crate) struct Param {
     /// Hanging from the front cup: gravity as [`super::hold3`] writes it
     /// (turning with the plate), in place of the fixed unit's.
     pub hang: Option<super::hold3::Hanging>,
+    /// Both cups holding: the front hold's target (tube 1's tip and the
+    /// plate's frame), whose six rows follow the weld's 12 ([`super::hold3`]).
+    pub front: Option<super::hold3::FrontTarget>,
 }
 
 impl Param {
     /// The body itself: full gravity, true lengths.
-    pub const FULL: Param = Param { load: 1.0, scale: [1.0; 3], hang: None };
+    pub const FULL: Param = Param { load: 1.0, scale: [1.0; 3], hang: None, front: None };
 }
 
 /// The triangle's vertices in the unit's (or plate's) local frame for radius

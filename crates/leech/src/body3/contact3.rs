@@ -56,7 +56,7 @@
 //! forces off the tubes' root forces ([`super::hold3`]).
 
 use super::body3::{Body3, Eval3, Frames, Param, PLATE_ROWS};
-use super::hold3::{Held3, Hold3};
+use super::hold3::{Held3, Hold3, FRONT_ROWS};
 use super::rotation::{axpy, linear_terms, scale, Mat3, Vec3};
 use super::solve::Equilibrium3;
 use crate::error::InputError;
@@ -91,18 +91,44 @@ pub struct Contact3 {
     pub force_n: f64,
 }
 
-/// The contact rows' values and Jacobian at one point, beside an [`Eval3`].
+/// The run-time rows' values and Jacobian at one point, beside an
+/// [`Eval3`]: the front hold's six when both cups hold
+/// ([`super::hold3`]), then the contact rows.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct ContactEval {
-    /// Gaps (m), one per row.
+    /// Values (m, or rad for the front hold's rotation rows), one per row:
+    /// for a contact its gap.
     pub gaps: Vec<f64>,
     /// `dg_r/ddelta_i` at `i * m + r` (`m` rows).
     pub jacobian: Vec<f64>,
+    /// Each row's scale (m, or 1 for a rotation row): residuals are divided by it.
+    pub scales: Vec<f64>,
+}
+
+/// Where [`Body3::point_terms`] puts run-time row `r` of `m`: its
+/// Jacobian into `jacobian` (at `i * m + r`), with `HESSIAN` its diagonal
+/// Hessian blocks into `ev`.
+pub(crate) fn row_sink<'a, const HESSIAN: bool>(
+    ev: &'a mut Eval3,
+    jacobian: &'a mut [f64],
+    m: usize,
+    r: usize,
+) -> impl FnMut(usize, Vec3, Mat3) + 'a {
+    move |u, grad, hess| {
+        for (c, g) in grad.iter().enumerate() {
+            jacobian[(3 * u + c) * m + r] = *g;
+        }
+        if HESSIAN {
+            ev.add_hessian(u, u, &hess);
+        }
+    }
 }
 
 impl Body3 {
-    /// The body's evaluation with contact rows `rows`: the weld's
-    /// multipliers are `lambda[..12]`, the rows' forces `lambda[12..]`.
+    /// The body's evaluation with the run-time rows: the front hold's six
+    /// when `param` holds the front too, then the contact rows `rows`. The
+    /// weld's multipliers are `lambda[..12]`, the run-time rows' (the
+    /// front hold's, then the contacts' forces) `lambda[12..]`.
     /// Fills `ev` (with `HESSIAN`, the rows' Hessian blocks added; without
     /// it, no Hessian at all: what a residual needs), `cev`, and the
     /// stationarity residual `grad V - J^T lambda` into `residual`.
@@ -117,44 +143,43 @@ impl Body3 {
         cev: &mut ContactEval,
         residual: &mut [f64],
     ) {
-        let (weld, forces) = lambda.split_at(PLATE_ROWS);
+        let (weld, extra) = lambda.split_at(PLATE_ROWS);
         let weld: &[f64; PLATE_ROWS] = weld.try_into().expect("the weld's 12 multipliers come first");
         if HESSIAN {
             self.evaluate(frames, weld, param, ev);
         } else {
             self.evaluate_residual(frames, weld, param, ev);
         }
-        let m = rows.len();
+        let held = if param.front.is_some() { FRONT_ROWS } else { 0 };
+        let m = held + rows.len();
         cev.gaps.resize(m, 0.0);
+        cev.scales.resize(m, self.row_scale(0));
         cev.jacobian.resize(3 * self.links() * m, 0.0);
         cev.jacobian.fill(0.0);
-        for (r, (row, mu)) in rows.iter().zip(forces).enumerate() {
+        if let Some(target) = &param.front {
+            self.add_front_rows::<HESSIAN>(frames, target, &extra[..FRONT_ROWS], ev, cev);
+        }
+        for (r, (row, mu)) in rows.iter().zip(&extra[held..]).enumerate() {
+            let r = held + r;
             cev.gaps[r] = self.contact_gap(frames, row);
-            let jacobian = &mut cev.jacobian;
-            self.contact_terms(frames, row, *mu, |u, grad, hess| {
-                for (c, g) in grad.iter().enumerate() {
-                    jacobian[(3 * u + c) * m + r] = *g;
-                }
-                if HESSIAN {
-                    ev.add_hessian(u, u, &hess);
-                }
-            });
+            cev.scales[r] = self.row_scale(0);
+            self.contact_terms(frames, row, *mu, row_sink::<HESSIAN>(ev, &mut cev.jacobian, m, r));
         }
         ev.stationarity(weld, residual);
         if m > 0 {
             for (o, j) in residual.iter_mut().zip(cev.jacobian.chunks_exact(m)) {
-                *o = j.iter().zip(forces).fold(*o, |acc, (a, f)| acc - a * f);
+                *o = j.iter().zip(extra).fold(*o, |acc, (a, f)| acc - a * f);
             }
         }
     }
 
-    /// Scale of row `r` of the weld and contact rows (m, or 1 for the
-    /// weld's rotation rows): residuals are divided by it.
-    pub(crate) fn any_row_scale(&self, r: usize) -> f64 {
+    /// Scale of row `r` of the weld and run-time rows evaluated in `cev`
+    /// (m, or 1 for a rotation row): residuals are divided by it.
+    pub(crate) fn any_row_scale(&self, cev: &ContactEval, r: usize) -> f64 {
         if r < PLATE_ROWS {
             self.row_scale(r)
         } else {
-            self.row_scale(0)
+            cev.scales[r - PLATE_ROWS]
         }
     }
 
@@ -225,20 +250,30 @@ impl Body3 {
     /// `u` the row's point depends on (module doc): the Jacobian's 3-vectors
     /// and the Lagrangian's diagonal Hessian blocks for the multiplier
     /// `force` (N). No allocation: the solver's evaluation calls it per row.
-    pub fn contact_terms(
+    pub fn contact_terms(&self, frames: &Frames, row: &ContactRow3, force: f64, each: impl FnMut(usize, Vec3, Mat3)) {
+        self.point_terms(frames, row.tube, row.link, row.plane.normal, force, each);
+    }
+
+    /// [`Body3::contact_terms`] of any row `n . p` (m) on the tip `p` of
+    /// link `link` of tube `tube`, `n` a fixed unit vector, its multiplier
+    /// `force` (N): a contact's row, or one of the front hold's tip rows
+    /// ([`super::hold3`]).
+    pub(crate) fn point_terms(
         &self,
         frames: &Frames,
-        row: &ContactRow3,
+        tube: usize,
+        link: usize,
+        n: Vec3,
         force: f64,
         mut each: impl FnMut(usize, Vec3, Mat3),
     ) {
-        let lengths = self.tube(row.tube).lengths();
-        for (k, l) in lengths[..=row.link].iter().enumerate() {
-            let u = self.index(row.tube, k);
+        let lengths = self.tube(tube).lengths();
+        for (k, l) in lengths[..=link].iter().enumerate() {
+            let u = self.index(tube, k);
             let r = &frames.0[u];
             let a = [*l, 0.0, 0.0];
-            let (grad, _) = linear_terms(r, row.plane.normal, a);
-            let (_, hess) = linear_terms(r, scale(-force, row.plane.normal), a);
+            let (grad, _) = linear_terms(r, n, a);
+            let (_, hess) = linear_terms(r, scale(-force, n), a);
             each(u, grad, hess);
         }
     }

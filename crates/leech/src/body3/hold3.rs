@@ -1,7 +1,7 @@
-//! Holds in 3D: the rear cup (the driving unit fixed) or the front cup (the
-//! plate fixed, the driving unit hanging from it), each holding cup's
-//! reaction as a 6-vector and its verdict (docs/model3d.md section 8).
-//! [`Body3::solve_held`] is the entry point.
+//! Holds in 3D: the rear cup (the driving unit fixed), the front cup (the
+//! plate fixed, the driving unit hanging from it) or both (a closed loop),
+//! each holding cup's reaction as a 6-vector and its verdict
+//! (docs/model3d.md section 8). [`Body3::solve_held`] is the entry point.
 //!
 //! # The front hold: gravity turning with the plate
 //!
@@ -39,6 +39,66 @@
 //! body. The answer is turned back into the world (`G`, the body placed
 //! there so that its points are world points).
 //!
+//! # Both cups: six rows
+//!
+//! With both cups holding, the driving unit stays where it was built (the
+//! rear hold) and the front hold adds six rows on the target `(P_f, R_f)`:
+//!
+//! ```text
+//! C_tip = root_1 + sum_j l_1j R_1j e_x - P_f = 0                      (m, 3 rows)
+//! C_ori = Log(R_f^T R_P) = 0                                          (rad, 3 rows)
+//! ```
+//!
+//! with multipliers `mu_tip` (N) and `mu_ori` (N m); the Lagrangian gets
+//! `-mu_tip . C_tip - mu_ori . C_ori`. Row `c` of `C_tip` is a sum of
+//! linear terms `e_c . (R_1j Exp(delta) a_j)`, `a_j = l_1j e_x`
+//! (docs/model3d.md section 4), so on every link `j` of tube 1
+//!
+//! ```text
+//! dC_tip,c/ddelta_j = a_j x (R_1j^T e_c)                                   (m/rad)
+//! d2(-mu_tip . C_tip)/ddelta_j^2 = -(sym(w a_j^T) - (w . a_j) I),  w = R_1j^T mu_tip   (J/rad^2)
+//! ```
+//!
+//! and no second derivative couples two links: the rows are a contact's
+//! rows ([`super::contact3`]) with the normals `e_x, e_y, e_z`, bilateral.
+//! `C_ori` is a relative term (section 4) with the fixed `R_f` in place of
+//! the first frame, so only the plate moves it:
+//!
+//! ```text
+//! dC_ori/ddelta_P = Jr^-1(theta),   theta = Log(R_f^T R_P)                  (1)
+//! d2(-mu_ori . C_ori)/ddelta_P^2 = sym(D P),   D at w = -mu_ori            (J/rad^2)
+//! ```
+//!
+//! (`P = Jr^-1(theta)`, `D` section 4's derivative of `P^T w`). The six rows
+//! are run-time border rows of the factorization after the weld's 12 and
+//! before any contact's: the tip rows reach tube 1's links, the rotation
+//! rows only the plate, which is already a border coordinate; their
+//! Hessians add to the diagonal blocks and the plate's corner: still O(n)
+//! per step, and a constrained minimum has `12 + 6` negative eigenvalues.
+//!
+//! **The path** is the planar stance's both-hold: the rear hold's
+//! equilibrium (feeding, then gravity), then the target moved from where the
+//! endpoint is, `(p_tip, R_P)`, to `(P_f, R_f)` under full gravity by
+//! continuation in `t` from 0 to 1: `P(t) = p_tip + t (P_f - p_tip)`,
+//! `R(t) = R_P Exp(t Log(R_P^T R_f))` (the geodesic). At `t = 0` the rows
+//! hold with zero multipliers. A target out of reach ends in an error with
+//! the residual, never a stretched body.
+//!
+//! **The front reaction** is the six multipliers: `J^T mu` is the
+//! generalized force of a force `mu_tip` at tube 1's tip and of a moment
+//! `M` on the plate whose virtual work `M . (R_P delta_P)` equals
+//! `(Jr^-1(theta)^T mu_ori) . delta_P`. About the front cup's centre `c_f`:
+//!
+//! ```text
+//! F_f = mu_tip                                                         (N)
+//! M_f = R_P Jr^-1(theta)^T mu_ori + (p_tip - c_f) x mu_tip              (N m)
+//! ```
+//!
+//! The rear reaction is the rear hold's below, with `mu_tip` among the
+//! forces on tube 1. The two together carry the whole robot: the test
+//! `body3_hold::both_cups_carry_the_whole_body` checks the force and moment
+//! balance against the masses alone.
+//!
 //! # The rear hold
 //!
 //! With the driving unit fixed (the body as built), the rear cup's surface
@@ -57,13 +117,15 @@
 //! `s + 1`'s tip and `-lambda_s` on the plate, which is tube 1's):
 //!
 //! ```text
-//! F_i = (0, g M_i, 0) - W_i - sum_c mu_c n_c,     W_2 = lambda_pos,2,  W_3 = lambda_pos,3,  W_1 = -(W_2 + W_3)     (N)
+//! F_i = (0, g M_i, 0) - W_i - sum_c mu_c n_c,     W_2 = lambda_pos,2,  W_3 = lambda_pos,3,  W_1 = -(W_2 + W_3) + mu_tip  (N)
 //! M_i = -R_i1 Jr^-1(theta_1)^T K_1 theta_1,    theta_1 = Log(R0^T R_i1)                          (N m)
 //! ```
 //!
 //! (the sum over the tube's contacts with a scene's solids, forces `mu_c`
-//! along their planes' normals `n_c`, [`super::contact3`]; the spring's moment on the tube's first link: `-dE/ddelta` in the
-//! link's frame, turned to the world). The unit is in balance under the
+//! along their planes' normals `n_c`, [`super::contact3`]; `mu_tip` the
+//! front hold's force on tube 1's tip when both cups hold, else 0; the
+//! spring's moment on the tube's first link: `-dE/ddelta` in the link's
+//! frame, turned to the world). The unit is in balance under the
 //! tubes' reactions, its weight and the surface, so the surface exerts, about
 //! the cup's centre `c`,
 //!
@@ -90,8 +152,10 @@
 //! an in-plane load the twist is zero and the verdict the planar one.
 
 use super::body3::{is_rotation, Body3, Derivatives, Eval3, Frames, Param, PLATE_ROWS};
+use super::contact3::{row_sink, ContactEval};
 use super::rotation::{
-    add_scaled, apply, axpy, cross, dot, hat, jr_inv, linear_terms, log, mul, mul_tn, scale, transpose, Mat3, Vec3,
+    add_scaled, apply, axpy, cross, dot, exp, hat, jr_inv, linear_terms, log, mul, mul_tn, pair_terms, scale,
+    transpose, Mat3, Vec3,
 };
 use super::solve::Equilibrium3;
 use crate::cup::{Cup, CupVerdict};
@@ -101,6 +165,30 @@ use crate::stance::StanceError;
 use crate::statics::Solver;
 
 const E_X: Vec3 = [1.0, 0.0, 0.0];
+
+/// The front hold's rows when both cups hold: tube 1's tip (3, m), then
+/// the plate's frame (3, rad).
+pub const FRONT_ROWS: usize = 6;
+
+/// The front hold's target when both cups hold: tube 1's tip (m) and the
+/// plate's frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct FrontTarget {
+    pub tip: Vec3,
+    pub plate: Mat3,
+}
+
+impl FrontTarget {
+    /// The target a fraction `t` of the way to `to`: the tip along the
+    /// segment, the frame along the geodesic `R Exp(t Log(R^T R_to))`.
+    pub(crate) fn toward(&self, to: &FrontTarget, t: f64) -> FrontTarget {
+        let turn = log(&mul_tn(&self.plate, &to.plate));
+        FrontTarget {
+            tip: axpy(t, axpy(-1.0, self.tip, to.tip), self.tip),
+            plate: mul(&self.plate, &exp(scale(t, turn))),
+        }
+    }
+}
 
 /// The swing's step about a free front joint (rad): short enough for a warm
 /// start to land on the same branch.
@@ -165,6 +253,17 @@ pub enum Hold3 {
         /// The plate's frame.
         plate: Mat3,
     },
+    /// Both cups: the driving unit where [`Body3::from_robot`] put it (as
+    /// [`Hold3::Rear`]) and tube 1's tip at `tip_m` (m) with the plate's
+    /// frame `plate` (as [`Hold3::Front`]): a closed loop, statically
+    /// indeterminate, the tubes' elasticity sharing the load between the
+    /// cups (module doc).
+    Both {
+        /// Where tube 1's tip is held (m).
+        tip_m: Vec3,
+        /// The plate's frame.
+        plate: Mat3,
+    },
     /// The front cup on a free rotation joint about its face's normal
     /// (the sideways maneuver, paper Fig. 11): the face's centre `centre_m`
     /// (m) and normal `plate e_y` fixed, the plate free to turn about that
@@ -220,6 +319,13 @@ pub struct CupState3 {
     pub reaction: Wrench,
     /// Whether the cup holds, and by what margin ([`crate::cup`]).
     pub verdict: CupVerdict,
+}
+
+/// A holding cup at `centre` (m) with the surface's normal `normal` under
+/// `reaction`, judged against `robot`'s cup.
+fn cup_state(robot: &Robot, centre: Vec3, normal: Vec3, reaction: Wrench) -> Result<CupState3, InputError> {
+    let verdict = verdict3(&robot.cup, reaction.force_n, reaction.moment_nm, normal)?;
+    Ok(CupState3 { centre_m: centre, normal, reaction, verdict })
 }
 
 /// The verdict of [`crate::cup::verdict`] for a 3D reaction: `force_n`
@@ -287,7 +393,9 @@ impl Body3 {
         let g = self.gravity();
         let lambda = &eq.multipliers;
         let welds = [[lambda[0], lambda[1], lambda[2]], [lambda[6], lambda[7], lambda[8]]];
-        let weld = [scale(-1.0, axpy(1.0, welds[0], welds[1])), welds[0], welds[1]];
+        // Both cups holding, the front hold pulls on tube 1's tip too.
+        let tip = eq.front_hold.map_or([0.0; 3], |mu| [mu[0], mu[1], mu[2]]);
+        let weld = [axpy(-1.0, axpy(1.0, welds[0], welds[1]), tip), welds[0], welds[1]];
         let unit_weight = [0.0, g * unit_mass_kg, 0.0];
         let mut force = unit_weight;
         let mut moment = cross(axpy(-1.0, about, self.unit_centre()), unit_weight);
@@ -315,8 +423,7 @@ impl Body3 {
         let centre = self.rear_cup_centre(robot);
         let normal = scale(-1.0, self.right_normal());
         let reaction = self.rear_reaction(eq, robot.driving_unit.mass_kg, centre);
-        let verdict = verdict3(&robot.cup, reaction.force_n, reaction.moment_nm, normal)?;
-        Ok(CupState3 { centre_m: centre, normal, reaction, verdict })
+        cup_state(robot, centre, normal, reaction)
     }
 }
 
@@ -383,6 +490,17 @@ impl Body3 {
                 let front = Some(body.front_cup(robot, &equilibrium, md)?);
                 Ok(Held3 { hold, body, equilibrium, rear: None, front, pivot_turn_rad: None })
             }
+            Hold3::Both { tip_m, plate } => {
+                check_hold("both holds: front tip (m)", tip_m, "both holds: front plate frame", &plate)?;
+                let equilibrium = self
+                    .solve_both_on(solver, FrontTarget { tip: tip_m, plate })
+                    .map_err(|source| self.beyond_reach(source, tip_m))?;
+                let rear = Some(self.rear_cup(robot, &equilibrium)?);
+                let (centre, normal) = self.front_face(robot, &equilibrium.frames);
+                let reaction = self.front_hold_reaction(&equilibrium, &plate, centre);
+                let front = Some(cup_state(robot, centre, normal, reaction)?);
+                Ok(Held3 { hold, body: self.clone(), equilibrium, rear, front, pivot_turn_rad: None })
+            }
             Hold3::FrontPivot { centre_m, plate } => {
                 check_hold("front pivot centre (m)", centre_m, "front pivot plate frame", &plate)?;
                 self.swing(robot, hold, centre_m, &plate, solver)
@@ -408,7 +526,7 @@ impl Body3 {
         let md = robot.driving_unit.mass_kg;
         let normal = [plate[0][1], plate[1][1], plate[2][1]];
         let tip = axpy(robot.body.tip_spacing_m + robot.cup.front_offset_m, normal, centre);
-        let frame = |turn: f64| mul(&super::rotation::exp(scale(turn, normal)), plate);
+        let frame = |turn: f64| mul(&exp(scale(turn, normal)), plate);
         // The surface's moment about n on the plate turned by `turn`, from a
         // picture converged there.
         let moment = |picture: &Equilibrium3, turn: f64| -> Result<(f64, Held3), StanceError> {
@@ -514,14 +632,231 @@ impl Body3 {
     /// whole robot's balance (it carries everything): `F = (0, g M, 0)`,
     /// `M = (X - M c) x (0, g, 0)`.
     fn front_cup(&self, robot: &Robot, eq: &Equilibrium3, unit_mass_kg: f64) -> Result<CupState3, InputError> {
-        let plate = self.plate_frame(&eq.frames);
-        let normal = [plate[0][1], plate[1][1], plate[2][1]];
-        let d = robot.body.tip_spacing_m + robot.cup.front_offset_m;
-        let centre = axpy(-d, normal, self.endpoint(&eq.frames));
+        let (centre, normal) = self.front_face(robot, &eq.frames);
         let (mass, first) = self.first_moment(&eq.frames, unit_mass_kg);
         let up = [0.0, self.gravity(), 0.0];
         let reaction = Wrench { force_n: scale(mass, up), moment_nm: cross(axpy(-mass, centre, first), up) };
-        let verdict = verdict3(&robot.cup, reaction.force_n, reaction.moment_nm, normal)?;
-        Ok(CupState3 { centre_m: centre, normal, reaction, verdict })
+        cup_state(robot, centre, normal, reaction)
+    }
+
+    /// The front cup's face at `frames` for `robot`: its centre (m), `c +
+    /// front_offset` from tube 1's tip along the plate's right normal
+    /// `-R_P e_y`, and the surface's outward normal `R_P e_y`.
+    pub fn front_face(&self, robot: &Robot, frames: &Frames) -> (Vec3, Vec3) {
+        let plate = self.plate_frame(frames);
+        let normal = [plate[0][1], plate[1][1], plate[2][1]];
+        let d = robot.body.tip_spacing_m + robot.cup.front_offset_m;
+        (axpy(-d, normal, self.endpoint(frames)), normal)
+    }
+
+    /// The reaction the front hold exerts on the robot when both cups hold
+    /// (`eq` solved with [`Hold3::Both`] whose plate frame is `plate`),
+    /// about `about` (m), from its six multipliers (module doc): the force
+    /// `mu_tip` at tube 1's tip and the moment `R_P Jr^-1(theta)^T mu_ori`.
+    /// Zero when the front does not hold in `eq`.
+    pub fn front_hold_reaction(&self, eq: &Equilibrium3, plate: &Mat3, about: Vec3) -> Wrench {
+        let Some(mu) = eq.front_hold else {
+            return Wrench { force_n: [0.0; 3], moment_nm: [0.0; 3] };
+        };
+        let force = [mu[0], mu[1], mu[2]];
+        let frame = self.plate_frame(&eq.frames);
+        let theta = log(&mul_tn(plate, &frame));
+        let moment = apply(&frame, apply(&transpose(&jr_inv(theta)), [mu[3], mu[4], mu[5]]));
+        let arm = axpy(-1.0, about, self.endpoint(&eq.frames));
+        Wrench { force_n: force, moment_nm: axpy(1.0, cross(arm, force), moment) }
+    }
+
+    /// A both-hold solve's failure `source`, as [`StanceError::OutOfReach`]
+    /// when the tip's target lies farther from tube 1's root than the tube
+    /// is long.
+    fn beyond_reach(&self, source: crate::statics::SolveError, tip: Vec3) -> StanceError {
+        let arm = axpy(-1.0, self.tube(0).root(), tip);
+        let (distance_m, reach_m) = (dot(arm, arm).sqrt(), self.tube(0).tube_length());
+        if distance_m > reach_m {
+            StanceError::OutOfReach { distance_m, reach_m, source }
+        } else {
+            StanceError::Solve(source)
+        }
+    }
+
+    /// The front hold's six rows at `frames` for `target` (module doc),
+    /// with the multipliers `mu` (N, then N m): values, scales and Jacobian
+    /// into the first [`FRONT_ROWS`] rows of `cev` (sized for all the
+    /// run-time rows), with `HESSIAN` their Hessian blocks into `ev`.
+    pub(crate) fn add_front_rows<const HESSIAN: bool>(
+        &self,
+        frames: &Frames,
+        target: &FrontTarget,
+        mu: &[f64],
+        ev: &mut Eval3,
+        cev: &mut ContactEval,
+    ) {
+        let m = cev.gaps.len();
+        let last = self.tube(0).len() - 1;
+        let gap = axpy(-1.0, target.tip, self.link_tip(frames, 0, last));
+        for c in 0..3 {
+            let mut normal = [0.0; 3];
+            normal[c] = 1.0;
+            cev.gaps[c] = gap[c];
+            cev.scales[c] = self.row_scale(0);
+            self.point_terms(frames, 0, last, normal, mu[c], row_sink::<HESSIAN>(ev, &mut cev.jacobian, m, c));
+        }
+        let p = self.links() - 1;
+        let w = [-mu[3], -mu[4], -mu[5]];
+        let terms = pair_terms(&mul_tn(&target.plate, &frames.as_slice()[p]), |_| w, [0.0; 3], HESSIAN);
+        for c in 0..3 {
+            cev.gaps[3 + c] = terms.theta[c];
+            cev.scales[3 + c] = 1.0;
+            for (k, j) in terms.jacobian_b[c].iter().enumerate() {
+                cev.jacobian[(3 * p + k) * m + 3 + c] = *j;
+            }
+        }
+        if HESSIAN {
+            ev.add_hessian(p, p, &terms.h_bb);
+        }
+    }
+
+    /// Declares the front hold's rows' reach in `pattern` (border rows
+    /// `3 + 12` to `3 + 17`): the tip rows every link of tube 1's chain and
+    /// none of tubes 2 and 3, the rotation rows no chain (the plate only).
+    pub(crate) fn front_rows_reach(&self, pattern: &mut crate::linalg::Pattern) {
+        for (c, len) in self.chain_blocks().into_iter().enumerate() {
+            for r in 0..FRONT_ROWS {
+                let first = if c == 0 && r < 3 { 0 } else { len };
+                pattern.set_border_start(c, 3 + PLATE_ROWS + r, first);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::body3::body3::retract;
+
+    /// A bent, twisted state of an uneven body, a target off it and multipliers.
+    fn case() -> (Body3, Frames, FrontTarget, [f64; FRONT_ROWS]) {
+        let body = Body3::from_robot(&Robot::builtin(), [0.25, 0.28, 0.22]).unwrap();
+        let frames = (0..body.links()).map(|u| {
+            let t = u as f64;
+            exp([0.3 * (0.7 * t).sin(), 0.2 + 0.05 * t, -0.4 * (0.3 * t).cos()])
+        });
+        let frames = body.frames_from(frames.collect()).unwrap();
+        let target = FrontTarget { tip: [0.1, 0.2, -0.05], plate: exp([0.4, -0.9, 0.3]) };
+        (body, frames, target, [1.5, -0.7, 2.2, 0.03, -0.05, 0.02])
+    }
+
+    /// The rows' values, Jacobian (`(3 u + c) * 6 + r`) and Hessian blocks alone.
+    fn rows(body: &Body3, frames: &Frames, target: &FrontTarget, mu: &[f64]) -> (ContactEval, Eval3) {
+        let mut ev = Eval3::new(body);
+        let mut cev = ContactEval {
+            gaps: vec![0.0; FRONT_ROWS],
+            jacobian: vec![0.0; 3 * body.links() * FRONT_ROWS],
+            scales: vec![0.0; FRONT_ROWS],
+        };
+        body.add_front_rows::<true>(frames, target, mu, &mut ev, &mut cev);
+        (cev, ev)
+    }
+
+    /// `frames` with local steps `(coordinate, h)` (summed per link, one retraction each).
+    fn moved(frames: &Frames, moves: &[(usize, f64)]) -> Frames {
+        let mut steps = vec![[0.0; 3]; frames.as_slice().len()];
+        for (c, h) in moves {
+            steps[c / 3][c % 3] += h;
+        }
+        Frames(frames.as_slice().iter().zip(steps).map(|(f, v)| retract(f, v)).collect())
+    }
+
+    #[test]
+    fn rows_are_the_tip_and_the_plate_frame() {
+        let (body, frames, target, mu) = case();
+        let (cev, _) = rows(&body, &frames, &target, &mu);
+        let tip = body.endpoint(&frames);
+        let theta = log(&mul_tn(&target.plate, &body.plate_frame(&frames)));
+        for c in 0..3 {
+            assert!((cev.gaps[c] - (tip[c] - target.tip[c])).abs() < 1e-15);
+            assert_eq!(cev.gaps[3 + c], theta[c]);
+        }
+        assert_eq!(cev.scales, [body.row_scale(0), body.row_scale(0), body.row_scale(0), 1.0, 1.0, 1.0]);
+    }
+
+    #[test]
+    fn jacobian_matches_finite_differences() {
+        let (body, frames, target, mu) = case();
+        let (cev, _) = rows(&body, &frames, &target, &mu);
+        let h = 1e-6;
+        let mut nonzero = 0;
+        for c in 0..3 * body.links() {
+            let plus = rows(&body, &moved(&frames, &[(c, h)]), &target, &mu).0.gaps;
+            let minus = rows(&body, &moved(&frames, &[(c, -h)]), &target, &mu).0.gaps;
+            for r in 0..FRONT_ROWS {
+                let fd = (plus[r] - minus[r]) / (2.0 * h);
+                let j = cev.jacobian[c * FRONT_ROWS + r];
+                assert!((fd - j).abs() < 1e-8, "coordinate {c}, row {r}: {j} against {fd}");
+                nonzero += usize::from(fd.abs() > 1e-6);
+            }
+        }
+        // Tube 1's links move the tip (two of three rows at least each); the plate turns the frame.
+        assert!(nonzero >= 2 * 3 * body.tube(0).len() + 9, "{nonzero}");
+    }
+
+    #[test]
+    fn hessian_matches_second_differences() {
+        let (body, frames, target, mu) = case();
+        let (_, ev) = rows(&body, &frames, &target, &mu);
+        let lagrangian = |f: &Frames| -> f64 {
+            let gaps = rows(&body, f, &target, &mu).0.gaps;
+            -gaps.iter().zip(mu).map(|(g, m)| g * m).sum::<f64>()
+        };
+        let second = |a: usize, b: usize| {
+            let h = 1e-4;
+            (lagrangian(&moved(&frames, &[(a, h), (b, h)]))
+                - lagrangian(&moved(&frames, &[(a, h), (b, -h)]))
+                - lagrangian(&moved(&frames, &[(a, -h), (b, h)]))
+                + lagrangian(&moved(&frames, &[(a, -h), (b, -h)])))
+                / (4e-8)
+        };
+        let p = body.links() - 1;
+        for j in 0..body.tube(0).len() {
+            let u = body.index(0, j);
+            for a in 0..3 {
+                for b in 0..3 {
+                    let exact = if u == p { ev.plate_corner[a][b] } else { ev.diag[9 * u + 3 * a + b] };
+                    let fd = second(3 * u + a, 3 * u + b);
+                    assert!((fd - exact).abs() < 1e-6, "link {u} ({a}, {b}): {exact} against {fd}");
+                }
+            }
+        }
+        // No second derivative couples two links, nor a link with the plate;
+        // tubes 2 and 3 do not enter.
+        let (u, v) = (body.index(0, 1), body.index(0, 4));
+        assert!(second(3 * u + 1, 3 * v + 2).abs() < 1e-6 && second(3 * u, 3 * p + 1).abs() < 1e-6);
+        let side = body.index(1, 3);
+        assert!((0..9).all(|k| ev.diag[9 * side + k] == 0.0) && second(3 * side, 3 * side + 1).abs() < 1e-9);
+    }
+
+    /// The reach declared to the factorization holds: nothing before a
+    /// row's declared start on a chain.
+    #[test]
+    fn rows_reach_no_further_than_declared() {
+        let (body, frames, target, mu) = case();
+        let (cev, _) = rows(&body, &frames, &target, &mu);
+        let mut pattern = body.pattern(false, FRONT_ROWS);
+        body.front_rows_reach(&mut pattern);
+        let mut declared = 0;
+        for c in 0..pattern.chains() {
+            for (t, u) in pattern.chain_blocks(c).enumerate() {
+                for r in 0..FRONT_ROWS {
+                    let entries = (0..3).map(|a| cev.jacobian[(3 * u + a) * FRONT_ROWS + r]);
+                    if t < pattern.border_start(c, 3 + PLATE_ROWS + r) {
+                        assert!(entries.into_iter().all(|x| x == 0.0), "chain {c}, block {t}, row {r}");
+                    } else {
+                        declared += 1;
+                    }
+                }
+            }
+        }
+        // Only the tip rows on tube 1's chain are declared.
+        assert_eq!(declared, 3 * (body.tube(0).len() - 1));
     }
 }

@@ -40,7 +40,8 @@
 //! The body as built has its driving unit fixed: the rear cup holds.
 //! [`Body3::solve_held`] solves it held by the rear cup, by the front cup
 //! (the driving unit hanging: gravity turns with the plate, no unknown
-//! added) or by the front cup on a free joint about its face's normal (the
+//! added), by both cups (a closed loop: six rows on tube 1's tip and the
+//! plate) or by the front cup on a free joint about its face's normal (the
 //! swing of the sideways maneuver), and gives each holding cup's reaction
 //! as a 6-vector (force and moment about the cup's centre, world frame) and
 //! its verdict ([`hold3`]):
@@ -74,8 +75,8 @@
 //! relative terms), [`tube3`] (one tube's links), [`body3`] (the body, its
 //! Lagrangian's derivatives), [`solve`] (Newton, continuation), [`planar`]
 //! (the comparison with the planar model), [`hold3`] (holds: the rear
-//! cup, the front cup, a free front joint; each cup's reaction and
-//! verdict), [`contact3`] (contacts with scene solids),
+//! cup, the front cup, both cups, a free front joint; each cup's reaction
+//! and verdict), [`contact3`] (contacts with scene solids),
 //! [`constant_curvature3`] (the tri-tube constant-curvature model in the
 //! same conventions, and its difference from the body).
 
@@ -92,6 +93,6 @@ pub mod tube3;
 pub use body3::{Body3, Derivatives, Frames, PLATE_ROWS};
 pub use constant_curvature3::ConstantCurvature3;
 pub use contact3::{Contact3, ContactRow3};
-pub use hold3::{verdict3, CupState3, Hanging, Held3, Hold3, Wrench};
+pub use hold3::{verdict3, CupState3, Hanging, Held3, Hold3, Wrench, FRONT_ROWS};
 pub use solve::Equilibrium3;
 pub use tube3::Tube3;

@@ -12,10 +12,11 @@
 //! with the Lagrangian Hessian `H` of [`Body3`] (3 x 3 blocks, tridiagonal
 //! along each tube, the plate's 3 coordinates dense) on
 //! [`BorderedLdl`] with 3 x 3 blocks and a border of 15 rows (the plate's
-//! coordinates and the 12 weld rows): O(n) per step. As in
+//! coordinates and the 12 weld rows) and the run-time rows after them (the
+//! front hold's six when both cups hold, then the contacts'): O(n) per step. As in
 //! [`crate::statics`]: the shift is the smallest of a geometric sequence
 //! that makes the reduced Hessian positive definite (Sylvester's inertia:
-//! exactly 12 negative eigenvalues), so steps head for stable equilibria;
+//! one negative eigenvalue per row), so steps head for stable equilibria;
 //! shifted steps stay within the trust radius and are accepted on the
 //! merit `V/k + rho |C/s|_1`, plain Newton steps also on the residual; a
 //! rejected step raises a Levenberg shift. Continuation uses a tangent
@@ -26,7 +27,7 @@
 
 use super::body3::{distance, retract, Body3, Eval3, Frames, Param, PLATE_ROWS};
 use super::contact3::{Contact3, ContactEval, ContactRow3};
-use super::hold3::Hanging;
+use super::hold3::{FrontTarget, Hanging, FRONT_ROWS};
 use super::rotation::{apply, axpy, cross};
 use crate::linalg::{BorderedLdl, MAX_BORDER};
 use crate::scene::Scene3;
@@ -61,8 +62,14 @@ pub struct Equilibrium3 {
     /// Energy, residual, stability, counters and events.
     pub summary: Equilibrium,
     /// The contacts with a scene's solids that push (empty without a
-    /// scene; their forces follow the weld's 12 in `multipliers`).
+    /// scene; their forces follow the weld's 12 and the front hold's 6 in
+    /// `multipliers`).
     pub contacts: Vec<Contact3>,
+    /// With both cups holding, the front hold's 6 multipliers (they follow
+    /// the weld's 12 in `multipliers`): the force on tube 1's tip (N, world
+    /// axes), then the plate's rotation rows' (N m, in the plate's chart;
+    /// [`super::hold3`]).
+    pub front_hold: Option<[f64; FRONT_ROWS]>,
 }
 
 impl std::ops::Deref for Equilibrium3 {
@@ -105,6 +112,9 @@ struct Work {
     trial: Eval3,
     /// Whether the body hangs from the front cup (its factorization's pattern).
     hanging: bool,
+    /// The front hold's rows when both cups hold ([`FRONT_ROWS`], else 0):
+    /// the first of the run-time rows, before the contacts'.
+    front_rows: usize,
     /// The contact rows (docs/model3d.md section 12) and their values.
     contacts: Vec<ContactRow3>,
     cev: ContactEval,
@@ -150,6 +160,7 @@ impl Work {
             lambda_start: Vec::new(),
             ldl: BorderedLdl::new(&body.pattern(hang.is_some(), 0)),
             hanging: hang.is_some(),
+            front_rows: 0,
             border: Vec::new(),
             corner: Vec::new(),
             residual: vec![0.0; 3 * n],
@@ -172,9 +183,16 @@ impl Work {
         work
     }
 
-    /// The weld's and contact rows' count.
+    /// The weld's and run-time rows' count.
     fn rows(&self) -> usize {
-        PLATE_ROWS + self.contacts.len()
+        PLATE_ROWS + self.front_rows + self.contacts.len()
+    }
+
+    /// Adds the front hold's rows (both cups holding) before any contact rows.
+    fn hold_front(&mut self, body: &Body3) {
+        self.front_rows = FRONT_ROWS;
+        let contacts = std::mem::take(&mut self.contacts);
+        self.set_contacts(body, &contacts);
     }
 
     /// Takes `contacts` as the contact rows: the border (the plate's 3
@@ -184,7 +202,11 @@ impl Work {
         self.contacts.extend_from_slice(contacts);
         let (rows, chain) = (self.rows(), self.x.len());
         let border = 3 + rows;
-        self.ldl = BorderedLdl::new(&body.pattern(self.hanging, contacts.len()));
+        let mut pattern = body.pattern(self.hanging, self.front_rows + contacts.len());
+        if self.front_rows > 0 {
+            body.front_rows_reach(&mut pattern);
+        }
+        self.ldl = BorderedLdl::new(&pattern);
         self.border.resize(chain * border, 0.0);
         self.corner.resize(border * border, 0.0);
         for v in [&mut self.rhs_c, &mut self.y] {
@@ -195,7 +217,7 @@ impl Work {
         }
     }
 
-    /// The weld's and contact rows' values of the current point into `cons`.
+    /// The weld's and run-time rows' values of the current point into `cons`.
     fn gather_constraints(&mut self) {
         self.cons[..PLATE_ROWS].copy_from_slice(&self.ev.constraints);
         self.cons[PLATE_ROWS..].copy_from_slice(&self.cev.gaps);
@@ -206,9 +228,10 @@ impl Work {
     fn factor(&mut self, shift: f64, tiny: f64) -> (bool, bool) {
         let (ev, cev) = (&self.ev, &self.cev);
         let chain = ev.diag.len() / 3;
-        let (rows, m) = (self.rows(), self.contacts.len());
+        let rows = self.rows();
+        let m = rows - PLATE_ROWS;
         let border = 3 + rows;
-        // Row `i`'s entries of the rows: the weld's 12, then the contacts'.
+        // Row `i`'s entries of the rows: the weld's 12, then the run-time rows'.
         let entry = |i: usize, r: usize| {
             if r < PLATE_ROWS {
                 ev.jacobian[i * PLATE_ROWS + r]
@@ -280,14 +303,37 @@ impl Body3 {
     /// [`Body3::solve`], hanging from the front cup when `hang` says so
     /// ([`super::hold3`]: gravity raised on the hanging body).
     pub(crate) fn solve_on(&self, solver: &Solver, hang: Option<Hanging>) -> Result<Equilibrium3, SolveError> {
+        let (state, mut work, residual) = self.loaded(solver, hang)?;
+        Ok(self.finish(solver, state, residual, Param { hang, ..Param::FULL }, &mut work))
+    }
+
+    /// The default path's end (hanging when `hang` says so): the state, its
+    /// scratch and the residual.
+    fn loaded(&self, solver: &Solver, hang: Option<Hanging>) -> Result<(State, Work, f64), SolveError> {
         let mut work = Work::new(self, hang);
         let mut state = State::new(self.straight());
         let mut residual = self.feed(solver, &mut state, &mut work)?;
         if self.gravity() != 0.0 {
-            let load = |t: f64| Param { load: t, scale: [1.0; 3], hang };
+            let load = |t: f64| Param { load: t, hang, ..Param::FULL };
             residual = self.continuation(solver, &mut state, &load, Stage::Load, &mut work)?;
         }
-        Ok(self.finish(solver, state, residual, hang, &mut work))
+        Ok((state, work, residual))
+    }
+
+    /// Both cups holding (docs/model3d.md section 8): the rear-held
+    /// equilibrium on the default path, then the front hold's target moved
+    /// by continuation from where the endpoint is (tube 1's tip and the
+    /// plate's frame) to `to`: the tip along the segment, the frame along
+    /// the geodesic ([`FrontTarget::toward`]), under full gravity.
+    pub(crate) fn solve_both_on(&self, solver: &Solver, to: FrontTarget) -> Result<Equilibrium3, SolveError> {
+        let (mut state, mut work, _) = self.loaded(solver, None)?;
+        let from = FrontTarget { tip: self.endpoint(&state.frames), plate: self.plate_frame(&state.frames) };
+        work.hold_front(self);
+        // The rows hold where the endpoint is: zero multipliers to start.
+        state.lambda.splice(PLATE_ROWS..PLATE_ROWS, [0.0; FRONT_ROWS]);
+        let path = |t: f64| Param { front: Some(from.toward(&to, t)), ..Param::FULL };
+        let residual = self.continuation(solver, &mut state, &path, Stage::Load, &mut work)?;
+        Ok(self.finish(solver, state, residual, path(1.0), &mut work))
     }
 
     /// The tubes fed from the shortest length at `g = 0` (each tube's links
@@ -295,8 +341,11 @@ impl Body3 {
     fn feed(&self, solver: &Solver, state: &mut State, work: &mut Work) -> Result<f64, SolveError> {
         let lengths = [0, 1, 2].map(|i| self.tube(i).tube_length());
         let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
-        let feed =
-            |tau: f64| Param { load: 0.0, scale: lengths.map(|l| (shortest + tau * (l - shortest)) / l), hang: None };
+        let feed = |tau: f64| Param {
+            load: 0.0,
+            scale: lengths.map(|l| (shortest + tau * (l - shortest)) / l),
+            ..Param::FULL
+        };
         if lengths.iter().all(|l| *l == shortest) {
             self.settle_reporting(solver, state, feed(1.0), 1.0, Stage::Feed, work)
         } else {
@@ -328,7 +377,7 @@ impl Body3 {
         let mut changes = 0;
         for stage in 1..=LOAD_STAGES {
             let at = stage as f64 / LOAD_STAGES as f64;
-            let param = Param { load: at, scale: [1.0; 3], hang: None };
+            let param = Param { load: at, ..Param::FULL };
             loop {
                 residual = self.settle_reporting(solver, &mut state, param, at, Stage::Load, &mut work)?;
                 let forces = &state.lambda[PLATE_ROWS..];
@@ -366,7 +415,7 @@ impl Body3 {
                 work.set_contacts(self, &rows);
             }
         }
-        Ok(self.finish(solver, state, residual, None, &mut work))
+        Ok(self.finish(solver, state, residual, Param::FULL, &mut work))
     }
 
     /// The equilibrium reached from `frames` with gravity on, without
@@ -387,25 +436,18 @@ impl Body3 {
         let mut state = State::new(frames.clone());
         let full = Param { hang, ..Param::FULL };
         let residual = self.settle_reporting(solver, &mut state, full, 1.0, Stage::WarmStart, &mut work)?;
-        Ok(self.finish(solver, state, residual, hang, &mut work))
+        Ok(self.finish(solver, state, residual, full, &mut work))
     }
 
-    /// Packs a state converged at the full load.
-    fn finish(
-        &self,
-        solver: &Solver,
-        state: State,
-        residual: f64,
-        hang: Option<Hanging>,
-        work: &mut Work,
-    ) -> Equilibrium3 {
-        let param = Param { hang, ..Param::FULL };
+    /// Packs a state converged at the full load, `param`.
+    fn finish(&self, solver: &Solver, state: State, residual: f64, param: Param, work: &mut Work) -> Equilibrium3 {
         let (ev, cev, residual_v) = (&mut work.ev, &mut work.cev, &mut work.residual);
         self.evaluate_with::<true>(&state.frames, &state.lambda, param, &work.contacts, ev, cev, residual_v);
         let tiny = solver.options.tuning.tiny_pivot * self.moment_scale();
         let stable = work.factor(0.0, tiny).0;
         let q = state.frames.0.iter().flat_map(super::rotation::log).collect();
-        let contacts = (work.contacts.iter().zip(&state.lambda[PLATE_ROWS..]))
+        let front_hold = param.front.map(|_| std::array::from_fn(|r| state.lambda[PLATE_ROWS + r]));
+        let contacts = (work.contacts.iter().zip(&state.lambda[PLATE_ROWS + work.front_rows..]))
             .map(|(row, f)| Contact3 {
                 row: *row,
                 point_m: self.link_tip(&state.frames, row.tube, row.link),
@@ -425,13 +467,14 @@ impl Body3 {
                 events: state.events,
             },
             contacts,
+            front_hold,
         }
     }
 
     /// The weld's and contact rows' scaled values `C_r / s_r`.
     fn scaled_rows<'a>(&'a self, ev: &'a Eval3, cev: &'a ContactEval) -> impl Iterator<Item = f64> + 'a {
         let values = ev.constraints.iter().chain(&cev.gaps);
-        values.enumerate().map(|(r, c)| c / self.any_row_scale(r))
+        values.enumerate().map(|(r, c)| c / self.any_row_scale(cev, r))
     }
 
     /// The scaled sup norm of `(grad V - J^T lambda, C)`.
@@ -636,7 +679,7 @@ impl Body3 {
             // start begins with zero multipliers, whose Hessian can look
             // stable where the true one is a saddle.
             let moved_multipliers =
-                (0..work.rows()).fold(0.0f64, |m, r| m.max(work.dual[r].abs() * self.any_row_scale(r) / k));
+                (0..work.rows()).fold(0.0f64, |m, r| m.max(work.dual[r].abs() * self.any_row_scale(&work.cev, r) / k));
             fresh = min_shift == 0.0
                 && work.damping == 0.0
                 && sup(&work.step) < tuning.reuse_factors_step
@@ -676,8 +719,10 @@ impl Body3 {
             }
             let (ev, cev, residual) = (&mut work.trial, &mut work.cev_trial, &mut work.residual_trial);
             self.evaluate_with::<true>(&work.frames_trial, lambda, param, &work.contacts, ev, cev, residual);
-            let largest =
-                lambda.iter().enumerate().fold(0.0f64, |m, (r, l)| m.max(l.abs() * self.any_row_scale(r) / k));
+            let largest = lambda
+                .iter()
+                .enumerate()
+                .fold(0.0f64, |m, (r, l)| m.max(l.abs() * self.any_row_scale(&work.cev_trial, r) / k));
             work.rho = work.rho.max((1.0 + tuning.penalty_margin) * largest);
             let before = self.merit(&work.ev, &work.cev, work.rho);
             let after = self.merit(&work.trial, &work.cev_trial, work.rho);
@@ -711,7 +756,7 @@ impl Body3 {
         const H: f64 = 1e-6;
         let mut dr = std::mem::take(&mut work.path_residual);
         dr.fill(0.0);
-        // The contact rows do not move with the path at fixed frames.
+        // Of the rows only the front hold's target moves with the path at fixed frames.
         work.cons.fill(0.0);
         for (sign, at) in [(1.0, tau + H), (-1.0, tau - H)] {
             // A residual needs no Hessian.
@@ -720,7 +765,7 @@ impl Body3 {
             for (d, r) in dr.iter_mut().zip(&work.residual_trial) {
                 *d += sign * r / (2.0 * H);
             }
-            for (d, c) in work.cons.iter_mut().zip(&work.trial.constraints) {
+            for (d, c) in work.cons.iter_mut().zip(work.trial.constraints.iter().chain(&work.cev_trial.gaps)) {
                 *d += sign * c / (2.0 * H);
             }
         }

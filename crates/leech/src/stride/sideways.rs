@@ -23,7 +23,9 @@
 //!    `cup.attach_angle_tolerance_deg`.
 //! 2. **Attach the front cup** ([`Phase::AttachFront`]): the face is taken
 //!    flush (its centre on the wall, its normal `n_w`: the cup's suction
-//!    pulls it there, within the tolerances just checked).
+//!    pulls it there, within the tolerances just checked) and both cups
+//!    hold ([`Hold3::Both`], the rear where the unit is): each cup's
+//!    reaction and verdict.
 //! 3. **Release the rear cup** ([`Phase::ReleaseRear`]): the body swings
 //!    about the front cup's free joint (axis `n_w` through the face centre
 //!    `P`) until gravity's moment about it vanishes
@@ -41,8 +43,10 @@
 //!    ```text
 //!    dz (stride) = z_P - z_rear,start        (m)
 //!    ```
-//! 5. **Attach the rear cup** ([`Phase::AttachRear`]) flush where it landed,
-//!    the unit heading up again, and **release the front cup**
+//! 5. **Attach the rear cup** ([`Phase::AttachRear`]) where it landed, both
+//!    cups holding ([`Hold3::Both`] where the unit and the plate are: the
+//!    loop closes without preload, so the rear cup takes next to nothing
+//!    until the front lets go), and **release the front cup**
 //!    ([`Phase::ReleaseFront`]): the rear hold at the settled lengths.
 //!
 //! Every stride starts from the same rear-held body (heading up, flush) at
@@ -433,6 +437,18 @@ impl<'a> Planner<'a> {
         ([self.wall.x_m, centre[1], centre[2]], mul(&onto_wall(normal), &plate))
     }
 
+    /// Both cups holding ([`Hold3::Both`]): `body` (at `lengths`) with its
+    /// driving unit where it is, its front cup's face centre at `centre`
+    /// with the plate's frame `plate`; each cup must hold.
+    fn both(&self, body: &Body3, lengths: [f64; 3], centre: Vec3, plate: &Mat3) -> Result<Held3, Blocked> {
+        let d = self.robot.body.tip_spacing_m + self.robot.cup.front_offset_m;
+        let hold = Hold3::Both { tip_m: axpy(d, column(plate, 1), centre), plate: *plate };
+        let held = self.solve(body, hold, lengths)?;
+        self.holding("rear (both holding)", &held, held.rear.as_ref())?;
+        self.holding("front (both holding)", &held, held.front.as_ref())?;
+        Ok(held)
+    }
+
     /// The swing from the flush front cup: the free joint's rest, and the
     /// smallest safety factor of the front cup along it.
     fn swing(&self, lengths: [f64; 3], centre: Vec3, plate: &Mat3) -> Result<(Held3, f64), Blocked> {
@@ -647,8 +663,9 @@ fn fill(
                 centre[1], centre[2]
             ));
         }
-        plan.steps.push(step(Phase::Push, stride, lengths.turn, turned.clone()));
-        plan.steps.push(step(Phase::AttachFront, stride, lengths.turn, turned));
+        let attached = planner.both(&turned.body, lengths.turn, centre, &plate)?;
+        plan.steps.push(step(Phase::Push, stride, lengths.turn, turned));
+        plan.steps.push(step(Phase::AttachFront, stride, lengths.turn, attached));
         let (swung, worst) = planner.swing(lengths.turn, centre, &plate)?;
         let mut release = step(Phase::ReleaseRear, stride, lengths.turn, swung.clone());
         release.swing_safety_factor = Some(worst);
@@ -666,8 +683,10 @@ fn fill(
                 landed[0], landed[1]
             ));
         }
-        plan.steps.push(step(Phase::Pull, stride, settle, settled.clone()));
-        plan.steps.push(step(Phase::AttachRear, stride, settle, settled));
+        let hanging_plate = settled.body.plate_frame(&settled.equilibrium.frames);
+        let attached = planner.both(&settled.body, settle, centre, &hanging_plate)?;
+        plan.steps.push(step(Phase::Pull, stride, settle, settled));
+        plan.steps.push(step(Phase::AttachRear, stride, settle, attached));
         let held = planner.rear(settle, landed)?;
         planner.holding("rear", &held, held.rear.as_ref())?;
         plan.steps.push(step(Phase::ReleaseFront, stride, settle, held));
@@ -747,6 +766,58 @@ mod tests {
             }
         }
         assert!((rear_z - p.lateral_m).abs() < 1e-12);
+    }
+
+    /// In the attach steps both cups hold and the two reactions carry the
+    /// whole robot (force, and moment about the rear cup's centre, from the
+    /// masses alone); the front face pulled flush shares the weight, the
+    /// rear cup attached where the unit hangs carries nothing.
+    #[test]
+    fn attaching_a_cup_shares_the_weight_between_both() {
+        let robot = Robot::builtin();
+        let p = plan(0.05);
+        assert_eq!(p.status, Status::Reached, "{:?}", p.reason);
+        let mut seen = 0;
+        for s in p.steps.iter().filter(|s| matches!(s.phase, Phase::AttachFront | Phase::AttachRear)) {
+            assert!(matches!(s.held.hold, Hold3::Both { .. }), "{:?}", s.held.hold);
+            let (rear, front) = (s.held.rear.clone().unwrap(), s.held.front.clone().unwrap());
+            assert!(rear.verdict.holds && front.verdict.holds, "{:?}", s.phase);
+            // Both faces lie on the wall; the front one flush, the rear one
+            // within the attach angle (flush when the front attaches).
+            let angle = robot.cup.attach_angle_tolerance_deg.to_radians();
+            for (cup, most) in [(&rear, if s.phase == Phase::AttachFront { 1e-9 } else { angle }), (&front, 1e-9)] {
+                assert!(cup.centre_m[0].abs() < 1e-9 && tilt(cup.normal) <= most, "{:?}: {cup:?}", s.phase);
+            }
+            let eq = &s.held.equilibrium;
+            assert!(eq.stable, "{:?}", s.phase);
+            let (mass, first) = s.held.body.first_moment(&eq.frames, robot.driving_unit.mass_kg);
+            let up = [0.0, s.held.body.gravity(), 0.0];
+            let weight = scale(mass, up);
+            let about = rear.centre_m;
+            let moment = cross(axpy(-mass, about, first), up);
+            let front_about = cross(axpy(-1.0, about, front.centre_m), front.reaction.force_n);
+            let total = axpy(1.0, rear.reaction.force_n, front.reaction.force_n);
+            let turning = axpy(1.0, rear.reaction.moment_nm, axpy(1.0, front_about, front.reaction.moment_nm));
+            for a in 0..3 {
+                assert!((total[a] - weight[a]).abs() < 1e-8 * weight[1], "{:?}: {total:?}", s.phase);
+                assert!(
+                    (turning[a] - moment[a]).abs() < 1e-8 * weight[1] * 0.2,
+                    "{:?}: {turning:?} {moment:?}",
+                    s.phase
+                );
+            }
+            if s.phase == Phase::AttachFront {
+                // The front face pulled flush loads the loop: each cup takes a share.
+                assert!(
+                    rear.reaction.force_n[1] > 0.1 * weight[1] && front.reaction.force_n[1].abs() > 0.1 * weight[1]
+                );
+            } else {
+                // The rear cup attached where the unit hangs: no preload, no load.
+                assert!(dot(rear.reaction.force_n, rear.reaction.force_n).sqrt() < 1e-8 * weight[1], "{rear:?}");
+            }
+            seen += 1;
+        }
+        assert_eq!(seen, 2 * p.strides);
     }
 
     #[test]

@@ -2,8 +2,8 @@
 //! balance, against the planar stance where the body is planar, and the 3D
 //! cup verdict.
 
-use leech::body3::rotation::{axpy, cross, dot, rot_z, scale};
-use leech::body3::{verdict3, Body3, Hold3};
+use leech::body3::rotation::{axpy, cross, dot, exp, mul, rot_z, scale};
+use leech::body3::{verdict3, Body3, Held3, Hold3};
 use leech::prelude::*;
 use leech::stance::{Hold, Pose};
 
@@ -255,4 +255,164 @@ fn the_body_swings_below_a_free_front_joint() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("front pivot plate frame"), "{err}");
+}
+
+/// The rear-held body of `robot` at `lengths`, and `Hold3::Both` at the
+/// target moved from its endpoint `inward` (m) towards tube 1's root (the
+/// slack that keeps a target in reach) and by `shift` (m), its plate turned
+/// by `turn` (rotation vector, world axes).
+fn both_from_rear(
+    robot: &Robot,
+    lengths: [f64; 3],
+    inward: f64,
+    shift: [f64; 3],
+    turn: [f64; 3],
+) -> (Body3, Held3, Hold3) {
+    let body = Body3::from_robot(robot, lengths).unwrap();
+    let rear = body.solve_held(robot, Hold3::Rear, &Solver::default()).unwrap();
+    let frames = &rear.equilibrium.frames;
+    let end = body.endpoint(frames);
+    let chord = axpy(-1.0, body.tube(0).root(), end);
+    let tip_m = axpy(-inward / dot(chord, chord).sqrt(), chord, axpy(1.0, shift, end));
+    let plate = mul(&exp(turn), &body.plate_frame(frames));
+    (body, rear, Hold3::Both { tip_m, plate })
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(24))]
+
+    /// Both cups holding, a target off where the rear-held endpoint is and
+    /// a tilted plate: the front hold is where asked, the equilibrium a
+    /// stable one, and the two reactions carry the whole robot in force and
+    /// moment (the masses alone, no multiplier or spring).
+    #[test]
+    fn both_cups_carry_the_whole_body(
+        l1 in 0.10f64..0.28, l2 in 0.10f64..0.28, l3 in 0.10f64..0.28, angle in -180.0f64..180.0,
+        inward in 0.004f64..0.01, shift in proptest::collection::vec(-0.005f64..0.005, 3),
+        turn in proptest::collection::vec(-0.1f64..0.1, 3),
+    ) {
+        let robot = Robot::builtin().with_base_angle(angle).unwrap();
+        let (shift, turn) = ([shift[0], shift[1], shift[2]], [turn[0], turn[1], turn[2]]);
+        let (body, _, hold) = both_from_rear(&robot, [l1, l2, l3], inward, shift, turn);
+        let held = body.solve_held(&robot, hold, &Solver::default()).unwrap();
+        let Hold3::Both { tip_m, plate } = hold else { unreachable!() };
+        let eq = &held.equilibrium;
+        proptest::prop_assert!(eq.stable && eq.residual < 1e-10, "{} {}", eq.stable, eq.residual);
+        let end = held.body.endpoint(&eq.frames);
+        proptest::prop_assert!((0..3).all(|a| (end[a] - tip_m[a]).abs() < 1e-11), "{:?} {:?}", end, tip_m);
+        let frame = held.body.plate_frame(&eq.frames);
+        proptest::prop_assert!(leech::body3::body3::angle_between(&frame, &plate) < 1e-11);
+        let (rear, front) = (held.rear.clone().unwrap(), held.front.clone().unwrap());
+        let about = rear.centre_m;
+        let (force, moment) = balance(&held.body, eq, robot.driving_unit.mass_kg, about);
+        let w = force[1];
+        // The front cup's moment moved to the rear cup's centre.
+        let front_moment = axpy(1.0, cross(axpy(-1.0, about, front.centre_m), front.reaction.force_n), front.reaction.moment_nm);
+        let total_force = axpy(1.0, rear.reaction.force_n, front.reaction.force_n);
+        let total_moment = axpy(1.0, rear.reaction.moment_nm, front_moment);
+        let arm = l1.max(l2).max(l3);
+        for a in 0..3 {
+            proptest::prop_assert!((total_force[a] - force[a]).abs() < 1e-8 * w, "{:?} vs {:?}", total_force, force);
+            proptest::prop_assert!((total_moment[a] - moment[a]).abs() < 1e-8 * w * arm, "{:?} vs {:?}", total_moment, moment);
+        }
+        // The loop carries load: the front cup takes a share.
+        proptest::prop_assert!(front.reaction.force_n.iter().any(|f| f.abs() > 1e-6 * w));
+    }
+}
+
+/// The front hold asked where the rear-held endpoint already is: the shape
+/// stays the rear-held one and the front cup carries nothing.
+#[test]
+fn both_holds_at_the_free_endpoint_change_nothing() {
+    let robot = Robot::builtin();
+    for lengths in [[0.25, 0.28, 0.22], [0.18, 0.18, 0.18]] {
+        let (body, rear, hold) = both_from_rear(&robot, lengths, 0.0, [0.0; 3], [0.0; 3]);
+        let held = body.solve_held(&robot, hold, &Solver::default()).unwrap();
+        for i in 0..3 {
+            for (p, q) in
+                held.body.points(&held.equilibrium.frames, i).iter().zip(body.points(&rear.equilibrium.frames, i))
+            {
+                let d = axpy(-1.0, q, *p);
+                assert!(dot(d, d).sqrt() < 1e-9, "{lengths:?}: tube {i} moved {d:?}");
+            }
+        }
+        let front = held.front.clone().unwrap();
+        let (r, r0) = (held.rear.clone().unwrap(), rear.rear.clone().unwrap());
+        let w = r0.reaction.force_n[1];
+        assert!(
+            front.reaction.force_n.iter().chain(&front.reaction.moment_nm).all(|x| x.abs() < 1e-11 * w),
+            "{front:?}"
+        );
+        assert!((0..3).all(|a| (r.reaction.force_n[a] - r0.reaction.force_n[a]).abs() < 1e-11 * w));
+        assert!(front.verdict.holds && r.verdict.holds);
+    }
+}
+
+/// With `L2 = L3`, `b = c` and an in-plane target, both cups holding is the
+/// planar stance's both-hold: every point, and each cup's reaction and
+/// verdict.
+#[test]
+fn both_holds_equal_the_planar_stance() {
+    let mut robot = Robot::builtin();
+    robot.body.tip_spacing_m = robot.body.base_spacing_m;
+    let solver = Solver::default();
+    for (angle, l1, l23, inward, shift, turn) in [
+        (90.0, 0.25, 0.22, 0.005, [0.004, -0.006], 0.05),
+        (0.0, 0.20, 0.18, 0.004, [-0.003, 0.01], -0.1),
+        (30.0, 0.14, 0.16, 0.003, [0.0, 0.0], 0.08),
+    ] {
+        let robot = robot.with_base_angle(angle).unwrap();
+        let (body, rear3, hold) =
+            both_from_rear(&robot, [l1, l23, l23], inward, [shift[0], shift[1], 0.0], [0.0, 0.0, turn]);
+        let Hold3::Both { tip_m, plate } = hold else { unreachable!() };
+        let held = body.solve_held(&robot, hold, &solver).unwrap();
+        let root = body.tube(0).root();
+        let rear = Pose { point_m: [root[0], root[1]], angle_rad: f64::to_radians(angle) };
+        let front = Pose { point_m: [tip_m[0], tip_m[1]], angle_rad: plate[1][0].atan2(plate[0][0]) };
+        let planar = leech::stance::solve(&robot, [l1, l23], Hold::Both { rear, front }, &solver).unwrap();
+        assert!(rear3.equilibrium.stable && held.equilibrium.stable);
+        // The planar chains' angles, without the driving unit's pose.
+        let mut chains = planar.equilibrium.clone();
+        chains.q.truncate(planar.body.dim());
+        let d = leech::body3::planar::compare(&held.body, &held.equilibrium, &planar.body, &chains);
+        assert!(d.max_point_m < 1e-9 && d.out_of_plane_m < 1e-12, "{angle}: not the planar shape {d:?}");
+        let (rear_flat, front_flat) = planar.cups(&robot).unwrap();
+        for (cup, flat) in [(&held.rear, rear_flat), (&held.front, front_flat)] {
+            let (cup, flat) = (cup.clone().unwrap(), flat.unwrap());
+            let w = planar.weight_n;
+            for a in 0..2 {
+                assert!((cup.centre_m[a] - flat.centre_m[a]).abs() < 1e-9, "{angle}: {cup:?} {flat:?}");
+                assert!((cup.reaction.force_n[a] - flat.force_n[a]).abs() < 1e-7 * w, "{angle}: {cup:?} {flat:?}");
+                assert!(cup.reaction.moment_nm[a].abs() < 1e-7 * w * l1, "{angle}: {cup:?}");
+            }
+            assert!(cup.reaction.force_n[2].abs() < 1e-7 * w, "{angle}: {cup:?}");
+            assert!((cup.reaction.moment_nm[2] - flat.moment_nm).abs() < 1e-7 * w * l1, "{angle}: {cup:?} {flat:?}");
+            let (a, b) = (cup.verdict.safety_factor, flat.verdict.safety_factor);
+            assert!((a - b).abs() < 1e-7 * b && cup.verdict.holds == flat.verdict.holds, "{angle}: {a} vs {b}");
+        }
+    }
+}
+
+/// A target beyond tube 1's reach ends in an error (no stretched body);
+/// a plate frame that is not a rotation or a tip that is not finite is
+/// refused, naming the field.
+#[test]
+fn both_holds_refuse_what_cannot_be_held() {
+    let robot = Robot::builtin();
+    let body = Body3::from_robot(&robot, [0.2; 3]).unwrap();
+    let solver = Solver::default();
+    let far = Hold3::Both { tip_m: [0.0, 0.3, 0.0], plate: rot_z(std::f64::consts::FRAC_PI_2) };
+    match body.solve_held(&robot, far, &solver) {
+        Err(leech::stance::StanceError::OutOfReach { distance_m, reach_m, .. }) => {
+            assert!(distance_m > reach_m && (reach_m - 0.2).abs() < 1e-12, "{distance_m} {reach_m}")
+        }
+        other => panic!("{other:?}"),
+    }
+    let skew = [[1.0, 0.1, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let err = body.solve_held(&robot, Hold3::Both { tip_m: [0.0, 0.1, 0.0], plate: skew }, &solver).unwrap_err();
+    let err = err.to_string();
+    assert!(err.contains("both holds: front plate frame") && !err.contains('\n'), "{err}");
+    let nan = Hold3::Both { tip_m: [0.0, f64::NAN, 0.0], plate: rot_z(0.0) };
+    let err = body.solve_held(&robot, nan, &solver).unwrap_err().to_string();
+    assert!(err.contains("both holds: front tip (m)") && err.contains("NaN"), "{err}");
 }
