@@ -185,7 +185,9 @@ impl Body3 {
     /// (gravity turns with the plate: [`super::hold3`]), so there the
     /// plate's coordinates reach every block.
     /// A contact row reaches one link only, but is declared on every block
-    /// (the pattern is made once per active set, not per link).
+    /// (the pattern is made once per active set, not per link). The
+    /// `contacts` run-time rows include the front hold's six when both cups
+    /// hold; [`Body3::front_rows_reach`] narrows those.
     pub(crate) fn pattern(&self, hanging: bool, contacts: usize) -> crate::linalg::Pattern {
         let chains = self.chain_blocks();
         let mut pattern = crate::linalg::Pattern::new(3, &chains, 3 + PLATE_ROWS + contacts, 3);
