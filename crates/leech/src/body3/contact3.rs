@@ -1,8 +1,9 @@
 //! Contact rows of the 3D body with a [`Scene3`]'s solids (docs/model3d.md
 //! section 12): unilateral, at the link points (each link's tip, as the
-//! planar stance uses its points), each against the plane of the solid
-//! nearest to it ([`Scene3::nearest`], frozen while the row is active)
-//! moved out by the tube's radius (the clearance the centre line keeps).
+//! planar stance uses its points), each against the plane of a solid within
+//! reach (a tip in a corner gets a row for each solid; frozen while the row
+//! is active) moved out by the tube's radius (the clearance the centre line
+//! keeps), under any of the holds of [`super::hold3`].
 //! [`Body3::solve_held_among`] is the entry point:
 //!
 //! ```
@@ -46,14 +47,56 @@
 //! link `j`) is one more border row of the factorization, as the weld's
 //! are. The multiplier `mu` is the normal force (N) on the point.
 //!
+//! # Under the front hold
+//!
+//! Held at the front, the solver keeps the driving unit fixed and turns the
+//! world with the plate ([`super::hold3`]): a picture's point `x'` is at
+//! `x = G (x' - x'_tip) + P_f`, `G = R_f R'_P^T`, with `R'_P` unknown. So
+//! the solids move with the plate, and the gap of the same tip is
+//!
+//! ```text
+//! g = n . (G (x'_ij - x'_tip) + P_f - x0) = (R'_P nu) . (K + sum_k c_k R'_k e_x) - nu . q0     (m)
+//! nu = R_f^T n,   q0 = R_f^T (x0 - P_f)        the plane in the held plate's frame, origin tube 1's tip
+//! K  = root_i - root_1                                                                           (m)
+//! c_k = l_ik [k <= j on tube i] - l_1k [k on tube 1]                                             (m)
+//! ```
+//!
+//! (the tip `x'_tip` is tube 1's: every link of tube 1 beyond the point
+//! enters, and for a point on tube 2 or 3 all of them). It is the hanging
+//! gravity's form (`V_g / g`, [`super::hold3`] module doc) with `u = nu`,
+//! and `Body3::plate_bilinear` gives both. With `s = R'_P nu`,
+//! `w_k = R'_k^T s` and `W = R'_P^T (K + sum_k c_k R'_k e_x)`:
+//!
+//! ```text
+//! dg/ddelta_k            = c_k e_x x w_k                                     (m/rad)
+//! d2g/ddelta_k^2         = c_k ( sym(w_k e_x^T) - (w_k . e_x) I )            (m/rad^2)
+//! d2g/ddelta_P ddelta_k  = -c_k [nu] R'_P^T R'_k [e_x]                       (m/rad^2)
+//! dg/ddelta_P            = nu x W,    d2g/ddelta_P^2 = sym(W nu^T) - (W . nu) I     (m/rad, m/rad^2)
+//! ```
+//!
+//! (the plate's own link adds the constant `c_P nu_x`); the Lagrangian's
+//! blocks are these times `-mu`. Two links couple only through the plate,
+//! whose coordinates are already border rows reaching every block of the
+//! hanging body's factorization: a row's cross blocks cost nothing new and
+//! its Jacobian, dense along tube 1, is one border row as under the rear
+//! hold. The tips of each tube's last two links get no row: the hold fixes
+//! them (tube 1's last link is the plate, the side tubes' are welded to it
+//! in position and rotation), so a row there would be zero or a combination
+//! of the weld's, as the planar stance leaves them out too.
+//!
 //! # The active set
 //!
 //! Gravity is raised in stages; at each, the body is settled (Newton with
 //! the inertia test) and the active set updated until it stands: the row
 //! pulling hardest (`mu < -tol k / l`) is released, else each tube's
 //! deepest link tip inside a solid (`g < -tol l`) gets a row with `mu = 0`
-//! (docs/model3d.md section 12). The rear cup's reaction takes the contact
-//! forces off the tubes' root forces ([`super::hold3`]).
+//! (docs/model3d.md section 12): one row per solid at a tip, and a plane
+//! facing the way of one the tip already has a row on (normals within 1e-3
+//! rad) replaces it, since two such rows at one point would be dependent.
+//! On a free front joint each turn of the swing is settled so from the last
+//! turn's shape and rows (a warm start at full gravity). The rear cup's
+//! reaction takes the contact forces off the tubes' root forces; the front
+//! cup's, off the whole body's weight and moment ([`super::hold3`]).
 
 use super::body3::{Body3, Eval3, Frames, Param, PLATE_ROWS};
 use super::hold3::{FrontHold, Held3, Hold3};

@@ -39,6 +39,18 @@
 //! body. The answer is turned back into the world (`G`, the body placed
 //! there so that its points are world points).
 //!
+//! The front cup carries the whole robot but what a scene's solids carry
+//! ([`super::contact3`]: in this picture the solids turn with the plate
+//! too): by the whole body's balance, with contact forces `f_c = mu_c n_c`
+//! at the points `p_c`, about the face's centre `c`,
+//!
+//! ```text
+//! F = (0, g M, 0) - sum_c f_c                                                  (N)
+//! M = (X - M c) x (0, g, 0) - sum_c (p_c - c) x f_c                            (N m)
+//! ```
+//!
+//! (`X` the first moment of every mass, kg m).
+//!
 //! # The rear hold
 //!
 //! With the driving unit fixed (the body as built), the rear cup's surface
