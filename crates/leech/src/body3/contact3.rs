@@ -482,7 +482,8 @@ mod tests {
     /// plate's frame) against first and second differences in every
     /// coordinate, the plate's included: the Jacobian (dense along tube 1),
     /// the diagonal blocks, the plate-link cross blocks and the plate's own
-    /// block, and no coupling between two links other than through the plate.
+    /// block, and no coupling between two links other than through the
+    /// plate (a sample of the pairs).
     #[test]
     fn front_gap_derivatives_match_finite_differences() {
         let (body, frames, row) = case();
@@ -523,7 +524,9 @@ mod tests {
             let h = 1e-4;
             let mut cross_blocks = 0;
             for a in 0..n {
-                for b in a..n {
+                // Every block of a link with itself or with the plate, and
+                // a seventh of the pairs of two links.
+                for b in (a..n).filter(|b| a / 3 == b / 3 || b / 3 == p || (a + b) % 7 == 0) {
                     let second = (lagrangian(&moved(&frames, &[(a, h), (b, h)]))
                         - lagrangian(&moved(&frames, &[(a, h), (b, -h)]))
                         - lagrangian(&moved(&frames, &[(a, -h), (b, h)]))

@@ -374,8 +374,8 @@ impl Body3 {
     /// Settles at `param` with the contact rows' active set updated until it
     /// stands (docs/model3d.md section 12): a row whose force pulls is
     /// released (the one pulling hardest first), then every tube's deepest
-    /// link tip inside a solid gets a row against the plane of the solid
-    /// nearest to it, until neither happens. The residual at the end.
+    /// link tip inside a solid gets a row against that solid's plane, until
+    /// neither happens. The residual at the end.
     fn settle_among(
         &self,
         solver: &Solver,
