@@ -1,8 +1,9 @@
 //! Contact rows of the 3D body with a [`Scene3`]'s solids (docs/model3d.md
 //! section 12): unilateral, at the link points (each link's tip, as the
-//! planar stance uses its points), each against the plane of the solid
-//! nearest to it ([`Scene3::nearest`], frozen while the row is active)
-//! moved out by the tube's radius (the clearance the centre line keeps).
+//! planar stance uses its points), each against the plane of a solid within
+//! reach (a tip in a corner gets a row for each solid; frozen while the row
+//! is active) moved out by the tube's radius (the clearance the centre line
+//! keeps), under any of the holds of [`super::hold3`].
 //! [`Body3::solve_held_among`] is the entry point:
 //!
 //! ```
@@ -46,18 +47,60 @@
 //! link `j`) is one more border row of the factorization, as the weld's
 //! are. The multiplier `mu` is the normal force (N) on the point.
 //!
+//! # Under the front hold
+//!
+//! Held at the front, the solver keeps the driving unit fixed and turns the
+//! world with the plate ([`super::hold3`]): a picture's point `x'` is at
+//! `x = G (x' - x'_tip) + P_f`, `G = R_f R'_P^T`, with `R'_P` unknown. So
+//! the solids move with the plate, and the gap of the same tip is
+//!
+//! ```text
+//! g = n . (G (x'_ij - x'_tip) + P_f - x0) = (R'_P nu) . (K + sum_k c_k R'_k e_x) - nu . q0     (m)
+//! nu = R_f^T n,   q0 = R_f^T (x0 - P_f)        the plane in the held plate's frame, origin tube 1's tip
+//! K  = root_i - root_1                                                                           (m)
+//! c_k = l_ik [k <= j on tube i] - l_1k [k on tube 1]                                             (m)
+//! ```
+//!
+//! (the tip `x'_tip` is tube 1's: every link of tube 1 beyond the point
+//! enters, and for a point on tube 2 or 3 all of them). It is the hanging
+//! gravity's form (`V_g / g`, [`super::hold3`] module doc) with `u = nu`,
+//! and `Body3::plate_bilinear` gives both. With `s = R'_P nu`,
+//! `w_k = R'_k^T s` and `W = R'_P^T (K + sum_k c_k R'_k e_x)`:
+//!
+//! ```text
+//! dg/ddelta_k            = c_k e_x x w_k                                     (m/rad)
+//! d2g/ddelta_k^2         = c_k ( sym(w_k e_x^T) - (w_k . e_x) I )            (m/rad^2)
+//! d2g/ddelta_P ddelta_k  = -c_k [nu] R'_P^T R'_k [e_x]                       (m/rad^2)
+//! dg/ddelta_P            = nu x W,    d2g/ddelta_P^2 = sym(W nu^T) - (W . nu) I     (m/rad, m/rad^2)
+//! ```
+//!
+//! (the plate's own link adds the constant `c_P nu_x`); the Lagrangian's
+//! blocks are these times `-mu`. Two links couple only through the plate,
+//! whose coordinates are already border rows reaching every block of the
+//! hanging body's factorization: a row's cross blocks cost nothing new and
+//! its Jacobian, dense along tube 1, is one border row as under the rear
+//! hold. The tips of each tube's last two links get no row: the hold fixes
+//! them (tube 1's last link is the plate, the side tubes' are welded to it
+//! in position and rotation), so a row there would be zero or a combination
+//! of the weld's, as the planar stance leaves them out too.
+//!
 //! # The active set
 //!
 //! Gravity is raised in stages; at each, the body is settled (Newton with
 //! the inertia test) and the active set updated until it stands: the row
 //! pulling hardest (`mu < -tol k / l`) is released, else each tube's
 //! deepest link tip inside a solid (`g < -tol l`) gets a row with `mu = 0`
-//! (docs/model3d.md section 12). The rear cup's reaction takes the contact
-//! forces off the tubes' root forces ([`super::hold3`]).
+//! (docs/model3d.md section 12): one row per solid at a tip, and a plane
+//! facing the way of one the tip already has a row on (normals within 1e-3
+//! rad) replaces it, since two such rows at one point would be dependent.
+//! On a free front joint each turn of the swing is settled so from the last
+//! turn's shape and rows (a warm start at full gravity). The rear cup's
+//! reaction takes the contact forces off the tubes' root forces; the front
+//! cup's, off the whole body's weight and moment ([`super::hold3`]).
 
 use super::body3::{Body3, Eval3, Frames, Param, PLATE_ROWS};
-use super::hold3::{Held3, Hold3, FRONT_ROWS};
-use super::rotation::{axpy, linear_terms, scale, Mat3, Vec3};
+use super::hold3::{FrontHold, Held3, Hold3, FRONT_ROWS};
+use super::rotation::{apply, apply_t, axpy, dot, linear_terms, scale, scale_mat, Mat3, Vec3};
 use super::solve::Equilibrium3;
 use crate::error::InputError;
 use crate::robot::Robot;
@@ -159,11 +202,30 @@ impl Body3 {
         if let Some(target) = &param.front {
             self.add_front_rows::<HESSIAN>(frames, target, &extra[..FRONT_ROWS], ev, cev);
         }
+        let plate = self.links() - 1;
         for (r, (row, mu)) in rows.iter().zip(&extra[held..]).enumerate() {
             let r = held + r;
-            cev.gaps[r] = self.contact_gap(frames, row);
             cev.scales[r] = self.row_scale(0);
-            self.contact_terms(frames, row, *mu, row_sink::<HESSIAN>(ev, &mut cev.jacobian, m, r));
+            cev.gaps[r] = if param.hang.is_some() {
+                // Under the front hold the solids turn with the plate: the
+                // gap couples the plate with every link it reaches.
+                let (jacobian, ev) = (&mut cev.jacobian, &mut *ev);
+                let put = |u: usize, grad: Vec3, hess: Mat3, cross: Option<Mat3>| {
+                    for (c, g) in grad.iter().enumerate() {
+                        jacobian[(3 * u + c) * m + r] = *g;
+                    }
+                    if HESSIAN {
+                        ev.add_hessian(u, u, &hess);
+                        if let Some(cross) = cross {
+                            ev.add_hessian(plate, u, &cross);
+                        }
+                    }
+                };
+                self.front_contact_terms(frames, row, *mu, put)
+            } else {
+                self.contact_terms(frames, row, *mu, row_sink::<HESSIAN>(ev, &mut cev.jacobian, m, r));
+                self.contact_gap(frames, row)
+            };
         }
         ev.stationarity(weld, residual);
         if m > 0 {
@@ -194,14 +256,16 @@ impl Body3 {
         if !(clearance.is_finite() && clearance >= 0.0) {
             return Err(InputError::invalid("clearance (m)", clearance, "a finite length of at least 0").into());
         }
-        Ok(self.solve_among_on(solver, scene, clearance)?)
+        Ok(self.solve_among_on(solver, scene, clearance, None)?)
     }
 
     /// The body of `robot` held by `hold` among `scene`'s solids, with the
     /// holding cup's reaction (the contacts' forces taken off it) and
-    /// verdict. Only the rear hold is solved among solids so far: a front
-    /// hold is refused, naming the field. The tubes keep their radius from
-    /// the solids.
+    /// verdict: the rear hold, the front hold (the scene turning with the
+    /// plate in the solver's picture, module doc) and the free front joint
+    /// (each turn of the swing solved among the solids). The tubes keep
+    /// their radius from the solids. Bad input is refused as
+    /// [`Body3::solve_held`] refuses it.
     pub fn solve_held_among(
         &self,
         robot: &Robot,
@@ -209,16 +273,7 @@ impl Body3 {
         scene: &Scene3,
         solver: &Solver,
     ) -> Result<Held3, StanceError> {
-        if hold != Hold3::Rear {
-            return Err(StanceError::from(InputError::Invalid {
-                field: "hold".into(),
-                value: format!("{hold:?}"),
-                allowed: "the rear hold (contacts in 3D are solved with the driving unit fixed)".into(),
-            }));
-        }
-        let equilibrium = self.solve_among(solver, scene, 0.5 * robot.tube.outer_diameter_m)?;
-        let rear = Some(self.rear_cup(robot, &equilibrium)?);
-        Ok(Held3 { hold, body: self.clone(), equilibrium, rear, front: None, pivot_turn_rad: None })
+        self.held_among(robot, hold, solver, Some((scene, 0.5 * robot.tube.outer_diameter_m)))
     }
 
     /// The tip of link `link` of tube `tube` (m).
@@ -278,9 +333,54 @@ impl Body3 {
         }
     }
 
+    /// Under the front hold, the row's gap `g` (m) for a row whose plane is
+    /// in the held plate's frame (module doc), and its terms: calls
+    /// `each(u, dg/ddelta_u, d2(-force g)/ddelta_u^2, cross)` for every
+    /// link `u` the gap depends on (tube 1's and the row's tube's up to the
+    /// point), `cross` the block `d2(-force g)/ddelta_P ddelta_u` (rows the
+    /// plate's coordinates), none for the plate itself. No allocation.
+    pub(crate) fn front_contact_terms(
+        &self,
+        frames: &Frames,
+        row: &ContactRow3,
+        force: f64,
+        mut each: impl FnMut(usize, Vec3, Mat3, Option<Mat3>),
+    ) -> f64 {
+        let (first, own) = (self.tube(0), self.tube(row.tube));
+        let constant = axpy(-1.0, first.root(), own.root());
+        // The point's links with +l, tube 1's (to the tip) with -l.
+        let coefficient = |i: usize, j: usize| {
+            let on = if i == row.tube && j <= row.link { own.lengths()[j] } else { 0.0 };
+            on - if i == 0 { first.lengths()[j] } else { 0.0 }
+        };
+        let normal = row.plane.normal;
+        let plate = self.plate_bilinear(frames, normal, constant, coefficient, |u, grad, hess, cross| {
+            each(u, grad, scale_mat(-force, &hess), Some(scale_mat(-force, &cross)));
+        });
+        each(self.links() - 1, plate.gradient, scale_mat(-force, &plate.hessian), None);
+        plate.value - dot(normal, row.plane.point_m)
+    }
+
+    /// The row's gap (m): in the world ([`Body3::contact_gap`]), or under
+    /// the front hold (`front`) with the plane in the held plate's frame.
+    pub(crate) fn row_gap(&self, frames: &Frames, row: &ContactRow3, front: bool) -> f64 {
+        if front {
+            row.plane.gap(self.plate_local(frames, self.link_tip(frames, row.tube, row.link)))
+        } else {
+            self.contact_gap(frames, row)
+        }
+    }
+
+    /// A point `p` (m) of the solver's picture in the plate's frame, origin
+    /// tube 1's tip: `R_P^T (p - x_tip)`.
+    fn plate_local(&self, frames: &Frames, p: Vec3) -> Vec3 {
+        let tip = self.link_tip(frames, 0, self.tube(0).len() - 1);
+        apply_t(&self.plate_frame(frames), axpy(-1.0, tip, p))
+    }
+
     /// The candidate rows at `frames`: every link tip closer than
     /// `clearance + margin` (m) to a solid of `scene` (inside it included),
-    /// each against the plane of the solid nearest to it moved out by
+    /// one per such solid, against its plane at the tip moved out by
     /// `clearance` (the tube's radius: the centre line keeps it).
     pub fn contact_rows(
         &self,
@@ -290,14 +390,39 @@ impl Body3 {
         margin: f64,
         out: &mut Vec<ContactRow3>,
     ) {
+        self.contact_rows_in(frames, scene, clearance, margin, None, out);
+    }
+
+    /// [`Body3::contact_rows`] in the solver's picture of the front hold
+    /// `front` when there is one: the points placed in the world to meet the
+    /// scene, the planes kept in the held plate's frame, and no row at the
+    /// tips of a tube's last two links, which the hold fixes (a row there
+    /// would be zero, or a combination of the weld's).
+    pub(crate) fn contact_rows_in(
+        &self,
+        frames: &Frames,
+        scene: &Scene3,
+        clearance: f64,
+        margin: f64,
+        front: Option<&FrontHold>,
+        out: &mut Vec<ContactRow3>,
+    ) {
         out.clear();
         for tube in 0..3 {
-            for link in 0..self.tube(tube).len() {
-                let p = self.link_tip(frames, tube, link);
-                if let Some((solid, plane, d)) = scene.nearest(p) {
-                    if d - clearance <= margin {
-                        let point_m = axpy(clearance, plane.normal, plane.point_m);
-                        out.push(ContactRow3 { tube, link, solid, plane: Plane3 { point_m, ..plane } });
+            let links = self.tube(tube).len();
+            let free = if front.is_some() { links.saturating_sub(2) } else { links };
+            for link in 0..free {
+                let mut p = self.link_tip(frames, tube, link);
+                if let Some(held) = front {
+                    p = axpy(1.0, held.tip, apply(&held.plate, self.plate_local(frames, p)));
+                }
+                // Every solid within reach: a tip in a corner rests on two.
+                for (solid, shape) in scene.solids.iter().enumerate() {
+                    if shape.signed_distance(p) - clearance <= margin {
+                        let plane = shape.plane(p);
+                        let moved = Plane3 { point_m: axpy(clearance, plane.normal, plane.point_m), ..plane };
+                        let plane = front.map_or(moved, |held| held.plane_local(&moved));
+                        out.push(ContactRow3 { tube, link, solid, plane });
                     }
                 }
             }
@@ -396,6 +521,70 @@ mod tests {
             + lagrangian(&moved(&frames, &[(3 * u + 1, -h), (3 * v + 2, -h)])))
             / (4.0 * h * h);
         assert!(cross.abs() < 1e-6, "{cross}");
+    }
+
+    /// Under the front hold: the gap of a row (its plane in the held
+    /// plate's frame) against first and second differences in every
+    /// coordinate, the plate's included: the Jacobian (dense along tube 1),
+    /// the diagonal blocks, the plate-link cross blocks and the plate's own
+    /// block, and no coupling between two links other than through the
+    /// plate (a sample of the pairs).
+    #[test]
+    fn front_gap_derivatives_match_finite_differences() {
+        let (body, frames, row) = case();
+        let n = 3 * body.links();
+        let p = body.links() - 1;
+        let force = 2.5;
+        // A row on a side tube and one on tube 1, short of its tip.
+        for row in [row, ContactRow3 { tube: 0, link: body.tube(0).len() - 4, ..row }] {
+            let gap = |f: &Frames| body.row_gap(f, &row, true);
+            let mut jac = vec![0.0; n];
+            let mut hessian = vec![0.0; n * n];
+            let value = body.front_contact_terms(&frames, &row, force, |u, grad, hess, cross| {
+                jac[3 * u..3 * u + 3].copy_from_slice(&grad);
+                for a in 0..3 {
+                    for b in 0..3 {
+                        hessian[(3 * u + a) * n + 3 * u + b] += hess[a][b];
+                        if let Some(cross) = cross {
+                            hessian[(3 * p + a) * n + 3 * u + b] += cross[a][b];
+                            hessian[(3 * u + b) * n + 3 * p + a] += cross[a][b];
+                        }
+                    }
+                }
+            });
+            assert!((value - gap(&frames)).abs() < 1e-15, "{value} against {}", gap(&frames));
+            let h = 1e-6;
+            for (c, j) in jac.iter().enumerate() {
+                let fd = (gap(&moved(&frames, &[(c, h)])) - gap(&moved(&frames, &[(c, -h)]))) / (2.0 * h);
+                assert!((fd - j).abs() < 1e-8, "{row:?} coordinate {c}: {j} against {fd}");
+            }
+            // Every link of tube 1 moves the point relative to the tip.
+            let reached = (0..body.tube(0).len()).filter(|j| {
+                let u = body.index(0, *j);
+                jac[3 * u..3 * u + 3].iter().any(|x| x.abs() > 1e-6)
+            });
+            let expected = if row.tube == 0 { body.tube(0).len() - row.link - 1 } else { body.tube(0).len() };
+            assert_eq!(reached.count(), expected, "{row:?}");
+            let lagrangian = |f: &Frames| -force * gap(f);
+            let h = 1e-4;
+            let mut cross_blocks = 0;
+            for a in 0..n {
+                // Every block of a link with itself or with the plate, and
+                // a seventh of the pairs of two links.
+                for b in (a..n).filter(|b| a / 3 == b / 3 || b / 3 == p || (a + b) % 7 == 0) {
+                    let second = (lagrangian(&moved(&frames, &[(a, h), (b, h)]))
+                        - lagrangian(&moved(&frames, &[(a, h), (b, -h)]))
+                        - lagrangian(&moved(&frames, &[(a, -h), (b, h)]))
+                        + lagrangian(&moved(&frames, &[(a, -h), (b, -h)])))
+                        / (4.0 * h * h);
+                    let exact = hessian[a * n + b];
+                    assert!((second - exact).abs() < 1e-6, "{row:?} ({a}, {b}): {exact} against {second}");
+                    cross_blocks += usize::from(b / 3 == p && a / 3 != p && exact.abs() > 1e-6);
+                }
+            }
+            // At least two entries of each reached link's block but the plate's own.
+            assert!(cross_blocks >= 2 * (expected - 1), "{row:?}: {cross_blocks}");
+        }
     }
 
     #[test]

@@ -39,6 +39,18 @@
 //! body. The answer is turned back into the world (`G`, the body placed
 //! there so that its points are world points).
 //!
+//! The front cup carries the whole robot but what a scene's solids carry
+//! ([`super::contact3`]: in this picture the solids turn with the plate
+//! too): by the whole body's balance, with contact forces `f_c = mu_c n_c`
+//! at the points `p_c`, about the face's centre `c`,
+//!
+//! ```text
+//! F = (0, g M, 0) - sum_c f_c                                                  (N)
+//! M = (X - M c) x (0, g, 0) - sum_c (p_c - c) x f_c                            (N m)
+//! ```
+//!
+//! (`X` the first moment of every mass, kg m).
+//!
 //! # Both cups: six rows
 //!
 //! With both cups holding, the driving unit stays where it was built (the
@@ -152,15 +164,16 @@
 //! an in-plane load the twist is zero and the verdict the planar one.
 
 use super::body3::{is_rotation, Body3, Derivatives, Eval3, Frames, Param, PLATE_ROWS};
-use super::contact3::{row_sink, ContactEval};
+use super::contact3::{row_sink, ContactEval, ContactRow3};
 use super::rotation::{
-    add_scaled, apply, axpy, cross, dot, exp, hat, jr_inv, linear_terms, log, mul, mul_tn, pair_terms, scale,
-    transpose, Mat3, Vec3,
+    apply, axpy, cross, dot, exp, hat, jr_inv, linear_terms, log, mul, mul_tn, pair_terms, scale, scale_mat, transpose,
+    Mat3, Vec3,
 };
 use super::solve::Equilibrium3;
 use crate::cup::{Cup, CupVerdict};
 use crate::error::{InputError, Num};
 use crate::robot::Robot;
+use crate::scene::{Plane3, Scene3};
 use crate::stance::StanceError;
 use crate::statics::Solver;
 
@@ -204,9 +217,37 @@ pub const PIVOT_TOLERANCE: f64 = 1e-11;
 /// Regula falsi iterations on the turn.
 const PIVOT_ITERATIONS: usize = 100;
 
-/// The front hold's gravity for the plate's frame `plate` and the unit's mass `md` (kg).
-fn hanging(plate: &Mat3, md: f64) -> Hanging {
-    Hanging { up: apply(&transpose(plate), [0.0, 1.0, 0.0]), unit_mass_kg: md }
+/// The front hold as the solver sees it: tube 1's tip held at `tip` (m),
+/// the plate's frame `plate`, the driving unit's mass (kg). The world is
+/// `x = plate R'_P^T (x' - x'_tip) + tip` in the solver's picture (module
+/// doc); planes of the scene are kept in the held plate's frame, origin at
+/// tube 1's tip, where they stay put while the picture's plate turns.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct FrontHold {
+    pub tip: Vec3,
+    pub plate: Mat3,
+    pub unit_mass_kg: f64,
+}
+
+impl FrontHold {
+    /// Gravity turning with the plate: up in the held plate's frame.
+    pub fn hanging(&self) -> Hanging {
+        Hanging { up: apply(&transpose(&self.plate), [0.0, 1.0, 0.0]), unit_mass_kg: self.unit_mass_kg }
+    }
+
+    /// A world plane in the held plate's frame.
+    pub fn plane_local(&self, plane: &Plane3) -> Plane3 {
+        let back = transpose(&self.plate);
+        Plane3 { point_m: apply(&back, axpy(-1.0, self.tip, plane.point_m)), normal: apply(&back, plane.normal) }
+    }
+
+    /// A plane of the held plate's frame in the world.
+    pub fn plane_world(&self, plane: &Plane3) -> Plane3 {
+        Plane3 {
+            point_m: axpy(1.0, self.tip, apply(&self.plate, plane.point_m)),
+            normal: apply(&self.plate, plane.normal),
+        }
+    }
 }
 
 /// A hold's point (named `point_field`) must be finite and its frame (named
@@ -237,6 +278,15 @@ pub struct Hanging {
     pub up: Vec3,
     /// The driving unit's mass `Md` (kg).
     pub unit_mass_kg: f64,
+}
+
+/// A term of [`Body3::plate_bilinear`] at one point: its value and the
+/// plate's own gradient and Hessian block.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PlateTerm {
+    pub value: f64,
+    pub gradient: Vec3,
+    pub hessian: Mat3,
 }
 
 /// Which cup holds the 3D body.
@@ -428,41 +478,76 @@ impl Body3 {
 }
 
 impl Body3 {
-    /// The hanging gravity of [`Hanging`] at `param` into `ev` (module doc).
+    /// The hanging gravity of [`Hanging`] at `param` into `ev` (module doc):
+    /// `g` times the bilinear term of [`Body3::plate_bilinear`] with `u` up
+    /// in the held plate's frame, `K` and `c_ij` the masses' first moments.
     pub(crate) fn add_hanging(&self, frames: &Frames, hang: &Hanging, param: Param, ev: &mut Eval3) {
         let g = param.load * self.gravity();
+        let p = self.links() - 1;
+        let tubes = [0, 1, 2].map(|i| self.tube(i));
+        let mass = hang.unit_mass_kg + tubes.iter().map(|t| t.total_mass()).sum::<f64>();
+        let mut constant = axpy(-mass, tubes[0].root(), scale(hang.unit_mass_kg, self.unit_centre()));
+        for tube in &tubes {
+            constant = axpy(tube.total_mass(), tube.root(), constant);
+        }
+        let coefficient = |i: usize, j: usize| {
+            let tube = tubes[i];
+            param.scale[i] * (tube.levers()[j] - if i == 0 { mass * tube.lengths()[j] } else { 0.0 })
+        };
+        let plate = self.plate_bilinear(frames, hang.up, constant, coefficient, |u, grad, hess, cross| {
+            ev.add_gradient(u, grad, g);
+            ev.add_hessian(u, u, &scale_mat(g, &hess));
+            ev.add_hessian(p, u, &scale_mat(g, &cross));
+        });
+        ev.energy += g * plate.value;
+        ev.add_gradient(p, plate.gradient, g);
+        ev.add_hessian(p, p, &scale_mat(g, &plate.hessian));
+    }
+
+    /// The terms of `f = (R_P u) . (K + sum_ij c_ij R_ij e_x)` (module doc:
+    /// the hanging gravity over `g`, and a contact's gap under the front
+    /// hold, [`super::contact3`]), `R_P` the plate's frame, `u` a vector in
+    /// it, `K` a constant vector and `c_ij = coefficient(i, j)` (m, or kg m
+    /// for gravity). Calls `link(u, df/ddelta_u, d2f/ddelta_u^2,
+    /// d2f/ddelta_P ddelta_u)` for every link but the plate with `c_ij != 0`
+    /// (the last block's rows the plate's coordinates, its columns the
+    /// link's), and returns `f` with the plate's own gradient and Hessian
+    /// block. No allocation.
+    pub(crate) fn plate_bilinear(
+        &self,
+        frames: &Frames,
+        up: Vec3,
+        constant: Vec3,
+        coefficient: impl Fn(usize, usize) -> f64,
+        mut link: impl FnMut(usize, Vec3, Mat3, Mat3),
+    ) -> PlateTerm {
         let f = frames.as_slice();
         let p = self.links() - 1;
         let plate = f[p];
-        let s = apply(&plate, hang.up);
-        let tubes = [0, 1, 2].map(|i| self.tube(i));
-        let mass = hang.unit_mass_kg + tubes.iter().map(|t| t.total_mass()).sum::<f64>();
-        let mut w = axpy(-mass, tubes[0].root(), scale(hang.unit_mass_kg, self.unit_centre()));
+        let s = apply(&plate, up);
+        let mut w = constant;
         let mut own = 0.0;
-        for (i, tube) in tubes.iter().enumerate() {
-            w = axpy(tube.total_mass(), tube.root(), w);
-            let scaled = param.scale[i];
-            for (j, (lever, length)) in tube.levers().iter().zip(tube.lengths()).enumerate() {
-                let c = scaled * (lever - if i == 0 { mass * length } else { 0.0 });
+        for i in 0..3 {
+            for j in 0..self.tube(i).len() {
+                let c = coefficient(i, j);
                 let u = self.index(i, j);
+                if c == 0.0 {
+                    continue;
+                }
                 if u == p {
                     // (R_P u) . (R_P e_x) = u . e_x: a constant.
-                    own = c * hang.up[0];
+                    own = c * up[0];
                     continue;
                 }
                 let r = &f[u];
                 w = axpy(c, [r[0][0], r[1][0], r[2][0]], w);
-                let (grad, hess) = linear_terms(r, scale(g * c, s), E_X);
-                ev.add_gradient(u, grad, 1.0);
-                ev.add_hessian(u, u, &hess);
-                let cross_block = mul(&mul(&hat(hang.up), &mul_tn(&plate, r)), &hat(E_X));
-                ev.add_hessian(p, u, &add_scaled(-g * c, &cross_block, &[[0.0; 3]; 3]));
+                let (grad, hess) = linear_terms(r, scale(c, s), E_X);
+                let cross_block = mul(&mul(&hat(up), &mul_tn(&plate, r)), &hat(E_X));
+                link(u, grad, hess, scale_mat(-c, &cross_block));
             }
         }
-        ev.energy += g * (dot(s, w) + own);
-        let (grad, hess) = linear_terms(&plate, scale(g, w), hang.up);
-        ev.add_gradient(p, grad, 1.0);
-        ev.add_hessian(p, p, &hess);
+        let (gradient, hessian) = linear_terms(&plate, w, up);
+        PlateTerm { value: dot(s, w) + own, gradient, hessian }
     }
 
     /// The Lagrangian's derivatives of the body hanging as `hang` says
@@ -476,22 +561,45 @@ impl Body3 {
     /// each holding cup's reaction and verdict. A plate frame that is not a
     /// rotation or a tip that is not finite is refused, naming the field.
     pub fn solve_held(&self, robot: &Robot, hold: Hold3, solver: &Solver) -> Result<Held3, StanceError> {
+        self.held_among(robot, hold, solver, None)
+    }
+
+    /// [`Body3::solve_held`], among `scene`'s solids with the tubes' centre
+    /// lines `clearance` (m) from them when `scene` is `Some((scene,
+    /// clearance))` ([`super::contact3`]).
+    pub(crate) fn held_among(
+        &self,
+        robot: &Robot,
+        hold: Hold3,
+        solver: &Solver,
+        scene: Option<(&Scene3, f64)>,
+    ) -> Result<Held3, StanceError> {
+        let md = robot.driving_unit.mass_kg;
         match hold {
             Hold3::Rear => {
-                let equilibrium = self.solve(solver)?;
+                let equilibrium = self.picture(solver, None, scene)?;
                 let rear = Some(self.rear_cup(robot, &equilibrium)?);
                 Ok(Held3 { hold, body: self.clone(), equilibrium, rear, front: None, pivot_turn_rad: None })
             }
             Hold3::Front { tip_m, plate } => {
                 check_hold("front hold tip (m)", tip_m, "front hold plate frame", &plate)?;
-                let md = robot.driving_unit.mass_kg;
-                let picture = self.solve_on(solver, Some(hanging(&plate, md)))?;
-                let (body, equilibrium) = self.hung(&picture, tip_m, &plate);
+                let held = FrontHold { tip: tip_m, plate, unit_mass_kg: md };
+                let picture = self.picture(solver, Some(&held), scene)?;
+                let (body, equilibrium) = self.hung(&picture, &held);
                 let front = Some(body.front_cup(robot, &equilibrium, md)?);
                 Ok(Held3 { hold, body, equilibrium, rear: None, front, pivot_turn_rad: None })
             }
             Hold3::Both { tip_m, plate } => {
                 check_hold("both holds: front tip (m)", tip_m, "both holds: front plate frame", &plate)?;
+                if scene.is_some() {
+                    return Err(InputError::Invalid {
+                        field: "hold".into(),
+                        value: "both".into(),
+                        allowed: "rear, front or front-pivot among a scene's solids (both cups are solved without one)"
+                            .into(),
+                    }
+                    .into());
+                }
                 let equilibrium = self
                     .solve_both_on(solver, FrontTarget { tip: tip_m, plate })
                     .map_err(|source| self.beyond_reach(source, tip_m))?;
@@ -503,8 +611,23 @@ impl Body3 {
             }
             Hold3::FrontPivot { centre_m, plate } => {
                 check_hold("front pivot centre (m)", centre_m, "front pivot plate frame", &plate)?;
-                self.swing(robot, hold, centre_m, &plate, solver)
+                self.swing(robot, hold, centre_m, &plate, solver, scene)
             }
+        }
+    }
+
+    /// The equilibrium on the hold's path in the solver's picture: the rear
+    /// hold's (`front` none) or the front hold's, among the solids of
+    /// `scene` when there is one.
+    fn picture(
+        &self,
+        solver: &Solver,
+        front: Option<&FrontHold>,
+        scene: Option<(&Scene3, f64)>,
+    ) -> Result<Equilibrium3, crate::statics::SolveError> {
+        match scene {
+            None => self.solve_on(solver, front.map(FrontHold::hanging)),
+            Some((scene, clearance)) => self.solve_among_on(solver, scene, clearance, front),
         }
     }
 
@@ -522,22 +645,30 @@ impl Body3 {
         centre: Vec3,
         plate: &Mat3,
         solver: &Solver,
+        scene: Option<(&Scene3, f64)>,
     ) -> Result<Held3, StanceError> {
         let md = robot.driving_unit.mass_kg;
         let normal = [plate[0][1], plate[1][1], plate[2][1]];
         let tip = axpy(robot.body.tip_spacing_m + robot.cup.front_offset_m, normal, centre);
-        let frame = |turn: f64| mul(&exp(scale(turn, normal)), plate);
+        let front = |turn: f64| FrontHold { tip, plate: mul(&exp(scale(turn, normal)), plate), unit_mass_kg: md };
         // The surface's moment about n on the plate turned by `turn`, from a
         // picture converged there.
         let moment = |picture: &Equilibrium3, turn: f64| -> Result<(f64, Held3), StanceError> {
-            let (body, equilibrium) = self.hung(picture, tip, &frame(turn));
+            let (body, equilibrium) = self.hung(picture, &front(turn));
             let front = body.front_cup(robot, &equilibrium, md)?;
             let m = dot(front.reaction.moment_nm, normal);
             Ok((m, Held3 { hold, body, equilibrium, rear: None, front: Some(front), pivot_turn_rad: Some(turn) }))
         };
-        let settle =
-            |from: &Equilibrium3, turn: f64| self.solve_from_on(solver, &from.frames, Some(hanging(&frame(turn), md)));
-        let mut picture = self.solve_on(solver, Some(hanging(plate, md)))?;
+        // A warm start from the last turn's picture and, among solids, its
+        // contact rows (their world planes: the scene stays in the world).
+        let settle = |from: &Equilibrium3, last: &Held3, turn: f64| match scene {
+            None => self.solve_from_on(solver, &from.frames, Some(front(turn).hanging())),
+            Some((scene, clearance)) => {
+                let rows: Vec<ContactRow3> = last.equilibrium.contacts.iter().map(|c| c.row).collect();
+                self.solve_among_from(solver, &from.frames, &rows, scene, clearance, &front(turn))
+            }
+        };
+        let mut picture = self.picture(solver, Some(&front(0.0)), scene)?;
         let (mut m, mut held) = moment(&picture, 0.0)?;
         let scale_nm = held.front.as_ref().map_or(0.0, |f| f.reaction.force_n[1]) * self.tube(0).tube_length();
         let tolerance = PIVOT_TOLERANCE * scale_nm.max(f64::MIN_POSITIVE);
@@ -552,7 +683,7 @@ impl Body3 {
                 break;
             }
             let next = turn + direction * SWING_STEP;
-            let ahead = settle(&picture, next)?;
+            let ahead = settle(&picture, &held, next)?;
             iterations += ahead.iterations;
             events.extend_from_slice(&ahead.events);
             let (m_next, held_next) = moment(&ahead, next)?;
@@ -571,7 +702,7 @@ impl Body3 {
                     break;
                 }
                 let c = bracket.next();
-                let here = settle(&picture, c)?;
+                let here = settle(&picture, &held, c)?;
                 iterations += here.iterations;
                 events.extend_from_slice(&here.events);
                 let (mc, held_c) = moment(&here, c)?;
@@ -594,10 +725,11 @@ impl Body3 {
     }
 
     /// The hanging equilibrium `picture` (the unit fixed) turned into the
-    /// world: `G = R_f R'_P^T`, `x = G (x' - x'_tip) + P_f`.
-    fn hung(&self, picture: &Equilibrium3, tip: Vec3, plate: &Mat3) -> (Body3, Equilibrium3) {
-        let turn = mul(plate, &transpose(&self.plate_frame(&picture.frames)));
-        let shift = axpy(-1.0, apply(&turn, self.endpoint(&picture.frames)), tip);
+    /// world of the front hold `held`: `G = R_f R'_P^T`, `x = G (x' -
+    /// x'_tip) + P_f`; the contacts' planes and points with it.
+    fn hung(&self, picture: &Equilibrium3, held: &FrontHold) -> (Body3, Equilibrium3) {
+        let turn = mul(&held.plate, &transpose(&self.plate_frame(&picture.frames)));
+        let shift = axpy(-1.0, apply(&turn, self.endpoint(&picture.frames)), held.tip);
         let body = self.placed(&turn, shift);
         let mut equilibrium = picture.clone();
         equilibrium.frames = Frames(picture.frames.as_slice().iter().map(|r| mul(&turn, r)).collect());
@@ -606,6 +738,10 @@ impl Body3 {
             let rows = &mut equilibrium.summary.multipliers[6 * side..6 * side + 3];
             let force = apply(&turn, [rows[0], rows[1], rows[2]]);
             rows.copy_from_slice(&force);
+        }
+        for contact in &mut equilibrium.contacts {
+            contact.row.plane = held.plane_world(&contact.row.plane);
+            contact.point_m = body.link_tip(&equilibrium.frames, contact.row.tube, contact.row.link);
         }
         (body, equilibrium)
     }
@@ -626,16 +762,23 @@ impl Body3 {
         (mass, first)
     }
 
-    /// The front cup holding the body alone at `eq` (world frames): its face
+    /// The front cup holding the body at `eq` (world frames): its face
     /// (`c + front_offset` from tube 1's tip along the plate's right normal
     /// `-R_P e_y`), the surface's normal `R_P e_y`, and the reaction by the
-    /// whole robot's balance (it carries everything): `F = (0, g M, 0)`,
-    /// `M = (X - M c) x (0, g, 0)`.
+    /// whole robot's balance: it carries what the contacts with a scene's
+    /// solids (forces `f_c = mu_c n_c` at `p_c`) do not,
+    /// `F = (0, g M, 0) - sum_c f_c`,
+    /// `M = (X - M c) x (0, g, 0) - sum_c (p_c - c) x f_c`.
     fn front_cup(&self, robot: &Robot, eq: &Equilibrium3, unit_mass_kg: f64) -> Result<CupState3, InputError> {
         let (centre, normal) = self.front_face(robot, &eq.frames);
         let (mass, first) = self.first_moment(&eq.frames, unit_mass_kg);
         let up = [0.0, self.gravity(), 0.0];
-        let reaction = Wrench { force_n: scale(mass, up), moment_nm: cross(axpy(-mass, centre, first), up) };
+        let mut reaction = Wrench { force_n: scale(mass, up), moment_nm: cross(axpy(-mass, centre, first), up) };
+        for c in &eq.contacts {
+            let f = scale(c.force_n, c.row.plane.normal);
+            reaction.force_n = axpy(-1.0, f, reaction.force_n);
+            reaction.moment_nm = axpy(-1.0, cross(axpy(-1.0, centre, c.point_m), f), reaction.moment_nm);
+        }
         cup_state(robot, centre, normal, reaction)
     }
 

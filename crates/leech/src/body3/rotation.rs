@@ -297,7 +297,8 @@ impl PairTerms {
     }
 }
 
-fn scale_mat(s: f64, a: &Mat3) -> Mat3 {
+/// `s a`.
+pub fn scale_mat(s: f64, a: &Mat3) -> Mat3 {
     add_scaled(s, a, &[[0.0; 3]; 3])
 }
 

@@ -27,8 +27,8 @@
 
 use super::body3::{distance, retract, Body3, Eval3, Frames, Param, PLATE_ROWS};
 use super::contact3::{Contact3, ContactEval, ContactRow3};
-use super::hold3::{FrontTarget, Hanging, FRONT_ROWS};
-use super::rotation::{apply, axpy, cross};
+use super::hold3::{FrontHold, FrontTarget, Hanging, FRONT_ROWS};
+use super::rotation::{apply, axpy, cross, dot};
 use crate::linalg::{BorderedLdl, MAX_BORDER};
 use crate::scene::Scene3;
 use crate::statics::{BranchRule, Equilibrium, Event, Side, SolveError, Solver, Stage, StopReason};
@@ -46,9 +46,24 @@ const ESCAPE_BISECTIONS: usize = 30;
 /// the contact rows' active set.
 pub const LOAD_STAGES: usize = 8;
 
+/// Two contact planes at one tip whose normals' cosine is above this
+/// (within 1e-3 rad) face the same way: only the one the tip is inside keeps
+/// a row.
+const PARALLEL: f64 = 0.9999995;
+
 /// Active-set changes allowed per link before the solve among solids gives
 /// up ([`StopReason::ActiveSetCycling`]).
 const ACTIVE_SET_CHANGES: usize = 4;
+
+/// A solve among a scene's solids: the scene, the clearance (m) the tubes'
+/// centre lines keep, the front hold if the body hangs from it, and the
+/// active set's changes so far (a bound stops a cycling set).
+struct Among<'a> {
+    scene: &'a Scene3,
+    clearance: f64,
+    front: Option<&'a FrontHold>,
+    changes: usize,
+}
 
 /// A converged equilibrium of the 3D body: its frames, and the solve's
 /// summary as the planar solver gives it, whose `q` holds every link's
@@ -356,66 +371,121 @@ impl Body3 {
     /// The equilibrium among `scene`'s solids on the default path: the
     /// tubes fed at `g = 0` as [`Body3::solve`] does, then gravity raised
     /// in [`LOAD_STAGES`] stages, each settled with the contact rows'
-    /// active set (docs/model3d.md section 12): a row whose force pulls is
-    /// released (the one pulling hardest first), then every link tip
-    /// inside a solid gets a row against the plane of the solid nearest to
-    /// it, until neither happens.
+    /// active set ([`Body3::settle_among`]); held at the front when `front`
+    /// says so (the picture of [`super::hold3`]).
     pub(crate) fn solve_among_on(
         &self,
         solver: &Solver,
         scene: &Scene3,
         clearance: f64,
+        front: Option<&FrontHold>,
     ) -> Result<Equilibrium3, SolveError> {
-        let mut work = Work::new(self, None);
+        let hang = front.map(FrontHold::hanging);
+        let mut work = Work::new(self, hang);
         let mut state = State::new(self.straight());
         let mut residual = self.feed(solver, &mut state, &mut work)?;
+        let mut among = Among { scene, clearance, front, changes: 0 };
+        for stage in 1..=LOAD_STAGES {
+            let load = stage as f64 / LOAD_STAGES as f64;
+            let param = Param { load, hang, ..Param::FULL };
+            residual = self.settle_among(solver, &mut state, param, Stage::Load, &mut among, &mut work)?;
+        }
+        Ok(self.finish(solver, state, residual, Param { hang, ..Param::FULL }, &mut work))
+    }
+
+    /// The equilibrium held at the front by `front` among `scene`'s solids
+    /// reached from `frames` (the solver's picture) with gravity on, the
+    /// active set starting from `rows` (their planes in the world): a warm
+    /// start, as the swing on a free front joint takes from one turn to the
+    /// next.
+    pub(crate) fn solve_among_from(
+        &self,
+        solver: &Solver,
+        frames: &Frames,
+        rows: &[ContactRow3],
+        scene: &Scene3,
+        clearance: f64,
+        front: &FrontHold,
+    ) -> Result<Equilibrium3, SolveError> {
+        let hang = Some(front.hanging());
+        let mut work = Work::new(self, hang);
+        let mut state = State::new(frames.clone());
+        let local: Vec<ContactRow3> =
+            rows.iter().map(|r| ContactRow3 { plane: front.plane_local(&r.plane), ..*r }).collect();
+        state.lambda.resize(PLATE_ROWS + local.len(), 0.0);
+        work.set_contacts(self, &local);
+        let mut among = Among { scene, clearance, front: Some(front), changes: 0 };
+        let param = Param { hang, ..Param::FULL };
+        let residual = self.settle_among(solver, &mut state, param, Stage::WarmStart, &mut among, &mut work)?;
+        Ok(self.finish(solver, state, residual, param, &mut work))
+    }
+
+    /// Settles at `param` with the contact rows' active set updated until it
+    /// stands (docs/model3d.md section 12): a row whose force pulls is
+    /// released (the one pulling hardest first), then every tube's deepest
+    /// link tip inside a solid gets a row against that solid's plane, until
+    /// neither happens. The residual at the end.
+    fn settle_among(
+        &self,
+        solver: &Solver,
+        state: &mut State,
+        param: Param,
+        stage: Stage,
+        among: &mut Among,
+        work: &mut Work,
+    ) -> Result<f64, SolveError> {
         let k = self.moment_scale();
         // A gap within the tolerance is closed; a force within it is zero.
         let gap_tolerance = solver.options.tolerance * self.row_scale(0);
         let force_tolerance = solver.options.tolerance * k / self.row_scale(0);
         let mut candidates = Vec::new();
-        let mut changes = 0;
-        for stage in 1..=LOAD_STAGES {
-            let at = stage as f64 / LOAD_STAGES as f64;
-            let param = Param { load: at, ..Param::FULL };
-            loop {
-                residual = self.settle_reporting(solver, &mut state, param, at, Stage::Load, &mut work)?;
-                let forces = &state.lambda[PLATE_ROWS..];
-                let pulling = (0..forces.len()).filter(|r| forces[*r] < -force_tolerance);
-                let mut rows = work.contacts.clone();
-                if let Some(r) = pulling.min_by(|a, b| forces[*a].total_cmp(&forces[*b])) {
-                    rows.remove(r);
-                    state.lambda.remove(PLATE_ROWS + r);
-                } else {
-                    // Each tube's deepest point inside, one at a time: a body
-                    // sagging through a floor would otherwise bring all its
-                    // points at once, where a few rows lift the rest.
-                    self.contact_rows(&state.frames, scene, clearance, -gap_tolerance, &mut candidates);
-                    let before = rows.len();
-                    for tube in 0..3 {
-                        let new = candidates.iter().filter(|c| c.tube == tube);
-                        let new = new.filter(|c| !rows.iter().any(|r| r.tube == c.tube && r.link == c.link));
-                        let gap = |c: &&ContactRow3| self.contact_gap(&state.frames, c);
-                        if let Some(c) = new.min_by(|a, b| gap(a).total_cmp(&gap(b))) {
+        loop {
+            let residual = self.settle_reporting(solver, state, param, param.load, stage, work)?;
+            let forces = &state.lambda[PLATE_ROWS..];
+            let pulling = (0..forces.len()).filter(|r| forces[*r] < -force_tolerance);
+            let mut rows = work.contacts.clone();
+            if let Some(r) = pulling.min_by(|a, b| forces[*a].total_cmp(&forces[*b])) {
+                rows.remove(r);
+                state.lambda.remove(PLATE_ROWS + r);
+            } else {
+                // Each tube's deepest point inside, one at a time: a body
+                // sagging through a floor would otherwise bring all its
+                // points at once, where a few rows lift the rest.
+                let (scene, clearance, front) = (among.scene, among.clearance, among.front);
+                self.contact_rows_in(&state.frames, scene, clearance, -gap_tolerance, front, &mut candidates);
+                let mut changed = false;
+                for tube in 0..3 {
+                    let new = candidates.iter().filter(|c| c.tube == tube);
+                    let same_tip = |r: &ContactRow3, c: &ContactRow3| (r.tube, r.link) == (c.tube, c.link);
+                    // A tip has at most one row per solid (two in a corner).
+                    let new = new.filter(|c| !rows.iter().any(|r| same_tip(r, c) && r.solid == c.solid));
+                    let gap = |c: &&ContactRow3| self.row_gap(&state.frames, c, front.is_some());
+                    let Some(c) = new.min_by(|a, b| gap(a).total_cmp(&gap(b))) else { continue };
+                    changed = true;
+                    // Two rows of one tip facing the same way would be
+                    // dependent: the plane it is inside replaces the other.
+                    let parallel = |r: &ContactRow3| same_tip(r, c) && dot(r.plane.normal, c.plane.normal) > PARALLEL;
+                    match rows.iter().position(parallel) {
+                        Some(r) => rows[r] = *c,
+                        None => {
                             rows.push(*c);
                             state.lambda.push(0.0);
                         }
                     }
-                    if rows.len() == before {
-                        break;
-                    }
-                    if 3 + PLATE_ROWS + rows.len() > MAX_BORDER {
-                        return Err(fail(solver, Stage::Load, &state, residual, StopReason::TooManyActiveRows));
-                    }
                 }
-                changes += 1;
-                if changes > ACTIVE_SET_CHANGES * self.links() {
-                    return Err(fail(solver, Stage::Load, &state, residual, StopReason::ActiveSetCycling));
+                if !changed {
+                    return Ok(residual);
                 }
-                work.set_contacts(self, &rows);
+                if 3 + PLATE_ROWS + rows.len() > MAX_BORDER {
+                    return Err(fail(solver, stage, state, residual, StopReason::TooManyActiveRows));
+                }
             }
+            among.changes += 1;
+            if among.changes > ACTIVE_SET_CHANGES * self.links() {
+                return Err(fail(solver, stage, state, residual, StopReason::ActiveSetCycling));
+            }
+            work.set_contacts(self, &rows);
         }
-        Ok(self.finish(solver, state, residual, Param::FULL, &mut work))
     }
 
     /// The equilibrium reached from `frames` with gravity on, without

@@ -31,7 +31,10 @@ fn on_floor(robot: &Robot, lengths: [f64; 3]) -> (Held3, Scene3) {
 }
 
 /// Every contact pushes and touches, every other link tip keeps the clearance;
-/// the rear reaction, the contacts and gravity balance the whole body.
+/// the holding cup's reaction, the contacts and gravity balance the whole
+/// body. Held at the front, the driving unit also hangs free: the forces and
+/// spring moments at the tubes' roots (the weld's and the contacts'
+/// multipliers) balance its weight with the front cup's force.
 fn check(robot: &Robot, held: &Held3, scene: &Scene3) {
     let (body, eq) = (&held.body, &held.equilibrium);
     assert!(eq.stable);
@@ -48,8 +51,8 @@ fn check(robot: &Robot, held: &Held3, scene: &Scene3) {
             assert!(d >= radius - 1e-9, "tube {tube} link {link}: {d} from the solid");
         }
     }
-    // Whole-body balance about the rear cup's centre.
-    let rear = held.rear.as_ref().unwrap();
+    // Whole-body balance about the holding cup's centre.
+    let rear = held.rear.as_ref().or(held.front.as_ref()).unwrap();
     let g = body.gravity();
     let (mass, first) = body.first_moment(&eq.frames, robot.driving_unit.mass_kg);
     let mut force = rear.reaction.force_n;
@@ -66,6 +69,10 @@ fn check(robot: &Robot, held: &Held3, scene: &Scene3) {
     for a in 0..3 {
         assert!((force[a] - weight[a]).abs() < 1e-8 * w, "force {force:?} against {weight:?}");
         assert!((moment[a] - expected_moment[a]).abs() < 1e-8 * w, "moment {moment:?} against {expected_moment:?}");
+    }
+    if held.front.is_some() {
+        let (force, moment) = crate::body3_hold::unit_imbalance(held, robot.driving_unit.mass_kg);
+        assert!(force.iter().chain(&moment).all(|x| x.abs() < 1e-8 * w), "the unit: {force:?} {moment:?}");
     }
 }
 
@@ -134,9 +141,160 @@ fn a_bad_clearance_or_hold_is_refused() {
     let floor = floor_under(&body, &robot);
     let e = body.solve_among(&Solver::default(), &floor, f64::NAN).unwrap_err().to_string();
     assert!(e.starts_with("clearance (m)"), "{e}");
-    let hold = Hold3::Front { tip_m: [0.3, 0.0, 0.0], plate: body.base_frame() };
+    let plate = [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 1.0]];
+    let hold = Hold3::Front { tip_m: [0.3, 0.0, 0.0], plate };
     let e = body.solve_held_among(&robot, hold, &floor, &Solver::default()).unwrap_err().to_string();
-    assert!(e.starts_with("hold"), "{e}");
+    assert!(e.starts_with("front hold plate frame"), "{e}");
+    let hold = Hold3::FrontPivot { centre_m: [f64::NAN, 0.0, 0.0], plate: body.base_frame() };
+    let e = body.solve_held_among(&robot, hold, &floor, &Solver::default()).unwrap_err().to_string();
+    assert!(e.starts_with("front pivot centre (m)"), "{e}");
+}
+
+/// The front cup on a vertical wall (outward normal `+z`), the plate along
+/// `+x` (so the body lies along the wall, tubes 2 and 3 on the wall's side),
+/// and the floor `drop` (m) below the face's centre; the face's centre.
+fn wall_and_floor(drop: f64) -> (Scene3, [[f64; 3]; 3], [f64; 3]) {
+    let plate = [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]];
+    let centre = [0.5, 1.0, 0.0];
+    let wall = Solid3::HalfSpace { point_m: [0.0, 0.0, 0.0], normal: [0.0, 0.0, 1.0] };
+    let floor = Solid3::HalfSpace { point_m: [0.0, centre[1] - drop, 0.0], normal: [0.0, 1.0, 0.0] };
+    (Scene3::new("wall and floor", vec![wall, floor]).unwrap(), plate, centre)
+}
+
+/// Held by the front cup on a wall, the body lying along it sags onto a
+/// floor a little below: contacts on the floor, each pushing and touching,
+/// the whole body in balance with the front cup and the unit hanging free.
+#[test]
+fn a_body_held_on_a_wall_rests_on_the_floor() {
+    let robot = Robot::builtin();
+    let (scene, plate, centre) = wall_and_floor(0.03);
+    let tip = axpy(robot.body.tip_spacing_m + robot.cup.front_offset_m, [0.0, 0.0, 1.0], centre);
+    for lengths in [[0.25, 0.25, 0.25], [0.25, 0.22, 0.27]] {
+        let body = Body3::from_robot(&robot, lengths).unwrap();
+        let held = body.solve_held_among(&robot, Hold3::Front { tip_m: tip, plate }, &scene, &Solver::default());
+        let held = held.unwrap();
+        check(&robot, &held, &scene);
+        let eq = &held.equilibrium;
+        assert!(eq.contacts.iter().any(|c| c.row.solid == 1), "{lengths:?}: nothing rests on the floor");
+        let force: f64 = eq.contacts.iter().map(|c| c.force_n).sum();
+        let front = held.front.as_ref().unwrap();
+        eprintln!(
+            "front hold on a wall, {lengths:?}: {} contacts ({} on the wall), {force:.6} N, front cup {:?} N, safety {:.3}",
+            eq.contacts.len(),
+            eq.contacts.iter().filter(|c| c.row.solid == 0).count(),
+            front.reaction.force_n,
+            front.verdict.safety_factor
+        );
+        // Without the floor it hangs lower: the floor holds it up.
+        let free = body.solve_held(&robot, Hold3::Front { tip_m: tip, plate }, &Solver::default()).unwrap();
+        let low = |h: &Held3| {
+            (0..3).flat_map(|i| h.body.points(&h.equilibrium.frames, i)).fold(f64::INFINITY, |m, p| m.min(p[1]))
+        };
+        assert!(low(&free) < low(&held) - 1e-3, "{} {}", low(&free), low(&held));
+    }
+}
+
+/// Solids out of reach change nothing: the front hold and the free front
+/// joint among them are the holds without a scene.
+#[test]
+fn far_solids_change_nothing_under_the_front_holds() {
+    let robot = Robot::builtin();
+    let solver = Solver::default();
+    let (_, plate, centre) = wall_and_floor(0.0);
+    let far = Scene3::new("far", vec![Solid3::HalfSpace { point_m: [0.0, -50.0, 0.0], normal: [0.0, 1.0, 0.0] }]);
+    let far = far.unwrap();
+    let tip = axpy(robot.body.tip_spacing_m + robot.cup.front_offset_m, [0.0, 0.0, 1.0], centre);
+    let body = Body3::from_robot(&robot, [0.25, 0.22, 0.27]).unwrap();
+    for (hold, tolerance) in
+        [(Hold3::Front { tip_m: tip, plate }, 1e-12), (Hold3::FrontPivot { centre_m: centre, plate }, 1e-12)]
+    {
+        let alone = body.solve_held(&robot, hold, &solver).unwrap();
+        let among = body.solve_held_among(&robot, hold, &far, &solver).unwrap();
+        assert!(among.equilibrium.contacts.is_empty());
+        let mut apart = 0.0f64;
+        for i in 0..3 {
+            let a = alone.body.points(&alone.equilibrium.frames, i);
+            let b = among.body.points(&among.equilibrium.frames, i);
+            for (p, q) in a.iter().zip(&b) {
+                apart = apart.max((0..3).fold(0.0f64, |m, k| m.max((p[k] - q[k]).abs())));
+            }
+        }
+        eprintln!("far solids, {hold:?}: points {apart:.2e} m apart");
+        assert!(apart < tolerance, "{hold:?}: {apart}");
+    }
+}
+
+/// With `L2 = L3`, `b = c` and the hold in the plane, the front hold on a
+/// floor (the face on it, the body lying back from the plate and sagging
+/// onto it) is the planar stance's among the same planar scene: the
+/// driving unit's pose, the contact force and the front cup's reaction.
+#[test]
+fn the_front_hold_on_a_floor_is_the_planar_stance() {
+    let mut robot = Robot::builtin();
+    robot.body.tip_spacing_m = robot.body.base_spacing_m;
+    let solver = Solver::default();
+    let planar_floor = leech::scene::Scene::builtin("floor").unwrap();
+    let floor = Scene3::from_planar(&planar_floor);
+    let height = robot.body.tip_spacing_m + robot.cup.front_offset_m;
+    let (l1, l23) = (0.30, 0.28);
+    let pose = Pose::from_deg([0.5, height], 0.0);
+    let planar = stance::solve_in(&robot, [l1, l23], Hold::Front(pose), &planar_floor, &solver).unwrap();
+    let body = Body3::from_robot(&robot, [l1, l23, l23]).unwrap();
+    let hold = Hold3::Front { tip_m: [0.5, height, 0.0], plate: leech::body3::rotation::rot_z(0.0) };
+    let held = body.solve_held_among(&robot, hold, &floor, &solver).unwrap();
+    check(&robot, &held, &floor);
+    let eq = &held.equilibrium;
+    assert!(!eq.contacts.is_empty() && !planar.contacts.is_empty(), "the body does not reach the floor");
+    let root = held.body.tube(0).root();
+    let base = held.body.base_frame();
+    let unit_angle = base[1][0].atan2(base[0][0]);
+    let gap = (root[0] - planar.unit.point_m[0]).hypot(root[1] - planar.unit.point_m[1]);
+    let turn = (unit_angle - planar.unit.angle_rad).sin();
+    let total: f64 = eq.contacts.iter().map(|c| c.force_n).sum();
+    let planar_total: f64 = planar.contacts.iter().map(|c| c.force_n).sum();
+    eprintln!(
+        "planar front hold on a floor: unit {gap:.2e} m, {turn:.2e} rad apart, contact force {total:.9} N against {planar_total:.9} N ({} rows in 3D, {} planar)",
+        eq.contacts.len(),
+        planar.contacts.len()
+    );
+    assert!(gap < 1e-7 && turn.abs() < 1e-7 && root[2].abs() < 1e-12, "{root:?} {unit_angle} vs {:?}", planar.unit);
+    assert!((total - planar_total).abs() < 1e-7 * planar_total, "{total} against {planar_total}");
+    let cup = held.front.as_ref().unwrap();
+    let flat = planar.cups(&robot).unwrap().1.unwrap();
+    let w = flat.force_n[1].abs().max(1.0);
+    for a in 0..2 {
+        assert!((cup.reaction.force_n[a] - flat.force_n[a]).abs() < 1e-7 * w, "{cup:?} {flat:?}");
+    }
+    assert!((cup.reaction.moment_nm[2] - flat.moment_nm).abs() < 1e-7 * w, "{cup:?} {flat:?}");
+}
+
+/// On a free front joint on a wall, a floor too high for the body to hang
+/// straight down stops the swing: it ends leaning on the floor, at rest
+/// about the joint (the floor's forces' moment balancing gravity's), the
+/// whole body in balance and the unit hanging free.
+#[test]
+fn the_swing_on_a_free_front_joint_ends_on_the_floor() {
+    let robot = Robot::builtin();
+    let (scene, plate, centre) = wall_and_floor(0.12);
+    let body = Body3::from_robot(&robot, [0.25, 0.22, 0.27]).unwrap();
+    let hold = Hold3::FrontPivot { centre_m: centre, plate };
+    let held = body.solve_held_among(&robot, hold, &scene, &Solver::default()).unwrap();
+    check(&robot, &held, &scene);
+    let eq = &held.equilibrium;
+    assert!(eq.contacts.iter().any(|c| c.row.solid == 1), "nothing rests on the floor");
+    let cup = held.front.as_ref().unwrap();
+    let w = cup.reaction.force_n[1] + eq.contacts.iter().map(|c| c.force_n * c.row.plane.normal[1]).sum::<f64>();
+    let about = dot(cup.reaction.moment_nm, cup.normal);
+    let turn = held.pivot_turn_rad.unwrap();
+    eprintln!(
+        "swing onto a floor: turned {turn:.6} rad, {} contacts, moment about the joint {about:.2e} N m (weight {w:.4} N)",
+        eq.contacts.len()
+    );
+    assert!(about.abs() < 1e-9 * w * 0.25, "{about}");
+    // It swung down, but the floor stopped it short of hanging straight.
+    let (mass, first) = held.body.first_moment(&eq.frames, robot.driving_unit.mass_kg);
+    let com = scale(1.0 / mass, first);
+    assert!(turn > 0.0 && (com[0] - centre[0]).abs() > 1e-3, "{turn} {com:?}");
 }
 
 #[test]

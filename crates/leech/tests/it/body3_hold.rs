@@ -116,7 +116,7 @@ fn the_3d_verdict_reduces_to_the_planar_one() {
 /// reaction from the roots' forces and spring moments, less the front cup's
 /// force, which reaches the unit through tube 1's root (tube 1's balance).
 /// Zero when the unit hangs free.
-fn unit_imbalance(held: &leech::body3::Held3, unit_mass: f64) -> ([f64; 3], [f64; 3]) {
+pub(crate) fn unit_imbalance(held: &leech::body3::Held3, unit_mass: f64) -> ([f64; 3], [f64; 3]) {
     let about = held.body.unit_centre();
     let rear = held.body.rear_reaction(&held.equilibrium, unit_mass, about);
     let front = held.front.as_ref().unwrap().reaction.force_n;
