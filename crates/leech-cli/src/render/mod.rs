@@ -214,15 +214,17 @@ pub fn climb(out: &mut String, a: &Climb, plan: &Plan, elapsed_s: f64) -> Result
     } else {
         text::climb(out, &report, elapsed_s);
     }
-    match (&plan.status, &report.reason) {
-        (Status::Reached, _) => Ok(()),
-        (Status::Impossible, reason) => Err(Failure::Unsolved(match reason {
-            Some(r) => {
-                format!("climb impossible: {} blocked the {} phase: {}", r.blocking.name(), r.phase.name(), r.detail)
-            }
-            None => "climb impossible".into(),
-        })),
-    }
+    let verdict = match plan.status {
+        Status::Reached => return Ok(()),
+        Status::Impossible => "impossible",
+        Status::Stopped => "stopped",
+    };
+    Err(Failure::Unsolved(match &report.reason {
+        Some(r) => {
+            format!("climb {verdict}: {} blocked the {} phase: {}", r.blocking.name(), r.phase.name(), r.detail)
+        }
+        None => format!("climb {verdict}"),
+    }))
 }
 
 /// `leech climb` of a sideways scenario: JSON (units in the keys) or one
@@ -274,10 +276,12 @@ pub fn sideways(out: &mut String, a: &ClimbSideways, plan: &SidewaysPlan) -> Res
     } else {
         text::sideways(out, a, plan);
     }
-    match (&plan.status, &plan.reason) {
-        (Status::Reached, _) => Ok(()),
-        (Status::Impossible, reason) => {
-            Err(Failure::Unsolved(format!("sideways climb impossible: {}", reason.as_deref().unwrap_or("no reason"))))
+    let reason = plan.reason.as_deref().unwrap_or("no reason");
+    match plan.status {
+        Status::Reached => Ok(()),
+        Status::Impossible => Err(Failure::Unsolved(format!("sideways climb impossible: {reason}"))),
+        Status::Stopped => {
+            Err(Failure::Unsolved(format!("sideways climb stopped: {reason}; raise --time-limit to go further")))
         }
     }
 }

@@ -247,7 +247,11 @@ pub fn sideways(out: &mut String, a: &crate::args::ClimbSideways, plan: &leech::
     say!(
         out,
         "{}: {} strides of {:.4} m, {:.4} m sideways",
-        if plan.status == Status::Reached { "reached" } else { "IMPOSSIBLE" },
+        match plan.status {
+            Status::Reached => "reached",
+            Status::Impossible => "IMPOSSIBLE",
+            Status::Stopped => "STOPPED (time limit)",
+        },
         plan.strides,
         plan.stride_lateral_m,
         plan.lateral_m
@@ -288,6 +292,7 @@ pub fn climb(out: &mut String, r: &ClimbReport, elapsed_s: f64) {
     let status = match r.status {
         leech::stride::Status::Reached => "reached",
         leech::stride::Status::Impossible => "IMPOSSIBLE",
+        leech::stride::Status::Stopped => "STOPPED",
     };
     say!(
         out,
