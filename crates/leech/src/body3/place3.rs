@@ -86,8 +86,10 @@ pub fn hold_points(robot: &Robot, body: &Body3, hold: &Hold3) -> Vec<HoldPoint> 
         Hold3::FrontPivot { centre_m, plate } => (front_tip(robot, *centre_m, plate), *plate),
     };
     let corners = triangle(robot.body.tip_spacing_m / 1.5);
-    let mut points: Vec<HoldPoint> =
-        corners.iter().map(|v| on("the endpoint plate", axpy(1.0, apply(&plate, axpy(-1.0, corners[0], *v)), tip))).collect();
+    let mut points: Vec<HoldPoint> = corners
+        .iter()
+        .map(|v| on("the endpoint plate", axpy(1.0, apply(&plate, axpy(-1.0, corners[0], *v)), tip)))
+        .collect();
     let centre = front_cup_centre(robot, tip, &plate);
     points.push(HoldPoint { depth_m: pressed, ..on("the front cup's centre", centre) });
     points

@@ -341,3 +341,69 @@ impl Body3Report {
         }
     }
 }
+
+/// One tube of the constant-curvature model: an arc.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ArcTubeReport {
+    /// The tube's length (m).
+    pub length_m: f64,
+    /// Points along it, evenly spaced in arc length from its root (m).
+    pub points_m: Vec<[f64; 3]>,
+}
+
+/// The result of `leech shape3d --model constant-curvature`: the tri-tube
+/// constant-curvature model (docs/model3d.md section 9), as `leech shape
+/// --model constant-curvature` reports the planar one.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ConstantCurvature3Report {
+    /// Always `"constant-curvature"`.
+    pub model: &'static str,
+    /// Always `"converged"`: the model is closed-form.
+    pub status: &'static str,
+    /// Robot name.
+    pub robot: String,
+    /// Tube lengths L1, L2, L3 (m).
+    pub lengths_m: [f64; 3],
+    /// The backbone's length `ell` (m).
+    pub backbone_length_m: f64,
+    /// The bend `theta >= 0` (rad).
+    pub bend_rad: f64,
+    /// The bend's direction `phi` (rad, from tube 1's side towards tube 2's).
+    pub bend_direction_rad: f64,
+    /// The backbone's curvature `theta / ell` (1/m).
+    pub curvature_per_m: f64,
+    /// Endpoint: tube 1's tip (m).
+    pub endpoint_m: [f64; 3],
+    /// The plate's frame, row by row (its columns the plate's axes).
+    pub plate_frame: [[f64; 3]; 3],
+    /// Tubes 1, 2, 3.
+    pub tubes: Vec<ArcTubeReport>,
+}
+
+impl ConstantCurvature3Report {
+    /// The report of `cc` (of `robot`), each tube sampled at `samples + 1`
+    /// points (`samples >= 1`).
+    pub fn new(
+        robot: &Robot,
+        cc: &crate::body3::ConstantCurvature3,
+        samples: usize,
+    ) -> Result<ConstantCurvature3Report, crate::error::InputError> {
+        let arc = cc.arc();
+        let tubes = (0..3)
+            .map(|i| Ok(ArcTubeReport { length_m: cc.lengths()[i], points_m: cc.points(i, samples)? }))
+            .collect::<Result<_, crate::error::InputError>>()?;
+        Ok(ConstantCurvature3Report {
+            model: "constant-curvature",
+            status: "converged",
+            robot: robot.name.clone(),
+            lengths_m: cc.lengths(),
+            backbone_length_m: arc.length,
+            bend_rad: arc.bend,
+            bend_direction_rad: arc.plane,
+            curvature_per_m: cc.curvature(),
+            endpoint_m: cc.endpoint(),
+            plate_frame: cc.plate_frame(),
+            tubes,
+        })
+    }
+}

@@ -155,7 +155,9 @@ impl SceneFile3 {
             InputError::Invalid { field, value, allowed } if field == "solids" => {
                 InputError::Invalid { field: named("half_space, box".into()), value, allowed }
             }
-            InputError::Invalid { field, value, allowed } => InputError::Invalid { field: named(field), value, allowed },
+            InputError::Invalid { field, value, allowed } => {
+                InputError::Invalid { field: named(field), value, allowed }
+            }
             other => other,
         })?;
         Ok(SceneFile3 { scene, start, planar: None })
@@ -164,10 +166,9 @@ impl SceneFile3 {
     /// A planar scene read in 3D ([`Scene3::from_planar`]) with its start
     /// in the plane `z = 0`.
     pub fn from_planar(scene: &Scene) -> SceneFile3 {
-        let start = scene.start.map(|s| Start3 {
-            rear_cup_m: [s.rear_cup_m[0], s.rear_cup_m[1], 0.0],
-            direction_rad: s.direction_rad,
-        });
+        let start = scene
+            .start
+            .map(|s| Start3 { rear_cup_m: [s.rear_cup_m[0], s.rear_cup_m[1], 0.0], direction_rad: s.direction_rad });
         SceneFile3 { scene: Scene3::from_planar(scene), start, planar: Some(scene.clone()) }
     }
 }
