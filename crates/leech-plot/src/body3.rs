@@ -17,7 +17,7 @@ use leech::body3::{Body3, CupState3, Frames, Held3};
 use leech::geom::Vec2;
 use leech::robot::Robot;
 use leech::scene::{Scene3, Solid3, MAX_COORDINATE_M};
-use leech::stride::SidewaysPlan;
+use leech::stride::{SidewaysPlan, SidewaysScenario};
 
 use crate::figure::{Axes, Figure, SeriesStyle, PALETTE};
 use crate::stance::{bounds, clip, verdict, MARGIN, MIN_MARGIN_M, SOLID};
@@ -127,9 +127,13 @@ fn views(
             for (k, body) in bodies.iter().enumerate() {
                 body_series(&mut fig, view, body, v == 0 && k == 0);
             }
+            // Overlaid steps: each cup's name once in the legend, with its first verdict.
+            let mut named = Vec::new();
             for (cup, points) in cups.iter().zip(&rims) {
                 let (text, color) = verdict(cup.name, cup.holding.map(|c| &c.verdict), min_safety_factor);
-                fig.push(label(text), view.flat(points), SeriesStyle::Thick, color);
+                let text = if named.contains(&cup.name) { String::new() } else { label(text) };
+                named.push(cup.name);
+                fig.push(text, view.flat(points), SeriesStyle::Thick, color);
             }
             fig.gravity_arrow = gravity && v < 2;
             fig
@@ -313,25 +317,42 @@ fn sub(a: Vec3, b: Vec3) -> Vec3 {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
-/// A sideways plan on its wall (`wall`, a scene of one box): every step
-/// where the body moved (the start, then each stride's turn, swing, settle
-/// and release of the front cup) overlaid in one set of views, each holding
-/// cup's face where it held, coloured by its verdict. One set of views
-/// rather than one per step: the strides march along the wall (z), so the
-/// side view shows them side by side, and a picture of 1 + 4 n rows would be
-/// too tall to read.
-pub fn sideways_figure(robot: &Robot, plan: &SidewaysPlan, wall: &Scene3, title: &str) -> Figure {
+/// How thick the wall of a sideways scenario is drawn (m): it is solid
+/// beyond its face without end.
+const WALL_DRAWN_M: f64 = 0.05;
+
+/// A sideways plan on its scenario's wall: every step where the body moved
+/// (the start, then each stride's turn, swing, settle and release of the
+/// front cup) overlaid in one set of views, each holding cup's face where
+/// it held, coloured by its verdict. One set of views rather than one per
+/// step: the strides march along the wall (z), so the side view shows them
+/// side by side, and a picture of 1 + 4 n rows would be too tall to read.
+pub fn sideways_figure(robot: &Robot, scenario: &SidewaysScenario, plan: &SidewaysPlan) -> Figure {
+    let w = &scenario.wall;
+    let half = |r: [f64; 2]| 0.5 * (r[1] - r[0]);
+    let slab = Solid3::Box {
+        centre_m: [
+            w.x_m + 0.5 * WALL_DRAWN_M,
+            0.5 * (w.y_range_m[0] + w.y_range_m[1]),
+            0.5 * (w.z_range_m[0] + w.z_range_m[1]),
+        ],
+        half_extents_m: [0.5 * WALL_DRAWN_M, half(w.y_range_m), half(w.z_range_m)],
+        frame: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+    };
+    let wall = Scene3 { name: "wall".into(), solids: vec![slab] };
     let moved = plan.steps.iter().filter(|s| !s.phase.name().starts_with("attach"));
     let bodies: Vec<Tubes> = moved.clone().map(|s| Tubes::of(&s.held.body, &s.held.equilibrium.frames)).collect();
-    let mut marks = Vec::new();
-    for step in moved {
-        for mark in cups(robot, &step.held) {
-            if mark.holding.is_some() {
-                marks.push(mark);
-            }
-        }
-    }
-    views(title.to_string(), &bodies, Some(wall), &marks, true, robot.cup.min_safety_factor)
+    let marks: Vec<CupMark> =
+        moved.flat_map(|step| cups(robot, &step.held)).filter(|mark| mark.holding.is_some()).collect();
+    let title = format!(
+        "{} ({}): {} strides, {:.1} mm sideways ({:?})",
+        scenario.name,
+        robot.name,
+        plan.strides,
+        plan.lateral_m * 1e3,
+        plan.status
+    );
+    views(title, &bodies, Some(&wall), &marks, true, robot.cup.min_safety_factor)
 }
 
 #[cfg(test)]

@@ -288,6 +288,10 @@ pub fn sideways(out: &mut String, a: &ClimbSideways, plan: &SidewaysPlan) -> Res
     } else {
         text::sideways(out, a, plan);
     }
+    if let Some(path) = &a.svg {
+        // An impossible or stopped plan is drawn to where it got.
+        leech_plot::body3::sideways_figure(&a.robot, s, plan).write_svg(path)?;
+    }
     let reason = plan.reason.as_deref().unwrap_or("no reason");
     match plan.status {
         Status::Reached => Ok(()),
