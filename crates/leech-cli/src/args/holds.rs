@@ -61,7 +61,7 @@ pub(super) fn situation3(
     let given = a.scene.is_some() || a.hold.is_some() || a.front.is_some();
     if a.model == Model3Arg::ConstantCurvature {
         if given {
-            return Err(Failure::Input("--scene, --hold, --front: only with --model chain".into()));
+            return Err(Failure::Input("--scene, --hold, --front: only with --model chain, expected --model chain (the constant-curvature model has no holds)".into()));
         }
         return Ok(None);
     }
@@ -69,14 +69,20 @@ pub(super) fn situation3(
     let hold = match (a.hold.unwrap_or(Hold3Arg::Rear), front) {
         (Hold3Arg::Rear, None) => Hold3::Rear,
         (Hold3Arg::Rear, Some(_)) => {
-            return Err(Failure::Input("--front: only with --hold front, front-pivot or both".into()))
+            return Err(Failure::Input(
+                "--front: only with --hold front, front-pivot or both; expected one of them".into(),
+            ))
         }
         (Hold3Arg::Front, Some((tip_m, plate))) => Hold3::Front { tip_m, plate },
         (Hold3Arg::FrontPivot, Some((tip_m, plate))) => {
             Hold3::FrontPivot { centre_m: leech::body3::place3::front_cup_centre(robot, tip_m, &plate), plate }
         }
         // Hold3::Both: wired at merge
-        (Hold3Arg::Both, Some(_)) => return Err(Failure::Input("--hold both: not in 3D yet (a closed loop)".into())),
+        (Hold3Arg::Both, Some(_)) => {
+            return Err(Failure::Input(
+                "--hold both: got both, a closed loop not in 3D yet; expected rear, front or front-pivot".into(),
+            ))
+        }
         (held, None) => {
             let name = match held {
                 Hold3Arg::Front => "front",
