@@ -55,7 +55,7 @@ pub(super) fn sideways(a: &flags::ClimbArgs) -> Result<Option<ClimbSideways>, Fa
         None => return Ok(None),
     };
     if a.csv.is_some() {
-        return Err(Failure::Input("--csv: a sideways climb (the 3D body) has no table yet; drop --csv".into()));
+        return Err(Failure::Input("--csv: a sideways climb (the 3D body) has no table yet; expected no --csv".into()));
     }
     if let Some(svg) = &a.svg {
         leech::files::check_output(svg, "--svg", None)?;

@@ -69,9 +69,10 @@ pub(super) fn situation3(
     let hold = match (a.hold.unwrap_or(Hold3Arg::Rear), front) {
         (Hold3Arg::Rear, None) => Hold3::Rear,
         (Hold3Arg::Rear, Some(_)) => {
-            return Err(Failure::Input(
-                "--front: only with --hold front, front-pivot or both; expected one of them".into(),
-            ))
+            let given = a.front.map_or(String::new(), |v| v.map(|c| Num(c).to_string()).join(","));
+            return Err(Failure::Input(format!(
+                "--front: got {given} with the rear hold, expected --hold front, front-pivot or both with it"
+            )));
         }
         (Hold3Arg::Front, Some((tip_m, plate))) => Hold3::Front { tip_m, plate },
         (Hold3Arg::FrontPivot, Some((tip_m, plate))) => {

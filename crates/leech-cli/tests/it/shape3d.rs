@@ -283,7 +283,7 @@ fn scenes_give_contacts_and_bad_holds_exit_2_naming_the_flag() {
     let e = rejected(&["shape3d", "--lengths", "0.25,0.25,0.25", "--hold", "front"]);
     assert!(e.contains("--hold front: needs --front"), "{e}");
     let e = rejected(&["shape3d", "--lengths", "0.25,0.25,0.25", "--front", "0,0.3,0,90"]);
-    assert!(e.starts_with("leech: --front: only with --hold front"), "{e}");
+    assert!(e.starts_with("leech: --front: got 0,0.3,0,90,0,0 with the rear hold"), "{e}");
     let e = rejected(&["shape3d", "--lengths", "0.25,0.25,0.25", "--hold", "both", "--front", "0,0.3,0,90"]);
     assert!(e.starts_with("leech: --hold both"), "{e}");
     let e = rejected(&["shape3d", "--lengths", "0.25,0.25,0.25", "--hold", "front", "--front", "0,0.3,0,90,400"]);
