@@ -288,8 +288,9 @@ pub fn sideways(out: &mut String, a: &ClimbSideways, plan: &SidewaysPlan) -> Res
     } else {
         text::sideways(out, a, plan);
     }
-    if let Some(path) = &a.svg {
-        // An impossible or stopped plan is drawn to where it got.
+    if let Some(path) = a.svg.as_ref().filter(|_| !plan.steps.is_empty()) {
+        // An impossible or stopped plan is drawn to where it got (a plan
+        // stopped before its start has nothing to draw).
         leech_plot::body3::sideways_figure(&a.robot, s, plan).write_svg(path)?;
     }
     let reason = plan.reason.as_deref().unwrap_or("no reason");
