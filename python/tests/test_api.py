@@ -110,7 +110,7 @@ def test_calibration_equals_cli_from_files_and_arrays(robot, cli, tmp_path):
 def test_climb_plans_a_scenario(robot):
     name = leech.scenarios()[0][0]
     plan = robot.climb(name, time_limit_s=300)
-    assert plan.status in ("reached", "impossible")
+    assert plan.status in ("reached", "impossible", "stopped")
     assert plan.scenario and isinstance(plan.steps, list)
 
 

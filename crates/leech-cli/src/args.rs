@@ -10,7 +10,7 @@ use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use leech::body3::Body3;
+use leech::body3::{Body3, Hold3};
 use leech::budget::Deadline;
 
 use leech::calibration::{read_sag, read_shapes, BodyShape, Fit, SagTube};
@@ -20,7 +20,7 @@ use leech::error::{non_negative, positive, within, InputError, Num};
 use leech::files::{self, check_output, read_text};
 use leech::inverse_statics::check_target;
 use leech::prelude::*;
-use leech::scene::Scene;
+use leech::scene::{Scene, SceneFile3};
 use leech::stance::{FreeCups, Hold, Pose};
 use leech::stride::Scenario;
 use leech::sweep::{Grid, Model, SweepOptions};
@@ -40,7 +40,7 @@ pub use link::{Action, Drive, Run, SimRobot};
 pub use serve::Serve;
 
 pub use climb::{Climb, ClimbSideways};
-use holds::{load_scene, pose, situation};
+use holds::{load_scene, load_scene3, pose, situation, situation3};
 
 /// A command with its resolved arguments.
 // One value per run, moved once: boxing the large variants would buy nothing.
@@ -141,15 +141,20 @@ impl Shape {
     }
 }
 
-/// `leech shape3d`: today's clamped body (the rear cup holding the driving
-/// unit at the origin); holds and scenes in 3D join as [`Shape`]'s do.
+/// `leech shape3d`: the body held by a cup (the rear one at the origin, or
+/// where a scene's start puts it, by default), among a scene's solids if
+/// given; or the constant-curvature model.
 pub struct Shape3d {
     pub robot: Robot,
     pub lengths: [f64; 3],
+    /// Placed for the rear hold (a scene's start moves it).
     pub body: Body3,
     pub free_axial_rotation: bool,
-    /// The 3D solve's and, with `L2 = L3`, the planar one's beside it.
+    /// The 3D solve's and the planar one's beside it.
     pub solver: Solver,
+    /// `None` with --model constant-curvature.
+    pub hold: Option<Hold3>,
+    pub scene: Option<SceneFile3>,
     pub outputs: Outputs,
 }
 
@@ -474,16 +479,24 @@ fn shape(a: flags::ShapeArgs) -> Result<Shape, Failure> {
 }
 
 fn shape3d(a: flags::Shape3dArgs) -> Result<Shape3d, Failure> {
-    let robot = tuned(&a.robot, |robot| at_base_angle(robot, a.base_angle))?;
+    let scene = a.scene.as_deref().map(|p| load_scene3(p, "--scene")).transpose()?;
+    // Without --base-angle, a scene's [start] places the robot.
+    let start = scene.as_ref().and_then(|s| s.start).filter(|_| a.base_angle.is_none());
+    let base_angle = a.base_angle.or(start.map(|s| s.direction_rad.to_degrees()));
+    let robot = tuned(&a.robot, |robot| at_base_angle(robot, base_angle))?;
     let lengths = tube_lengths(&robot, "--lengths", a.lengths, ["L1", "L2", "L3"])?;
     // The body checks the robot for the 3D model (its discretization).
     let mut body = Body3::from_robot(&robot, lengths)?;
     if a.free_axial_rotation {
         body = body.with_free_axial_rotation();
     }
+    if let Some(start) = start {
+        body = body.with_rear_cup_at(&robot, start.rear_cup_m);
+    }
+    let hold = situation3(&a, &robot, &body, scene.as_ref(), start.is_some())?;
     let solver = solver(a.max_iterations, a.time_limit)?;
     let outputs = a.output.into();
-    Ok(Shape3d { robot, lengths, body, free_axial_rotation: a.free_axial_rotation, solver, outputs })
+    Ok(Shape3d { robot, lengths, body, free_axial_rotation: a.free_axial_rotation, solver, hold, scene, outputs })
 }
 
 fn repeat(n: usize) -> Result<NonZeroUsize, Failure> {

@@ -680,8 +680,8 @@ pub struct ShapeArgs {
     pub output: Output,
 }
 
-/// `leech shape3d`: the body held by its rear cup at the origin (holds and
-/// scenes in 3D join here as `shape`'s `--hold` and `--scene`).
+/// `leech shape3d`: the three-tube body held by a cup, among a scene's
+/// solids if given, or the constant-curvature model.
 #[derive(Debug, Args)]
 #[command(allow_negative_numbers = true)]
 pub struct Shape3dArgs {
@@ -703,8 +703,46 @@ pub struct Shape3dArgs {
     /// planar one beside it take milliseconds; 60 s only stops a runaway.
     #[arg(long, value_name = "S", default_value_t = 60.0, allow_hyphen_values = true)]
     pub time_limit: f64,
+    /// Which model: the three-tube chain body (statics) or the constant-curvature arcs.
+    #[arg(long, value_enum, default_value_t = Model3Arg::Chain)]
+    pub model: Model3Arg,
+    /// Surroundings: a built-in scene's name or a planar scene file (prisms along z), or a 3D
+    /// scene file (half-spaces and boxes); a scene's [start] places the rear cup.
+    #[arg(long, value_name = "NAME|FILE")]
+    pub scene: Option<PathBuf>,
+    /// Which cup holds (default: rear).
+    #[arg(long, value_enum)]
+    pub hold: Option<Hold3Arg>,
+    /// The front hold: tube 1's tip X,Y,Z (m), the plate's tangent angle DEG in the x-y plane (as
+    /// `shape --front`), then turns about the cup's face normal YAW_DEG and about the tangent
+    /// ROLL_DEG (default 0).
+    #[arg(long, value_name = "X,Y,Z,DEG[,YAW_DEG[,ROLL_DEG]]", value_parser = parse_front3, allow_hyphen_values = true)]
+    pub front: Option<[f64; 6]>,
     #[command(flatten)]
     pub output: Output,
+}
+
+/// Which model `leech shape3d` evaluates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Model3Arg {
+    /// The three tubes as chains of rigid links under gravity (exact statics).
+    Chain,
+    /// The tri-tube constant-curvature arcs (kinematic).
+    ConstantCurvature,
+}
+
+/// Which cups hold the body in `leech shape3d`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Hold3Arg {
+    /// The rear cup (on the driving unit).
+    Rear,
+    /// The front cup (on the endpoint plate); needs --front.
+    Front,
+    /// The front cup on a free joint about its face's normal (the body swings until gravity's
+    /// moment about it vanishes); needs --front.
+    FrontPivot,
+    /// Both cups: a closed loop; needs --front.
+    Both,
 }
 
 /// Parses `LA,LB` into two numbers.
@@ -717,21 +755,38 @@ fn parse_triple(text: &str) -> Result<[f64; 3], String> {
     numbers(text, "three numbers in m separated by commas", "a number in m")
 }
 
+/// Parses `X,Y,Z,DEG[,YAW_DEG[,ROLL_DEG]]` into six numbers, the turns 0 when left out.
+fn parse_front3(text: &str) -> Result<[f64; 6], String> {
+    let all = "X,Y,Z in m, DEG, then optionally YAW_DEG and ROLL_DEG, separated by commas";
+    let mut out = [0.0; 6];
+    out[..].iter_mut().zip(list(text, 4..=6, all, "a number")?).for_each(|(o, x)| *o = x);
+    Ok(out)
+}
+
 fn parse_pose(text: &str) -> Result<[f64; 3], String> {
     numbers(text, "X,Y in m and DEG separated by commas", "a number")
 }
 
 /// `N` numbers separated by commas; `all` and `one` say what was expected.
 fn numbers<const N: usize>(text: &str, all: &str, one: &str) -> Result<[f64; N], String> {
+    let mut out = [0.0; N];
+    out.iter_mut().zip(list(text, N..=N, all, one)?).for_each(|(o, x)| *o = x);
+    Ok(out)
+}
+
+/// Numbers separated by commas, as many as `count` allows; `all` and `one`
+/// say what was expected.
+fn list(text: &str, count: std::ops::RangeInclusive<usize>, all: &str, one: &str) -> Result<Vec<f64>, String> {
     let parts: Vec<&str> = text.split(',').map(str::trim).collect();
-    if parts.len() != N {
+    if !count.contains(&parts.len()) {
         return Err(format!("got {}, expected {all}", leech::error::quoted(text)));
     }
-    let mut out = [0.0; N];
-    for (x, s) in out.iter_mut().zip(parts) {
-        *x = s.parse::<f64>().map_err(|_| {
-            format!("got {} in {}, expected {one}", leech::error::quoted(s), leech::error::quoted(text))
-        })?;
-    }
-    Ok(out)
+    parts
+        .iter()
+        .map(|s| {
+            s.parse::<f64>().map_err(|_| {
+                format!("got {} in {}, expected {one}", leech::error::quoted(s), leech::error::quoted(text))
+            })
+        })
+        .collect()
 }

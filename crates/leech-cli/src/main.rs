@@ -184,9 +184,16 @@ fn run(args: Args, out: &mut String) -> Result<(), Failure> {
             render::shape(out, &a, solved.as_ref())
         }
         Args::Shape3d(a) => {
-            let eq = a.body.solve(&a.solver)?;
-            let planar = PlanarCounterpart::solve(&a.robot, a.lengths, &a.solver);
-            render::shape3d(out, &a, &eq, &planar)
+            let Some(hold) = a.hold else {
+                let cc = leech::body3::ConstantCurvature3::new(&a.robot, a.lengths)?;
+                return render::constant_curvature3(out, &a, &cc);
+            };
+            let held = match &a.scene {
+                Some(file) => a.body.solve_held_among(&a.robot, hold, &file.scene, &a.solver)?,
+                None => a.body.solve_held(&a.robot, hold, &a.solver)?,
+            };
+            let planar = PlanarCounterpart::held(&a.robot, &a.body, &hold, a.scene.as_ref(), &a.solver);
+            render::shape3d(out, &a, &held, &planar)
         }
         Args::Figure(a) => {
             // The directory exists: resolving checked it (and made it).

@@ -1128,7 +1128,7 @@ fn plan_reply(s: &Shared, start: Foothold, goal: Goal) -> Reply {
     *lock(&s.plan) = reached.then(|| PlanState { id, moves: executor::moves(&plan), next: 0 });
     json!({
         "type": "plan",
-        "status": if reached { "reached" } else { "impossible" },
+        "status": plan.status,
         "reason": plan.reason.as_ref().map(|r| r.detail.clone()),
         "strides": plan.strides,
         "duration_s": plan.duration_s(),

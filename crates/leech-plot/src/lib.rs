@@ -7,6 +7,7 @@
 //! without system fonts.
 //!
 //! [`shape`] builds the standard pictures of a body and of a single tube,
+//! [`body3`] the three-tube body's three views with a scene and its cups,
 //! [`stance`] a held body among a scene's solids with its cups and forces,
 //! [`climb`] a planned climb as an animated SVG (one frame per step);
 //! [`figures`] regenerates the paper's figures with their data.
@@ -24,6 +25,7 @@
 #![warn(missing_docs)]
 
 pub mod animation;
+pub mod body3;
 pub mod climb;
 pub mod figure;
 pub mod figures;

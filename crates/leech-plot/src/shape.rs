@@ -2,11 +2,10 @@
 //! the endpoint plate, the driving unit and gravity's direction.
 
 use leech::body::Body;
-use leech::body3::{Body3, Frames};
 use leech::cantilever::Cantilever;
 use leech::constant_curvature::PlanarBody;
 
-use crate::figure::{Axes, Figure, SeriesStyle, PALETTE};
+use crate::figure::{Figure, SeriesStyle, PALETTE};
 
 const GREY: (u8, u8, u8) = (90, 90, 90);
 
@@ -107,54 +106,4 @@ pub fn calibration_figure(
     }
     fig.gravity_arrow = true;
     fig
-}
-
-/// The three tubes' colours in the 3D pictures: tube 1 as chain A.
-const TUBES: [(u8, u8, u8); 3] = [PALETTE[0], PALETTE[1], PALETTE[3]];
-
-/// The three-tube body in 3D at `frames`: three orthographic views side by
-/// side at one scale, front (x-y, seen from +z), side (z-y, seen from -x)
-/// and top (x against -z, seen from +y), each with the tubes in their own
-/// colours, the driving unit's triangle (the tubes' roots) and the endpoint
-/// plate's (their tips); the legend in the front view, gravity's arrow in
-/// the two views where it lies in the page.
-pub fn body3_figure(robot: &str, body: &Body3, frames: &Frames) -> Figure {
-    let tubes: Vec<Vec<[f64; 3]>> = (0..3).map(|i| body.points(frames, i)).collect();
-    // Each triangle's edges one by one: a thick line folding back on itself
-    // (a triangle seen edge-on) would draw a spike at its mitred corner.
-    let edges = |pick: fn(&Vec<[f64; 3]>) -> [f64; 3]| {
-        let corners: Vec<[f64; 3]> = tubes.iter().map(pick).collect();
-        (0..3).map(|k| vec![corners[k], corners[(k + 1) % 3]]).collect::<Vec<_>>()
-    };
-    let unit = edges(|t| t[0]);
-    let plate = edges(|t| *t.last().expect("a tube has its root"));
-    let views: [(&str, &str, &str, fn([f64; 3]) -> [f64; 2]); 3] = [
-        ("front (seen from +z)", "x (mm)", "y (mm)", |p| [p[0], p[1]]),
-        ("side (seen from -x)", "z (mm)", "y (mm)", |p| [p[2], p[1]]),
-        ("top (seen from +y)", "x (mm)", "-z (mm)", |p| [p[0], -p[2]]),
-    ];
-    let panels = views
-        .iter()
-        .enumerate()
-        .map(|(v, (title, x, y, project))| {
-            let mut fig = Figure::new(*title);
-            fig.axes = Axes { scale: 1e3, x_label: (*x).into(), y_label: (*y).into() };
-            let flat = |points: &[[f64; 3]]| points.iter().map(|p| project(*p)).collect::<Vec<_>>();
-            let label = |text: &str| if v == 0 { text.to_string() } else { String::new() };
-            let triangle = |fig: &mut Figure, name: &str, edges: &[Vec<[f64; 3]>], color| {
-                for (k, edge) in edges.iter().enumerate() {
-                    fig.push(if k == 0 { label(name) } else { String::new() }, flat(edge), SeriesStyle::Thick, color);
-                }
-            };
-            triangle(&mut fig, "driving unit", &unit, GREY);
-            for (i, (tube, color)) in tubes.iter().zip(TUBES).enumerate() {
-                fig.push(label(&format!("tube {}", i + 1)), flat(tube), SeriesStyle::LineAndDots, color);
-            }
-            triangle(&mut fig, "endpoint plate", &plate, PALETTE[2]);
-            fig.gravity_arrow = body.gravity() > 0.0 && v < 2;
-            fig
-        })
-        .collect();
-    let [l1, l2, l3] = [0, 1, 2].map(|i| body.tube(i).tube_length() * 1e3);
-    Figure::row(format!("{robot}: L1 = {l1:.1} mm, L2 = {l2:.1} mm, L3 = {l3:.1} mm"), panels, (520, 560))
 }

@@ -2,16 +2,17 @@
 //! coloured by their verdicts, the holds' reactions and the contact forces as
 //! arrows on one scale.
 
+use leech::cup::CupVerdict;
 use leech::geom::{add_scaled, dot, sub, unit, Vec2};
 use leech::report::Cups;
 use leech::robot::Robot;
 use leech::scene::{Scene, Solid};
-use leech::stance::{ContactForce, CupState, Held, TubeHeld};
+use leech::stance::{ContactForce, Held, TubeHeld};
 
 use crate::figure::{Figure, SeriesStyle, PALETTE};
 
 const GREY: (u8, u8, u8) = (90, 90, 90);
-const SOLID: (u8, u8, u8) = (120, 120, 120);
+pub(crate) const SOLID: (u8, u8, u8) = (120, 120, 120);
 const FREE_CUP: (u8, u8, u8) = (170, 170, 170);
 const HOLDS: (u8, u8, u8) = PALETTE[2];
 const BELOW_MINIMUM: (u8, u8, u8) = PALETTE[5];
@@ -21,8 +22,8 @@ const CONTACT: (u8, u8, u8) = PALETTE[3];
 
 /// Margin around the body, its cups and arrows that the scene is drawn
 /// into, as a fraction of their larger extent (m at least [`MIN_MARGIN_M`]).
-const MARGIN: f64 = 0.15;
-const MIN_MARGIN_M: f64 = 0.02;
+pub(crate) const MARGIN: f64 = 0.15;
+pub(crate) const MIN_MARGIN_M: f64 = 0.02;
 
 /// The longest force arrow as a fraction of the body's larger extent.
 const ARROW_SHARE: f64 = 0.3;
@@ -55,7 +56,7 @@ pub fn held_figure(robot: &Robot, held: &Held, scene: Option<&Scene>, cups: &Cup
     }
     body(&mut fig, robot, held);
     for ((name, cup), segment) in [("rear cup", &cups.0), ("front cup", &cups.1)].into_iter().zip(faces) {
-        let (label, color) = verdict(name, cup.as_ref(), robot.cup.min_safety_factor);
+        let (label, color) = verdict(name, cup.as_ref().map(|c| &c.verdict), robot.cup.min_safety_factor);
         fig.push(label, segment.to_vec(), SeriesStyle::Thick, color);
     }
     forces.push(&mut fig, "hold reactions");
@@ -110,11 +111,10 @@ fn face(centre: Vec2, angle: f64, diameter: f64) -> Segment {
     [add_scaled(centre, -0.5 * diameter, along), add_scaled(centre, 0.5 * diameter, along)]
 }
 
-/// A cup's legend entry and colour: holds, holds below the minimum safety
-/// factor, fails; grey when it does not hold the body.
-fn verdict(name: &str, cup: Option<&CupState>, minimum: f64) -> (String, (u8, u8, u8)) {
-    let Some(cup) = cup else { return (format!("{name} (free)"), FREE_CUP) };
-    let v = &cup.verdict;
+/// A cup's legend entry and colour from its verdict: holds, holds below the
+/// minimum safety factor, fails; grey when it does not hold the body.
+pub(crate) fn verdict(name: &str, cup: Option<&CupVerdict>, minimum: f64) -> (String, (u8, u8, u8)) {
+    let Some(v) = cup else { return (format!("{name} (free)"), FREE_CUP) };
     match (v.holds, v.meets_minimum) {
         _ if v.safety_factor.is_infinite() => (format!("{name}: holds, unloaded"), HOLDS),
         (true, true) => (format!("{name}: holds (SF {:.2})", v.safety_factor), HOLDS),
@@ -179,7 +179,7 @@ fn round_down(x: f64) -> f64 {
 }
 
 /// The smallest box around `points`: (low corner, high corner).
-fn bounds(points: &[Vec2]) -> (Vec2, Vec2) {
+pub(crate) fn bounds(points: &[Vec2]) -> (Vec2, Vec2) {
     let mut lo = [f64::INFINITY; 2];
     let mut hi = [f64::NEG_INFINITY; 2];
     for p in points {
@@ -219,7 +219,7 @@ pub(crate) fn solids_within(fig: &mut Figure, scene: &Scene, (lo, hi): (Vec2, Ve
 
 /// The part of `polygon` behind the line through `point` with outward
 /// normal `normal` (`(x - point) . normal <= 0`): one Sutherland-Hodgman pass.
-fn clip(polygon: &[Vec2], point: Vec2, normal: Vec2) -> Vec<Vec2> {
+pub(crate) fn clip(polygon: &[Vec2], point: Vec2, normal: Vec2) -> Vec<Vec2> {
     let side = |p: Vec2| dot(sub(p, point), normal);
     let mut out = Vec::with_capacity(polygon.len() + 1);
     for (i, &p) in polygon.iter().enumerate() {

@@ -27,17 +27,20 @@ pub struct Climb {
     pub outputs: Outputs,
 }
 
-/// `leech climb` of a sideways scenario: the robot and the climb (JSON or text).
+/// `leech climb` of a sideways scenario: the robot and the climb (JSON or
+/// text, and its picture).
 pub struct ClimbSideways {
     pub robot: Robot,
     pub scenario: SidewaysScenario,
     /// Its solves share `--time-limit`'s deadline.
     pub solver: Solver,
     pub json: bool,
+    /// The plan's three views.
+    pub svg: Option<std::path::PathBuf>,
 }
 
 /// The sideways climb `--scenario` names (a built-in one, or a file with a
-/// `[wall]` table), if it is one. Its plan has no picture or table yet.
+/// `[wall]` table), if it is one. Its plan has a picture, no table yet.
 pub(super) fn sideways(a: &flags::ClimbArgs) -> Result<Option<ClimbSideways>, Failure> {
     let Some(given) = &a.scenario else { return Ok(None) };
     let scenario = match given.to_str().and_then(SidewaysScenario::builtin) {
@@ -51,15 +54,14 @@ pub(super) fn sideways(a: &flags::ClimbArgs) -> Result<Option<ClimbSideways>, Fa
         }
         None => return Ok(None),
     };
-    for (flag, given) in [("--csv", a.csv.is_some()), ("--svg", a.svg.is_some())] {
-        if given {
-            return Err(Failure::Input(format!(
-                "{flag}: a sideways climb (the 3D body) has no table or picture yet; drop {flag}"
-            )));
-        }
+    if a.csv.is_some() {
+        return Err(Failure::Input("--csv: a sideways climb (the 3D body) has no table yet; expected no --csv".into()));
+    }
+    if let Some(svg) = &a.svg {
+        leech::files::check_output(svg, "--svg", None)?;
     }
     let solver = Solver::new(SolverOptions { deadline: super::deadline(a.time_limit)?, ..SolverOptions::default() });
-    Ok(Some(ClimbSideways { robot: tuned(&a.robot, Ok)?, scenario, solver, json: a.json }))
+    Ok(Some(ClimbSideways { robot: tuned(&a.robot, Ok)?, scenario, solver, json: a.json, svg: a.svg.clone() }))
 }
 
 pub(super) fn climb(a: flags::ClimbArgs) -> Result<Climb, Failure> {

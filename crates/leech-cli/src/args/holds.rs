@@ -1,16 +1,18 @@
-//! The holds and the scene of `leech shape` (and the scene of `leech
-//! scene show`): poses checked, scene files read by `leech::files`, holds
-//! clear of the solids.
+//! The holds and the scene of `leech shape` and `leech shape3d` (and the
+//! scene of `leech scene show`): poses checked, scene files read by
+//! `leech::files`, holds clear of the solids.
 
 use std::path::Path;
 
+use leech::body3::place3::{first_inside, hold_points, plate_frame_from_angles};
+use leech::body3::{Body3, Hold3};
 use leech::error::{within, Num};
 use leech::prelude::*;
-use leech::scene::{Scene, BUILTIN_SCENES, MAX_COORDINATE_M, ON_SURFACE_M};
+use leech::scene::{is_scene3, Scene, SceneFile3, BUILTIN_SCENES, MAX_COORDINATE_M, ON_SURFACE_M};
 use leech::stance::{self, Hold, Pose};
 
 use crate::failure::Failure;
-use crate::flags::{self, HoldArg, ModelArg};
+use crate::flags::{self, Hold3Arg, HoldArg, Model3Arg, ModelArg};
 
 /// The holds of `leech shape` in its scene, checked before any solve.
 pub(super) fn situation(
@@ -43,6 +45,80 @@ pub(super) fn situation(
         clear_of(scene, robot, hold, [a.rear, a.front])?;
     }
     Ok(hold)
+}
+
+/// The hold of `leech shape3d` (`None` for the constant-curvature model),
+/// checked before any solve: `body` is placed for the rear hold (`placed`
+/// when a scene's start put it there), and no hold may put the body or a
+/// cup inside a solid of `scene`.
+pub(super) fn situation3(
+    a: &flags::Shape3dArgs,
+    robot: &Robot,
+    body: &Body3,
+    scene: Option<&SceneFile3>,
+    placed: bool,
+) -> Result<Option<Hold3>, Failure> {
+    let given = a.scene.is_some() || a.hold.is_some() || a.front.is_some();
+    if a.model == Model3Arg::ConstantCurvature {
+        if given {
+            return Err(Failure::Input("--scene, --hold, --front: only with --model chain, expected --model chain (the constant-curvature model has no holds)".into()));
+        }
+        return Ok(None);
+    }
+    let front = a.front.map(front3).transpose()?;
+    let hold = match (a.hold.unwrap_or(Hold3Arg::Rear), front) {
+        (Hold3Arg::Rear, None) => Hold3::Rear,
+        (Hold3Arg::Rear, Some(_)) => {
+            let given = a.front.map_or(String::new(), |v| v.map(|c| Num(c).to_string()).join(","));
+            return Err(Failure::Input(format!(
+                "--front: got {given} with the rear hold, expected --hold front, front-pivot or both with it"
+            )));
+        }
+        (Hold3Arg::Front, Some((tip_m, plate))) => Hold3::Front { tip_m, plate },
+        (Hold3Arg::FrontPivot, Some((tip_m, plate))) => {
+            Hold3::FrontPivot { centre_m: leech::body3::place3::front_cup_centre(robot, tip_m, &plate), plate }
+        }
+        (Hold3Arg::Both, Some((tip_m, plate))) => Hold3::Both { tip_m, plate },
+        (held, None) => {
+            let name = match held {
+                Hold3Arg::Front => "front",
+                Hold3Arg::FrontPivot => "front-pivot",
+                _ => "both",
+            };
+            return Err(Failure::Input(format!(
+                "--hold {name}: needs --front X,Y,Z,DEG[,YAW_DEG[,ROLL_DEG]] (tube 1's tip and the plate's angles)"
+            )));
+        }
+    };
+    if let Some(file) = scene {
+        if let Some(p) = first_inside(&file.scene, &hold_points(robot, body, &hold)) {
+            let [x, y, z] = p.point_m.map(|c| c * 1e3);
+            let (flag, value) = match (a.front, placed) {
+                (Some(v), _) => ("--front", v.map(|c| Num(c).to_string()).join(",")),
+                (None, true) => ("--scene", "the scene's [start]".to_string()),
+                (None, false) => ("--scene", "the rear hold at the origin".to_string()),
+            };
+            return Err(Failure::Input(format!(
+                "{flag}: got {value}, which puts {} at ({x:.1}, {y:.1}, {z:.1}) mm inside a solid of the scene; \
+                 expected free space or a surface",
+                p.what
+            )));
+        }
+    }
+    Ok(Some(hold))
+}
+
+/// `--front X,Y,Z,DEG,YAW_DEG,ROLL_DEG`: tube 1's tip within the scenes'
+/// bounds and the plate's frame (`place3::plate_frame_from_angles`), the
+/// tangent angle within +-720 deg as `shape --front`, the turns within +-360 deg.
+fn front3([x, y, z, deg, yaw, roll]: [f64; 6]) -> Result<([f64; 3], leech::body3::rotation::Mat3), InputError> {
+    let m = MAX_COORDINATE_M;
+    let tip =
+        [within("--front x (m)", x, -m, m)?, within("--front y (m)", y, -m, m)?, within("--front z (m)", z, -m, m)?];
+    let angle = within("--front angle (deg)", deg, -720.0, 720.0)?;
+    let yaw = within("--front yaw (deg)", yaw, -360.0, 360.0)?;
+    let roll = within("--front roll (deg)", roll, -360.0, 360.0)?;
+    Ok((tip, plate_frame_from_angles(angle.to_radians(), yaw.to_radians(), roll.to_radians())))
 }
 
 /// A pose from `X,Y,DEG`: coordinates within the scenes' bounds, the angle within `+-max_deg`.
@@ -107,4 +183,19 @@ pub(super) fn load_scene(given: &Path, flag: &str) -> Result<(Scene, Option<&'st
     }
     let text = leech::files::read_text(given, flag, leech::files::SCENE_FILE)?;
     Ok((Scene::from_toml_str(&text, &given.display().to_string())?, None))
+}
+
+/// A scene for the 3D body: a built-in scene's name or a planar scene file
+/// read in 3D (prisms along z), or a 3D scene file (`half_space`, `box`).
+pub(super) fn load_scene3(given: &Path, flag: &str) -> Result<SceneFile3, Failure> {
+    let builtin = given.to_str().is_some_and(|name| BUILTIN_SCENES.iter().any(|s| s.name == name));
+    if builtin || !given.is_file() {
+        return Ok(SceneFile3::from_planar(&load_scene(given, flag)?.0));
+    }
+    let text = leech::files::read_text(given, flag, leech::files::SCENE_FILE)?;
+    let source = given.display().to_string();
+    if is_scene3(&text) {
+        return Ok(SceneFile3::from_toml_str(&text, &source)?);
+    }
+    Ok(SceneFile3::from_planar(&Scene::from_toml_str(&text, &source)?))
 }

@@ -104,6 +104,7 @@ pub fn climb_animation(path: &Path, a: &Climb, plan: &Plan) -> Result<(), Failur
     let outcome = match plan.status {
         Status::Reached => format!("reached in {strides}"),
         Status::Impossible => format!("impossible: {strides} to the farthest stance"),
+        Status::Stopped => format!("stopped: {strides} to the farthest stance"),
     };
     let title = format!(
         "{}, {}:\n{outcome}\ncups: filled hold (orange below SF {}), outline released",

@@ -10,7 +10,7 @@ mod text;
 use std::path::Path;
 
 use anyhow::Context;
-use leech::body3::{Equilibrium3, Hold3};
+use leech::body3::{ConstantCurvature3, Held3};
 use leech::budget::Halt;
 use leech::calibration::{Calibration, ShapeComparison};
 use leech::constant_curvature::PlanarBody;
@@ -18,8 +18,8 @@ use leech::dynamics::Simulation;
 use leech::inverse_statics::Reach;
 use leech::prelude::*;
 use leech::report::{
-    Body3Report, BodyReport, CantileverReport, ClimbReport, ConstantCurvatureReport, PlanarCounterpart, SampleRow,
-    SceneReport, ShapeReport, SolveTiming, StanceReport, SweepRow, TubeInSceneReport,
+    Body3Report, BodyReport, CantileverReport, ClimbReport, ConstantCurvature3Report, ConstantCurvatureReport,
+    PlanarCounterpart, SampleRow, SceneReport, ShapeReport, SolveTiming, StanceReport, SweepRow, TubeInSceneReport,
 };
 use leech::scene::Scene;
 use leech::stance::{Held, TubeHeld};
@@ -164,16 +164,32 @@ pub fn shape(out: &mut String, a: &Shape, solved: Option<&Solved>) -> Result<(),
     })
 }
 
-/// `leech shape3d`: the 3D body's report with the planar model beside it,
-/// and its three views.
-pub fn shape3d(out: &mut String, a: &Shape3d, eq: &Equilibrium3, planar: &PlanarCounterpart) -> Result<(), Failure> {
-    let report = Body3Report::new(&a.robot, &a.body, eq, a.free_axial_rotation, planar);
+/// `leech shape3d`: the held 3D body's report (its cups, its contacts) with
+/// the planar model beside it, and its three views with the scene's solids.
+pub fn shape3d(out: &mut String, a: &Shape3d, held: &Held3, planar: &PlanarCounterpart) -> Result<(), Failure> {
+    let scene = a.scene.as_ref().map(|s| &s.scene);
+    let report = Body3Report::held(&a.robot, held, scene.map(|s| s.name.as_str()), a.free_axial_rotation, planar);
     if a.outputs.json {
         json(out, &report)?;
     } else {
-        text::shape3d(out, &report);
+        text::shape3d(out, &report, a.robot.cup.min_safety_factor);
     }
-    files::pictures(&a.outputs, || leech_plot::shape::body3_figure(&a.robot.name, &a.body, &eq.frames))
+    files::pictures(&a.outputs, || leech_plot::body3::held3_figure(&a.robot, held, scene))
+}
+
+/// Points along each tube of the constant-curvature model in reports and pictures.
+const ARC_SAMPLES: usize = 60;
+
+/// `leech shape3d --model constant-curvature`: the arcs' report and three views.
+pub fn constant_curvature3(out: &mut String, a: &Shape3d, cc: &ConstantCurvature3) -> Result<(), Failure> {
+    let report = ConstantCurvature3Report::new(&a.robot, cc, ARC_SAMPLES)?;
+    if a.outputs.json {
+        json(out, &report)?;
+    } else {
+        text::constant_curvature3(out, &report);
+    }
+    let tubes = || leech_plot::body3::Tubes([0, 1, 2].map(|i| report.tubes[i].points_m.clone()));
+    files::pictures(&a.outputs, || leech_plot::body3::arcs3_figure(&a.robot.name, tubes()))
 }
 
 /// `leech scene list`: each built-in scene's name and what it is.
@@ -214,15 +230,17 @@ pub fn climb(out: &mut String, a: &Climb, plan: &Plan, elapsed_s: f64) -> Result
     } else {
         text::climb(out, &report, elapsed_s);
     }
-    match (&plan.status, &report.reason) {
-        (Status::Reached, _) => Ok(()),
-        (Status::Impossible, reason) => Err(Failure::Unsolved(match reason {
-            Some(r) => {
-                format!("climb impossible: {} blocked the {} phase: {}", r.blocking.name(), r.phase.name(), r.detail)
-            }
-            None => "climb impossible".into(),
-        })),
-    }
+    let verdict = match plan.status {
+        Status::Reached => return Ok(()),
+        Status::Impossible => "impossible",
+        Status::Stopped => "stopped",
+    };
+    Err(Failure::Unsolved(match &report.reason {
+        Some(r) => {
+            format!("climb {verdict}: {} blocked the {} phase: {}", r.blocking.name(), r.phase.name(), r.detail)
+        }
+        None => format!("climb {verdict}"),
+    }))
 }
 
 /// `leech climb` of a sideways scenario: JSON (units in the keys) or one
@@ -240,12 +258,7 @@ pub fn sideways(out: &mut String, a: &ClimbSideways, plan: &SidewaysPlan) -> Res
                     "phase": step.phase.name(),
                     "stride": step.stride,
                     "lengths_m": step.lengths_m,
-                    "hold": match step.held.hold {
-                        Hold3::Rear => "rear",
-                        Hold3::Front { .. } => "front",
-                        Hold3::FrontPivot { .. } => "front_pivot",
-                        Hold3::Both { .. } => "both",
-                    },
+                    "hold": leech::report::hold_name(&step.held.hold),
                     "stable": step.held.equilibrium.summary.stable,
                     "endpoint_m": body.endpoint(frames),
                     "plate_frame": body.plate_frame(frames),
@@ -275,10 +288,17 @@ pub fn sideways(out: &mut String, a: &ClimbSideways, plan: &SidewaysPlan) -> Res
     } else {
         text::sideways(out, a, plan);
     }
-    match (&plan.status, &plan.reason) {
-        (Status::Reached, _) => Ok(()),
-        (Status::Impossible, reason) => {
-            Err(Failure::Unsolved(format!("sideways climb impossible: {}", reason.as_deref().unwrap_or("no reason"))))
+    if let Some(path) = a.svg.as_ref().filter(|_| !plan.steps.is_empty()) {
+        // An impossible or stopped plan is drawn to where it got (a plan
+        // stopped before its start has nothing to draw).
+        leech_plot::body3::sideways_figure(&a.robot, s, plan).write_svg(path)?;
+    }
+    let reason = plan.reason.as_deref().unwrap_or("no reason");
+    match plan.status {
+        Status::Reached => Ok(()),
+        Status::Impossible => Err(Failure::Unsolved(format!("sideways climb impossible: {reason}"))),
+        Status::Stopped => {
+            Err(Failure::Unsolved(format!("sideways climb stopped: {reason}; raise --time-limit to go further")))
         }
     }
 }

@@ -102,8 +102,9 @@ pub fn shape(
 }
 
 /// `leech shape3d`: the endpoint and the plate's tangent, the solve, the
-/// twist and the planar model beside the 3D body.
-pub fn shape3d(out: &mut String, r: &Body3Report) {
+/// twist, which cups hold and their verdicts (against the robot's `minimum`
+/// safety factor), the contacts, and the planar model beside the 3D body.
+pub fn shape3d(out: &mut String, r: &Body3Report, minimum: f64) {
     let [l1, l2, l3] = r.lengths_m;
     let free = if r.free_axial_rotation { ", axial rotation free at the driving unit" } else { "" };
     say!(
@@ -124,6 +125,26 @@ pub fn shape3d(out: &mut String, r: &Body3Report) {
     );
     solution(out, &r.solution);
     say!(out, "largest twist {:.2e} rad", r.max_twist_rad);
+    let hold = r.hold.replace('_', " ");
+    match r.pivot_turn_rad {
+        Some(turn) => say!(out, "{hold} hold: the plate turned {:.4} rad about the front cup's normal", turn),
+        None => say!(out, "{hold} hold"),
+    }
+    for (name, cup) in [("rear", &r.rear_cup), ("front", &r.front_cup)] {
+        let Some(c) = cup else { continue };
+        let [fx, fy, fz] = c.force_n;
+        let [mx, my, mz] = c.moment_nm;
+        say!(
+            out,
+            "{name} cup at {}: force ({fx:.4}, {fy:.4}, {fz:.4}) N, moment ({mx:.5}, {my:.5}, {mz:.5}) N m; {}",
+            mm3(c.cup_m),
+            cup_verdict(&c.verdict, minimum)
+        );
+    }
+    if let Some(scene) = &r.scene {
+        let total: f64 = r.contacts.iter().map(|c| c.force_n).sum();
+        say!(out, "scene {scene}: {} contacts, {total:.4} N in all", r.contacts.len());
+    }
     match (&r.planar, &r.planar_note) {
         (Some(p), _) => say!(
             out,
@@ -157,6 +178,24 @@ fn unsigned_zero(v: f64, digits: i32) -> f64 {
 
 /// Where the holds put the driving unit, what each cup carries and whether
 /// it holds, and the contacts with the scene.
+/// A cup's verdict in words: holds (with its safety factor, below the
+/// `minimum` or not) or fails, and what limits it.
+fn cup_verdict(v: &leech::cup::CupVerdict, minimum: f64) -> String {
+    let mode = match v.limited_by {
+        Some(CupMode::Normal) => " (pull-off and peel)",
+        Some(CupMode::Shear) => " (sliding)",
+        None => "",
+    };
+    match (v.holds, v.meets_minimum) {
+        _ if v.safety_factor.is_infinite() => "holds, unloaded".to_string(),
+        (true, true) => format!("holds, safety factor {}{mode}", fixed(v.safety_factor, 2)),
+        (true, false) => {
+            format!("holds, safety factor {} below the minimum {minimum}{mode}", fixed(v.safety_factor, 2))
+        }
+        (false, _) => format!("FAILS, safety factor {}{mode}", fixed(v.safety_factor, 2)),
+    }
+}
+
 pub fn stance(out: &mut String, s: &StanceReport, minimum: f64) {
     let mm = |p: [f64; 2]| format!("({:.3}, {:.3}) mm", p[0] * 1e3, p[1] * 1e3);
     say!(
@@ -172,20 +211,8 @@ pub fn stance(out: &mut String, s: &StanceReport, minimum: f64) {
             say!(out, "{name} cup at {}, free", mm(cup));
             continue;
         };
-        let (f, v) = (h.force_n, &h.verdict);
-        let mode = match v.limited_by {
-            Some(CupMode::Normal) => " (pull-off and peel)",
-            Some(CupMode::Shear) => " (sliding)",
-            None => "",
-        };
-        let verdict = match (v.holds, v.meets_minimum) {
-            _ if v.safety_factor.is_infinite() => "holds, unloaded".to_string(),
-            (true, true) => format!("holds, safety factor {}{mode}", fixed(v.safety_factor, 2)),
-            (true, false) => {
-                format!("holds, safety factor {} below the minimum {minimum}{mode}", fixed(v.safety_factor, 2))
-            }
-            (false, _) => format!("FAILS, safety factor {}{mode}", fixed(v.safety_factor, 2)),
-        };
+        let f = h.force_n;
+        let verdict = cup_verdict(&h.verdict, minimum);
         say!(
             out,
             "{name} hold: force ({:.4}, {:.4}) N, moment {:.5} N m; cup at {}: {verdict}",
@@ -211,6 +238,26 @@ pub fn scenes(out: &mut String) {
     for (name, description) in leech::scene::Scene::builtin_names() {
         say!(out, "{name:<14} {description}");
     }
+}
+
+/// `leech shape3d --model constant-curvature`: the arc and the endpoint.
+pub fn constant_curvature3(out: &mut String, r: &leech::report::ConstantCurvature3Report) {
+    let [l1, l2, l3] = r.lengths_m;
+    say!(out, "{}: L1 = {l1:.4} m, L2 = {l2:.4} m, L3 = {l3:.4} m", r.robot);
+    let tangent = r.plate_frame.map(|row| unsigned_zero(row[0], 4));
+    say!(
+        out,
+        "constant curvature: endpoint at {}, plate tangent ({:.4}, {:.4}, {:.4}); backbone {:.4} m, bend {:.4} rad \
+         towards {:.4} rad, curvature {:.4} 1/m",
+        mm3(r.endpoint_m),
+        tangent[0],
+        tangent[1],
+        tangent[2],
+        r.backbone_length_m,
+        r.bend_rad,
+        r.bend_direction_rad,
+        r.curvature_per_m
+    );
 }
 
 /// `leech scenario list`.
@@ -247,7 +294,11 @@ pub fn sideways(out: &mut String, a: &crate::args::ClimbSideways, plan: &leech::
     say!(
         out,
         "{}: {} strides of {:.4} m, {:.4} m sideways",
-        if plan.status == Status::Reached { "reached" } else { "IMPOSSIBLE" },
+        match plan.status {
+            Status::Reached => "reached",
+            Status::Impossible => "IMPOSSIBLE",
+            Status::Stopped => "STOPPED (time limit)",
+        },
         plan.strides,
         plan.stride_lateral_m,
         plan.lateral_m
@@ -288,6 +339,7 @@ pub fn climb(out: &mut String, r: &ClimbReport, elapsed_s: f64) {
     let status = match r.status {
         leech::stride::Status::Reached => "reached",
         leech::stride::Status::Impossible => "IMPOSSIBLE",
+        leech::stride::Status::Stopped => "STOPPED",
     };
     say!(
         out,

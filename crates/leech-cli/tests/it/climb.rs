@@ -120,7 +120,7 @@ fn a_climb_cut_short_still_draws_its_steps_and_an_unwritable_svg_is_one_line() {
             break;
         }
         assert_eq!(out.status.code(), Some(3), "{}", String::from_utf8_lossy(&out.stderr));
-        assert_eq!(v["status"], "impossible");
+        assert_eq!(v["status"], "stopped");
         let steps = v["steps"].as_array().unwrap().len();
         if steps == 0 {
             assert!(!svg.exists(), "an SVG without steps");
@@ -151,13 +151,15 @@ fn an_impossible_climb_exits_3_with_its_reason_in_the_json() {
         .unwrap();
     assert_eq!(out.status.code(), Some(3), "{}", String::from_utf8_lossy(&out.stderr));
     let v: Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
-    assert_eq!(v["status"], "impossible");
     let blocking = v["reason"]["blocking"].as_str().unwrap();
     assert!(["reach", "cup_force", "collision", "snap", "time_limit"].contains(&blocking), "{blocking}");
+    // Out of time is no verdict: the plan is then stopped.
+    let status = if blocking == "time_limit" { "stopped" } else { "impossible" };
+    assert_eq!(v["status"], status);
     assert!(v["reason"]["phase"].is_string() && v["reason"]["detail"].is_string());
     assert!(!v["steps"].as_array().unwrap().is_empty(), "the start at least");
     let err = String::from_utf8(out.stderr).unwrap();
-    assert!(err.starts_with("leech: climb impossible: "), "{err}");
+    assert!(err.starts_with(&format!("leech: climb {status}: ")), "{err}");
 }
 
 #[test]
@@ -240,6 +242,28 @@ fn a_sideways_climb_is_planned_with_the_3d_body() {
     let steps = v["steps"].as_array().unwrap();
     assert_eq!(steps.len(), 1 + 6 * v["strides"].as_u64().unwrap() as usize);
     assert!(steps.iter().any(|s| s["hold"] == "front_pivot" && s["front_cup"]["verdict"]["holds"] == true));
-    let e = rejected(&["climb", "--scenario", "sideways-wall", "--svg", "x.svg"]);
-    assert!(e.contains("--svg") && e.contains("no table or picture"), "{e}");
+    let e = rejected(&["climb", "--scenario", "sideways-wall", "--csv", "x.csv"]);
+    assert!(e.contains("--csv") && e.contains("no table"), "{e}");
+}
+
+#[test]
+fn a_sideways_plan_is_drawn_and_a_stopped_one_says_so() {
+    let dir = std::env::temp_dir().join(format!("leech-cli-sideways-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let svg = dir.join("sideways.svg");
+    let out = leech().args(["climb", "--scenario", "sideways-wall", "--svg", svg.to_str().unwrap()]).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = std::fs::read_to_string(&svg).unwrap();
+    for part in ["front (seen from +z)", "side (seen from -x)", "top (seen from +y)", "scene: wall", "front cup: holds"]
+    {
+        assert!(text.contains(part), "{part}");
+    }
+    let out =
+        leech().args(["climb", "--scenario", "sideways-wall", "--time-limit", "0.001", "--json"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(3));
+    let v: Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
+    assert_eq!(v["status"], "stopped");
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(err.starts_with("leech: sideways climb stopped: ") && err.contains("--time-limit"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -193,3 +193,145 @@ fn bad_input_exits_2_naming_the_field() {
 fn failed_solve_exits_3_with_status() {
     not_converged(&["shape3d", "--lengths", "0.3,0.25,0.28"]);
 }
+
+/// This crate's test data.
+fn data(name: &str) -> String {
+    format!("{}/tests/data/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+fn cup_factor(v: &Value, cup: &str) -> f64 {
+    v[cup]["safety_factor"].as_f64().unwrap_or_else(|| panic!("{cup}: {}", v[cup]))
+}
+
+#[test]
+fn holds_report_their_cups_as_the_library_solves_them() {
+    use leech::body3::place3::plate_frame_from_angles;
+    use leech::body3::Hold3;
+    let robot = Robot::builtin();
+    let body = Body3::from_robot(&robot, [0.25, 0.25, 0.25]).unwrap();
+    let solver = Solver::default();
+    // The default: the rear cup holds, the front cup is free.
+    let v = json_of(&["shape3d", "--lengths", "0.25,0.25,0.25"]);
+    assert_eq!((v["hold"].as_str(), v["front_cup"].is_null()), (Some("rear"), true));
+    let rear = body.solve_held(&robot, Hold3::Rear, &solver).unwrap().rear.unwrap();
+    assert!((cup_factor(&v, "rear_cup") - rear.verdict.safety_factor).abs() < 1e-9);
+    assert!(distance(&vector(&v["rear_cup"]["force_n"]), &rear.reaction.force_n) < 1e-9);
+    // The front hold up a wall, turned 15 deg about the face's normal: out of the plane, no planar model.
+    let args = ["shape3d", "--lengths", "0.25,0.25,0.25", "--hold", "front", "--front", "0,0.3,0,90,15"];
+    let v = json_of(&args);
+    let plate = plate_frame_from_angles(90f64.to_radians(), 15f64.to_radians(), 0.0);
+    let held = body.solve_held(&robot, Hold3::Front { tip_m: [0.0, 0.3, 0.0], plate }, &solver).unwrap();
+    let front = held.front.unwrap();
+    assert!(v["rear_cup"].is_null() && (cup_factor(&v, "front_cup") - front.verdict.safety_factor).abs() < 1e-9);
+    assert!(distance(&vector(&v["front_cup"]["moment_nm"]), &front.reaction.moment_nm) < 1e-9);
+    assert!(v["planar"].is_null() && v["planar_note"].as_str().unwrap().contains("out of the x-y plane"));
+    // In the plane, the planar front hold beside it: the same endpoint and cup (b != c: to 1e-3).
+    let v = json_of(&["shape3d", "--lengths", "0.25,0.25,0.25", "--hold", "front", "--front", "0,0.3,0,90"]);
+    assert!(v["planar_difference_m"].as_f64().unwrap() < 1e-6, "{}", v["planar_difference_m"]);
+    let flat = leech::stance::solve(
+        &robot,
+        [0.25, 0.25],
+        leech::stance::Hold::Front(leech::stance::Pose::from_deg([0.0, 0.3], 90.0)),
+        &solver,
+    )
+    .unwrap();
+    let (rear_flat, front_flat) = flat.cups(&robot).unwrap();
+    assert!(rear_flat.is_none());
+    let sf = front_flat.unwrap().verdict.safety_factor;
+    assert!((cup_factor(&v, "front_cup") - sf).abs() < 1e-3 * sf, "{} against {sf}", cup_factor(&v, "front_cup"));
+    // The free joint swings the turned body back: the turn undoes the yaw.
+    let v = json_of(&["shape3d", "--lengths", "0.25,0.25,0.25", "--hold", "front-pivot", "--front", "0,0.3,0,90,15"]);
+    assert!((v["pivot_turn_rad"].as_f64().unwrap() + 15f64.to_radians()).abs() < 1e-6, "{}", v["pivot_turn_rad"]);
+}
+
+#[test]
+fn scenes_give_contacts_and_bad_holds_exit_2_naming_the_flag() {
+    // The built-in floor as prisms, against the planar body on it.
+    let v = json_of(&["shape3d", "--lengths", "0.25,0.25,0.25", "--scene", "floor"]);
+    assert_eq!(v["scene"], "floor");
+    let contacts = v["contacts"].as_array().unwrap();
+    assert!(!contacts.is_empty() && contacts.iter().all(|c| c["force_n"].as_f64().unwrap() > 0.0));
+    assert!(contacts.iter().all(|c| (1..=3).contains(&c["tube"].as_u64().unwrap())));
+    assert!(v["planar_difference_m"].as_f64().unwrap() < 2e-4, "{}", v["planar_difference_m"]);
+    // The weight is carried by the cup and the contacts.
+    let up = v["rear_cup"]["force_n"][1].as_f64().unwrap()
+        + contacts.iter().map(|c| c["force_n"].as_f64().unwrap() * c["normal"][1].as_f64().unwrap()).sum::<f64>();
+    let robot = Robot::builtin();
+    let mass = robot.driving_unit.mass_kg
+        + robot.body.payload_kg
+        + 0.75 * robot.tube.element_mass_kg / robot.tube.element_length_m;
+    assert!((up / robot.world.gravity_m_per_s2 - mass).abs() < 1e-6 * mass, "{up} N for {mass} kg");
+    // A 3D scene file: a 3D scene has no planar counterpart.
+    let v = json_of(&["shape3d", "--lengths", "0.25,0.25,0.25", "--scene", &data("scene3-step.toml")]);
+    assert_eq!(v["scene"], "floor and block");
+    assert!(v["planar_note"].as_str().unwrap().contains("3D"), "{}", v["planar_note"]);
+    // Holds inside a solid, bad flags.
+    let e = rejected(&["shape3d", "--lengths", "0.25,0.25,0.25", "--scene", "floor", "--base-angle", "0"]);
+    assert!(e.starts_with("leech: --scene: got the rear hold at the origin") && e.contains("inside a solid"), "{e}");
+    let e = rejected(&[
+        "shape3d",
+        "--lengths",
+        "0.25,0.25,0.25",
+        "--scene",
+        "floor",
+        "--hold",
+        "front",
+        "--front",
+        "0.2,-0.1,0,0",
+    ]);
+    assert!(e.starts_with("leech: --front: got 0.2,-0.1,0,0,0,0, which puts the endpoint plate"), "{e}");
+    let e = rejected(&["shape3d", "--lengths", "0.25,0.25,0.25", "--hold", "front"]);
+    assert!(e.contains("--hold front: needs --front"), "{e}");
+    let e = rejected(&["shape3d", "--lengths", "0.25,0.25,0.25", "--front", "0,0.3,0,90"]);
+    assert!(e.starts_with("leech: --front: got 0,0.3,0,90,0,0 with the rear hold"), "{e}");
+    let e = rejected(&["shape3d", "--lengths", "0.25,0.25,0.25", "--hold", "both", "--front", "0,0.3,0,90"]);
+    assert!(e.starts_with("leech: --hold both"), "{e}");
+    let e = rejected(&["shape3d", "--lengths", "0.25,0.25,0.25", "--hold", "front", "--front", "0,0.3,0,90,400"]);
+    assert!(e.starts_with("leech: --front yaw (deg)") && e.contains("400"), "{e}");
+    let e = rejected(&["shape3d", "--lengths", "0.25,0.25,0.25", "--front", "0,0.3,90"]);
+    assert!(e.contains("--front") && e.contains("'0,0.3,90'"), "{e}");
+    let e = rejected(&["shape3d", "--lengths", "0.25,0.25,0.25", "--scene", "floor", "--model", "constant-curvature"]);
+    assert!(e.starts_with("leech: --scene, --hold, --front: only with --model chain"), "{e}");
+}
+
+#[test]
+fn the_constant_curvature_model_is_the_librarys_and_has_three_views() {
+    use leech::body3::ConstantCurvature3;
+    let dir = scratch("cc");
+    let svg = dir.join("cc.svg");
+    let v = json_of(&[
+        "shape3d",
+        "--lengths",
+        "0.25,0.26,0.24",
+        "--model",
+        "constant-curvature",
+        "--svg",
+        svg.to_str().unwrap(),
+    ]);
+    let cc = ConstantCurvature3::new(&Robot::builtin(), [0.25, 0.26, 0.24]).unwrap();
+    assert_eq!(v["model"], "constant-curvature");
+    assert!(distance(&vector(&v["endpoint_m"]), &cc.endpoint()) < 1e-15);
+    // The last point of each tube is its tip; tube 1's is the endpoint.
+    assert!(distance(&vector(v["tubes"][0]["points_m"].as_array().unwrap().last().unwrap()), &cc.endpoint()) < 1e-12);
+    assert!((v["bend_rad"].as_f64().unwrap() - cc.arc().bend).abs() < 1e-15);
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(["front (seen from +z)", "side (seen from -x)", "top (seen from +y)"].iter().all(|t| text.contains(t)));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn a_held_picture_shows_the_three_views_the_scene_and_the_cups() {
+    let dir = scratch("held");
+    let svg = dir.join("held.svg");
+    let out = leech()
+        .args(["shape3d", "--lengths", "0.25,0.25,0.25", "--scene", "floor", "--svg", svg.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = std::fs::read_to_string(&svg).unwrap();
+    for part in ["front (seen from +z)", "side (seen from -x)", "top (seen from +y)", "scene: floor", "rear cup: holds"]
+    {
+        assert!(text.contains(part), "{part}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

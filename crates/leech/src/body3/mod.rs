@@ -76,7 +76,9 @@
 //! Lagrangian's derivatives), [`solve`] (Newton, continuation), [`planar`]
 //! (the comparison with the planar model), [`hold3`] (holds: the rear
 //! cup, the front cup, both cups, a free front joint; each cup's reaction
-//! and verdict), [`contact3`] (contacts with scene solids),
+//! and verdict), [`place3`] (placing the body for a hold: the plate's frame
+//! from angles, the cups, the points a scene must leave free), [`contact3`]
+//! (contacts with scene solids),
 //! [`constant_curvature3`] (the tri-tube constant-curvature model in the
 //! same conventions, and its difference from the body).
 
@@ -85,6 +87,7 @@ pub mod body3;
 pub mod constant_curvature3;
 pub mod contact3;
 pub mod hold3;
+pub mod place3;
 pub mod planar;
 pub mod rotation;
 pub mod solve;

@@ -9,9 +9,10 @@
 //! what that changes, point by point (m) and link frame by link frame (rad).
 
 use super::body3::{angle_between, Body3};
-use super::rotation::{axpy, dot, rot_z, scale};
+use super::rotation::{axpy, dot, rot_z, scale, Vec3};
 use super::solve::Equilibrium3;
 use crate::body::Body;
+use crate::geom::Vec2;
 use crate::statics::{Equilibrium, SolveError, Solver};
 
 /// How far the 3D body is from the planar model of the same robot.
@@ -33,11 +34,20 @@ pub struct PlanarDifference {
 }
 
 /// Compares solved bodies of one robot: `body3` at `(L1, L2, L2)` against the
-/// planar `body` at `(L1, L2)`.
+/// planar `body` at `(L1, L2)`, its clamp placed on tube 1's root.
 pub fn compare(body3: &Body3, eq3: &Equilibrium3, body: &Body, eq: &Equilibrium) -> PlanarDifference {
-    let origin = body3.tube(0).root();
     let (qa, qb) = body.split(&eq.q);
-    let planar = [body.chain_a().points(qa), body.chain_b().points(qb)];
+    let chains = [body.chain_a().points(qa), body.chain_b().points(qb)];
+    compare_points(body3, eq3, &chains, body3.tube(0).root())
+}
+
+/// Compares `body3` with a planar body given by its chains' points (m,
+/// chain A then chain B, each from its root), the planar origin placed at
+/// `origin` (m) in the 3D world and the plane at `z = origin z`: a held
+/// planar body ([`crate::stance::Held::chain_points`], world points) with
+/// `origin = 0` against the 3D body held the same way. Each planar link's
+/// angle is its chord's, `atan2` of consecutive points.
+pub fn compare_points(body3: &Body3, eq3: &Equilibrium3, chains: &[Vec<Vec2>; 2], origin: Vec3) -> PlanarDifference {
     let tube1 = body3.points(&eq3.frames, 0);
     let (tube2, tube3) = (body3.points(&eq3.frames, 1), body3.points(&eq3.frames, 2));
     let mid: Vec<_> = tube2.iter().zip(&tube3).map(|(a, b)| scale(0.5, axpy(1.0, *a, *b))).collect();
@@ -48,21 +58,22 @@ pub fn compare(body3: &Body3, eq3: &Equilibrium3, body: &Body, eq: &Equilibrium)
         out_of_plane_m: 0.0,
         max_twist_rad: body3.max_twist(&eq3.frames),
     };
-    for (points, flat) in [(&tube1, &planar[0]), (&mid, &planar[1])] {
+    for (points, flat) in [(&tube1, &chains[0]), (&mid, &chains[1])] {
         for (p, f) in points.iter().zip(flat) {
             let d = axpy(-1.0, [f[0], f[1], 0.0], axpy(-1.0, origin, *p));
             out.max_point_m = out.max_point_m.max(dot(d, d).sqrt());
-            out.out_of_plane_m = out.out_of_plane_m.max(p[2].abs());
+            out.out_of_plane_m = out.out_of_plane_m.max((p[2] - origin[2]).abs());
         }
     }
     let tip = |points: &[[f64; 3]]| points.last().copied().unwrap_or(origin);
-    let (t1, ta) = (tip(&tube1), planar[0].last().copied().unwrap_or([0.0; 2]));
+    let (t1, ta) = (tip(&tube1), chains[0].last().copied().unwrap_or([0.0; 2]));
     let d = axpy(-1.0, [ta[0], ta[1], 0.0], axpy(-1.0, origin, t1));
     out.endpoint_m = dot(d, d).sqrt();
-    for (tube, angles) in [(0, qa), (1, qb), (2, qb)] {
-        for (j, phi) in angles.iter().enumerate() {
+    for (tube, chain) in [(0, &chains[0]), (1, &chains[1]), (2, &chains[1])] {
+        for (j, link) in chain.windows(2).enumerate() {
+            let phi = (link[1][1] - link[0][1]).atan2(link[1][0] - link[0][0]);
             let frame = body3.frame(&eq3.frames, tube, j);
-            out.max_angle_rad = out.max_angle_rad.max(angle_between(&frame, &rot_z(*phi)));
+            out.max_angle_rad = out.max_angle_rad.max(angle_between(&frame, &rot_z(phi)));
         }
     }
     out

@@ -51,15 +51,18 @@
 //! ```
 //!
 //! Built-in scenes ([`Scene::builtin`], [`BUILTIN_SCENES`]) are such files,
-//! under `crates/leech/scenes/`.
+//! under `crates/leech/scenes/`. 3D scene files (half-spaces and boxes for
+//! the 3D body) are read by [`SceneFile3`].
 
 mod builtin;
 pub(crate) mod file;
+mod file3;
 mod query;
 mod solid;
 mod solid3;
 
 pub use builtin::{BuiltinScene, BUILTIN_SCENES};
+pub use file3::{is_scene3, SceneFile3, Start3};
 pub use query::{Candidate, Corner};
 pub use solid::Solid;
 pub use solid3::{Plane3, Scene3, Solid3};

@@ -273,14 +273,18 @@ pub enum Status {
     Reached,
     /// No sequence of strides the search tried gets there.
     Impossible,
+    /// The search ran out of its time limit (or was cancelled) first: not
+    /// a verdict on the climb, which more time might plan.
+    Stopped,
 }
 
 /// A planned climb, or the reason there is none.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Plan {
-    /// Reached or impossible.
+    /// Reached, impossible, or stopped (the reason's blocking is then
+    /// [`Blocking::TimeLimit`]).
     pub status: Status,
-    /// For an impossible climb: what blocked the strides from the farthest stance.
+    /// For an impossible or stopped climb: what blocked the strides from the farthest stance.
     pub reason: Option<Rejection>,
     /// Strides in the plan (for an impossible climb: to the farthest stance reached).
     pub strides: usize,
@@ -476,7 +480,9 @@ impl Planner<'_> {
     }
 
     fn impossible(&self, reason: Rejection, steps: Vec<Step>, strides: usize) -> Plan {
-        Plan { status: Status::Impossible, reason: Some(reason), strides, steps, solves: self.solves }
+        // Running out of time is no proof that the climb cannot be made.
+        let status = if reason.blocking == Blocking::TimeLimit { Status::Stopped } else { Status::Impossible };
+        Plan { status, reason: Some(reason), strides, steps, solves: self.solves }
     }
 
     /// The stances one stride from `stance` reaches, trying its front

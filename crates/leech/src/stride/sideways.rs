@@ -62,7 +62,9 @@
 //! the goal or a cup's landing lies off the wall (each face wholly on it:
 //! its centre at least the cup's radius inside the wall's edges), a length
 //! leaves the robot's limits, a search does not converge, a face cannot lie
-//! flush, a cup's verdict fails, or a 3D solve fails.
+//! flush, a cup's verdict fails, or a 3D solve fails; it ends
+//! [`Status::Stopped`] (the reason says where) when the solver's deadline
+//! ran out first, as the planar plan does: no verdict on the climb.
 
 use serde::Deserialize;
 
@@ -279,9 +281,9 @@ pub struct SidewaysStep {
 /// A planned sideways climb, or the reason there is none.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SidewaysPlan {
-    /// Reached or impossible.
+    /// Reached, impossible, or stopped by the solver's deadline.
     pub status: Status,
-    /// Why it is impossible.
+    /// Why it is impossible, or where it stopped.
     pub reason: Option<String>,
     /// Strides planned (for an impossible plan: those that succeeded).
     pub strides: usize,
@@ -619,6 +621,10 @@ pub fn plan_sideways(
         steps: Vec::new(),
     };
     if let Err(reason) = fill(&planner, scenario, options, &mut plan) {
+        // A solve the deadline cut short proves nothing about the climb.
+        if solver.options.deadline.expired() {
+            plan.status = Status::Stopped;
+        }
         plan.reason = Some(reason);
     }
     Ok(plan)
@@ -892,5 +898,15 @@ mod tests {
         // Within the tolerance already: no stride.
         let p = run(&scenario(0.004), &SidewaysOptions::default());
         assert_eq!((p.status, p.strides, p.steps.len()), (Status::Reached, 0, 1));
+    }
+
+    #[test]
+    fn a_plan_cut_short_by_its_deadline_is_stopped_not_impossible() {
+        use crate::statics::SolverOptions;
+        let deadline = crate::budget::Deadline::after(std::time::Duration::ZERO);
+        let solver = Solver::new(SolverOptions { deadline, ..SolverOptions::default() });
+        let p = plan_sideways(&Robot::builtin(), &scenario(0.1), &SidewaysOptions::default(), &solver).unwrap();
+        assert_eq!(p.status, Status::Stopped, "{:?}", p.reason);
+        assert!(p.reason.unwrap().contains("time limit"));
     }
 }

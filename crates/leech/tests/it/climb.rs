@@ -146,7 +146,7 @@ fn a_search_out_of_time_says_so() {
     let options =
         PlanOptions { deadline: Deadline::after(std::time::Duration::from_millis(100)), ..PlanOptions::default() };
     let plan = stride::plan(&robot, &floor, start, goal, &options).unwrap();
-    assert_eq!(plan.status, Status::Impossible);
+    assert_eq!(plan.status, Status::Stopped);
     assert_eq!(plan.reason.unwrap().blocking, stride::Blocking::TimeLimit);
 }
 
