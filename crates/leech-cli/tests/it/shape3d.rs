@@ -284,8 +284,26 @@ fn scenes_give_contacts_and_bad_holds_exit_2_naming_the_flag() {
     assert!(e.contains("--hold front: needs --front"), "{e}");
     let e = rejected(&["shape3d", "--lengths", "0.25,0.25,0.25", "--front", "0,0.3,0,90"]);
     assert!(e.starts_with("leech: --front: got 0,0.3,0,90,0,0 with the rear hold"), "{e}");
-    let e = rejected(&["shape3d", "--lengths", "0.25,0.25,0.25", "--hold", "both", "--front", "0,0.3,0,90"]);
-    assert!(e.starts_with("leech: --hold both"), "{e}");
+    // Both cups 0.30 m apart on a 0.25 m tube 1: the solve fails and says why.
+    let out = leech()
+        .args(["shape3d", "--lengths", "0.25,0.25,0.25", "--hold", "both", "--front", "0,0.3,0,90"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(3));
+    let e = String::from_utf8(out.stderr).unwrap();
+    assert!(e.contains("out of reach") && e.contains("0.2500 m"), "{e}");
+    let e = rejected(&[
+        "shape3d",
+        "--lengths",
+        "0.25,0.25,0.25",
+        "--hold",
+        "both",
+        "--front",
+        "0,0.2,0,90",
+        "--scene",
+        "floor",
+    ]);
+    assert!(e.starts_with("leech: --hold both: got a --scene"), "{e}");
     let e = rejected(&["shape3d", "--lengths", "0.25,0.25,0.25", "--hold", "front", "--front", "0,0.3,0,90,400"]);
     assert!(e.starts_with("leech: --front yaw (deg)") && e.contains("400"), "{e}");
     let e = rejected(&["shape3d", "--lengths", "0.25,0.25,0.25", "--front", "0,0.3,90"]);

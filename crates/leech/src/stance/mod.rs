@@ -145,7 +145,7 @@ pub enum StanceError {
     Solve(#[from] SolveError),
     /// Both holds, the front one farther from the driving unit than chain A
     /// reaches: the solve failed, as it must (no stretched body).
-    #[error("front hold out of reach: {distance_m:.4} m from the driving unit, chain A reaches at most {reach_m:.4} m ({source})")]
+    #[error("front hold out of reach: {distance_m:.4} m from the driving unit, chain A (tube 1) reaches at most {reach_m:.4} m ({source})")]
     OutOfReach {
         /// Distance from chain A's clamp to the front hold's point (m).
         distance_m: f64,
