@@ -30,7 +30,7 @@ use super::hold3::Hanging;
 use super::rotation::{apply, axpy, cross};
 use crate::linalg::{BorderedLdl, MAX_BORDER};
 use crate::scene::Scene3;
-use crate::statics::{BranchRule, Equilibrium, Event, Side, SolveError, Solver, Stage, StopReason};
+use crate::statics::{BranchRule, Equilibrium, Event, Side, SolveError, Solver, Stage, StopReason, Tuning};
 
 /// Unstable landings left in one settle before it gives up.
 const ESCAPES: usize = 4;
@@ -133,6 +133,14 @@ struct Work {
     frames_start: Frames,
     damping: f64,
     rho: f64,
+    /// The shift whose factors of `ev`'s KKT matrix `ldl` holds, and what
+    /// [`Work::factor`] said of them; `None` once `ev` changed.
+    factored: Option<(f64, (bool, bool))>,
+    /// Whether `border` and `corner` hold `ev`'s entries.
+    border_loaded: bool,
+    /// Where in the sequence `first_shift k growth^i` the last
+    /// inertia-correcting shift was: the next search starts there.
+    shift_index: usize,
 }
 
 impl Work {
@@ -167,6 +175,9 @@ impl Work {
             frames_start: body.straight(),
             damping: 0.0,
             rho: 0.0,
+            factored: None,
+            border_loaded: false,
+            shift_index: 0,
         };
         work.set_contacts(body, &[]);
         work
@@ -193,6 +204,29 @@ impl Work {
         for v in [&mut self.cons, &mut self.dual, &mut self.lambda_tangent, &mut self.lambda_trial] {
             v.resize(rows, 0.0);
         }
+        self.changed();
+    }
+
+    /// `ev` (or the rows) changed: its factors and border are out of date.
+    fn changed(&mut self) {
+        self.factored = None;
+        self.border_loaded = false;
+    }
+
+    /// Evaluates `body` at `frames`, `lambda` on `param` into `ev`, `cev`
+    /// and `residual`, with the Hessian.
+    fn evaluate(&mut self, body: &Body3, frames: &Frames, lambda: &[f64], param: Param) {
+        let (ev, cev, residual) = (&mut self.ev, &mut self.cev, &mut self.residual);
+        body.evaluate_with::<true>(frames, lambda, param, &self.contacts, ev, cev, residual);
+        self.changed();
+    }
+
+    /// The trial point's evaluation becomes the current one (`ev`, `cev`, `residual`).
+    fn accept_trial(&mut self) {
+        std::mem::swap(&mut self.ev, &mut self.trial);
+        std::mem::swap(&mut self.cev, &mut self.cev_trial);
+        std::mem::swap(&mut self.residual, &mut self.residual_trial);
+        self.changed();
     }
 
     /// The weld's and contact rows' values of the current point into `cons`.
@@ -203,37 +237,80 @@ impl Work {
 
     /// Factors the KKT matrix of `ev` shifted by `shift`; whether the reduced
     /// Hessian is positive definite, and whether the count was singular.
+    /// Factors already held for `ev` at `shift` are kept, not made again.
     fn factor(&mut self, shift: f64, tiny: f64) -> (bool, bool) {
+        match self.factored {
+            Some((at, verdict)) if at == shift => return verdict,
+            _ => {}
+        }
+        if !self.border_loaded {
+            self.load_border();
+        }
+        let rows = self.rows();
+        let count = self.ldl.factor(&self.ev.diag, &self.ev.off, &self.border, &self.corner, shift, tiny);
+        let verdict = (count.zero == 0 && count.negative == rows, count.zero > 0);
+        self.factored = Some((shift, verdict));
+        verdict
+    }
+
+    /// The border and corner of `ev`'s KKT matrix in [`BorderedLdl`]'s layout.
+    fn load_border(&mut self) {
         let (ev, cev) = (&self.ev, &self.cev);
         let chain = ev.diag.len() / 3;
-        let (rows, m) = (self.rows(), self.contacts.len());
-        let border = 3 + rows;
-        // Row `i`'s entries of the rows: the weld's 12, then the contacts'.
-        let entry = |i: usize, r: usize| {
-            if r < PLATE_ROWS {
-                ev.jacobian[i * PLATE_ROWS + r]
-            } else {
-                cev.jacobian[i * m + r - PLATE_ROWS]
-            }
-        };
-        for i in 0..chain {
-            let row = &mut self.border[i * border..(i + 1) * border];
+        let m = self.contacts.len();
+        let border = 3 + PLATE_ROWS + m;
+        // Unknown `i`'s entries of the rows: the weld's 12, then the contacts'.
+        let weld = |i: usize| &ev.jacobian[i * PLATE_ROWS..(i + 1) * PLATE_ROWS];
+        let contacts = |i: usize| &cev.jacobian[i * m..(i + 1) * m];
+        for (i, row) in self.border.chunks_exact_mut(border).enumerate() {
             row[..3].copy_from_slice(&ev.plate_border[3 * i..3 * i + 3]);
-            for (r, dst) in row[3..].iter_mut().enumerate() {
-                *dst = entry(i, r);
-            }
+            row[3..3 + PLATE_ROWS].copy_from_slice(weld(i));
+            row[3 + PLATE_ROWS..].copy_from_slice(contacts(i));
         }
         self.corner.fill(0.0);
         for a in 0..3 {
             self.corner[a * border..a * border + 3].copy_from_slice(&ev.plate_corner[a]);
-            for r in 0..rows {
-                let j = entry(chain + a, r);
-                self.corner[(3 + r) * border + a] = j;
-                self.corner[a * border + 3 + r] = j;
+            for (r, j) in weld(chain + a).iter().chain(contacts(chain + a)).enumerate() {
+                self.corner[(3 + r) * border + a] = *j;
+                self.corner[a * border + 3 + r] = *j;
             }
         }
-        let count = self.ldl.factor(&ev.diag, &ev.off, &self.border, &self.corner, shift, tiny);
-        (count.zero == 0 && count.negative == rows, count.zero > 0)
+        self.border_loaded = true;
+    }
+
+    /// The smallest shift of `0, first_shift k growth^i` (`i` up to
+    /// `max_shift_tries`) that makes the reduced Hessian positive definite,
+    /// its factors left in `ldl`; `None` if there is none. The search
+    /// starts at the last shift's place in the sequence and walks down
+    /// while the next smaller one still does (the reduced Hessian grows
+    /// with the shift, so this is the smallest), else up: along a path the
+    /// shift needed changes little, and a search from the sequence's start
+    /// cost as many factorizations as its place.
+    fn inertia_shift(&mut self, tuning: &Tuning, k: f64, tiny: f64) -> Option<f64> {
+        if self.factor(0.0, tiny).0 {
+            return Some(0.0);
+        }
+        let shift = |i: usize| tuning.first_shift * k * tuning.shift_growth.powi(i as i32);
+        let mut i = self.shift_index.min(tuning.max_shift_tries);
+        if self.factor(shift(i), tiny).0 {
+            while i > 0 && self.factor(shift(i - 1), tiny).0 {
+                i -= 1;
+            }
+        } else {
+            loop {
+                i += 1;
+                if i > tuning.max_shift_tries {
+                    return None;
+                }
+                if self.factor(shift(i), tiny).0 {
+                    break;
+                }
+            }
+        }
+        self.shift_index = i;
+        // Again after a walk down that ended on a shift too small.
+        self.factor(shift(i), tiny);
+        Some(shift(i))
     }
 
     /// Solves the factored system for `-(r, c)`, `c` the rows' values in
@@ -399,9 +476,7 @@ impl Body3 {
         hang: Option<Hanging>,
         work: &mut Work,
     ) -> Equilibrium3 {
-        let param = Param { hang, ..Param::FULL };
-        let (ev, cev, residual_v) = (&mut work.ev, &mut work.cev, &mut work.residual);
-        self.evaluate_with::<true>(&state.frames, &state.lambda, param, &work.contacts, ev, cev, residual_v);
+        work.evaluate(self, &state.frames, &state.lambda, Param { hang, ..Param::FULL });
         let tiny = solver.options.tuning.tiny_pivot * self.moment_scale();
         let stable = work.factor(0.0, tiny).0;
         let q = state.frames.0.iter().flat_map(super::rotation::log).collect();
@@ -583,8 +658,7 @@ impl Body3 {
         let k = self.moment_scale();
         let tiny = tuning.tiny_pivot * k;
         work.frames_saved.clone_from(&state.frames);
-        let (ev, cev, residual) = (&mut work.ev, &mut work.cev, &mut work.residual);
-        self.evaluate_with::<true>(&state.frames, &state.lambda, param, &work.contacts, ev, cev, residual);
+        work.evaluate(self, &state.frames, &state.lambda, param);
         work.damping = 0.0;
         let (mut iter, mut best, mut best_at, mut fresh) = (0, f64::INFINITY, 0, false);
         loop {
@@ -611,19 +685,9 @@ impl Body3 {
             }
             iter += 1;
             state.iterations += 1;
-            // The smallest shift that makes the reduced Hessian positive definite.
-            let mut min_shift = 0.0;
-            if !work.factor(0.0, tiny).0 {
-                min_shift = tuning.first_shift * k;
-                let mut tries = 0;
-                while !work.factor(min_shift, tiny).0 {
-                    tries += 1;
-                    if tries > tuning.max_shift_tries {
-                        return (res, Err(StopReason::SingularJacobian));
-                    }
-                    min_shift *= tuning.shift_growth;
-                }
-            }
+            let Some(min_shift) = work.inertia_shift(tuning, k, tiny) else {
+                return (res, Err(StopReason::SingularJacobian));
+            };
             if !self.take_step(solver, state, param, work, min_shift) {
                 // Within a few orders of the tolerance no step improves on rounding.
                 if res <= o.rounding_slack * budget.tolerance {
@@ -657,10 +721,8 @@ impl Body3 {
         let tiny = tuning.tiny_pivot * k;
         let mut shift = if min_shift == 0.0 { 0.0 } else { min_shift.max(work.damping) };
         let base_l2 = self.residual_l2(&work.ev, &work.cev, &work.residual);
-        for attempt in 0..tuning.max_trials {
-            if attempt > 0 || shift != min_shift {
-                work.factor(shift, tiny);
-            }
+        for _ in 0..tuning.max_trials {
+            work.factor(shift, tiny);
             let residual = std::mem::take(&mut work.residual);
             work.gather_constraints();
             work.solve(&residual);
@@ -693,9 +755,7 @@ impl Body3 {
             if (decreased || improved) && after.is_finite() {
                 std::mem::swap(&mut state.frames, &mut work.frames_trial);
                 std::mem::swap(&mut state.lambda, &mut work.lambda_trial);
-                std::mem::swap(&mut work.ev, &mut work.trial);
-                std::mem::swap(&mut work.cev, &mut work.cev_trial);
-                std::mem::swap(&mut work.residual, &mut work.residual_trial);
+                work.accept_trial();
                 work.damping = shift * tuning.damping_memory;
                 return true;
             }
