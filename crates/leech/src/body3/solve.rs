@@ -20,9 +20,9 @@
 //! shifted steps stay within the trust radius and are accepted on the
 //! merit `V/k + rho |C/s|_1`, plain Newton steps also on the residual; a
 //! rejected step raises a Levenberg shift. Continuation uses a tangent
-//! predictor (the path derivative of the residual by a central difference
-//! in the path parameter, one solve with the converged factors) and a
-//! Newton corrector, the first step sized so that the predictor turns no
+//! predictor (the path derivative of the residual `F(tau + 1) - F(tau)`,
+//! exact since `F` is affine in the path parameter, and one solve with the
+//! converged factors) and a Newton corrector, the first step sized so that the predictor turns no
 //! link by more than 0.5 rad, doubling on success, halving on failure; a
 //! persisting jump at the smallest step is a fold, reported as
 //! [`Event::Snap`].
@@ -374,8 +374,7 @@ impl Body3 {
         let mut state = State::new(self.straight());
         let mut residual = self.feed(solver, &mut state, &mut work)?;
         if self.gravity() != 0.0 {
-            let load = |t: f64| Param { load: t, scale: [1.0; 3], hang };
-            residual = self.continuation(solver, &mut state, &load, Stage::Load, &mut work)?;
+            residual = self.continuation(solver, &mut state, &load_path(hang), Stage::Load, &mut work)?;
         }
         Ok(self.finish(solver, state, residual, hang, &mut work))
     }
@@ -384,14 +383,20 @@ impl Body3 {
     /// scaled from `L_min / L_i` up to 1); the residual at the end.
     fn feed(&self, solver: &Solver, state: &mut State, work: &mut Work) -> Result<f64, SolveError> {
         let lengths = [0, 1, 2].map(|i| self.tube(i).tube_length());
-        let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
-        let feed =
-            |tau: f64| Param { load: 0.0, scale: lengths.map(|l| (shortest + tau * (l - shortest)) / l), hang: None };
-        if lengths.iter().all(|l| *l == shortest) {
+        let feed = self.feed_path();
+        if lengths.iter().all(|l| *l == lengths[0]) {
             self.settle_reporting(solver, state, feed(1.0), 1.0, Stage::Feed, work)
         } else {
             self.continuation(solver, state, &feed, Stage::Feed, work)
         }
+    }
+
+    /// The feeding path: at `g = 0`, each tube's links scaled from
+    /// `L_min / L_i` (`tau = 0`) to 1 (`tau = 1`), affine in `tau`.
+    fn feed_path(&self) -> impl Fn(f64) -> Param {
+        let lengths = [0, 1, 2].map(|i| self.tube(i).tube_length());
+        let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
+        move |tau| Param { load: 0.0, scale: lengths.map(|l| (shortest + tau * (l - shortest)) / l), hang: None }
     }
 
     /// The equilibrium among `scene`'s solids on the default path: the
@@ -777,25 +782,27 @@ impl Body3 {
         false
     }
 
-    /// The path tangent at a converged point whose unshifted factors are in
-    /// `work.ldl`: `K (delta', -lambda') = -dF/dtau`, `dF/dtau` by a central
-    /// difference of the residual at fixed frames and multipliers.
+    /// The path tangent at a converged point, evaluated in `work.ev` with
+    /// its unshifted factors in `work.ldl`: `K (delta', -lambda') =
+    /// -dF/dtau` for the residual `F = (grad V - J^T lambda, C)` at fixed
+    /// frames and multipliers. Along both paths `F` is affine in `tau` (the
+    /// feeding scales enter the link lengths, so the position rows and
+    /// their Jacobian, linearly, at zero gravity; the load enters gravity
+    /// linearly, hanging or not; the contact rows do not move), so
+    /// `dF/dtau = F(tau + 1) - F(tau)` exactly: one residual evaluation
+    /// (no Hessian), where a central difference took two, and no
+    /// difference step's rounding.
     fn tangent(&self, state: &State, path: &impl Fn(f64) -> Param, tau: f64, work: &mut Work) {
-        const H: f64 = 1e-6;
+        let (ev, cev, residual) = (&mut work.trial, &mut work.cev_trial, &mut work.residual_trial);
+        self.evaluate_with::<false>(&state.frames, &state.lambda, path(tau + 1.0), &work.contacts, ev, cev, residual);
         let mut dr = std::mem::take(&mut work.path_residual);
-        dr.fill(0.0);
-        // The contact rows do not move with the path at fixed frames.
-        work.cons.fill(0.0);
-        for (sign, at) in [(1.0, tau + H), (-1.0, tau - H)] {
-            // A residual needs no Hessian.
-            let (ev, cev, residual) = (&mut work.trial, &mut work.cev_trial, &mut work.residual_trial);
-            self.evaluate_with::<false>(&state.frames, &state.lambda, path(at), &work.contacts, ev, cev, residual);
-            for (d, r) in dr.iter_mut().zip(&work.residual_trial) {
-                *d += sign * r / (2.0 * H);
-            }
-            for (d, c) in work.cons.iter_mut().zip(&work.trial.constraints) {
-                *d += sign * c / (2.0 * H);
-            }
+        for ((d, next), now) in dr.iter_mut().zip(&work.residual_trial).zip(&work.residual) {
+            *d = next - now;
+        }
+        let next = work.trial.constraints.iter().chain(&work.cev_trial.gaps);
+        let now = work.ev.constraints.iter().chain(&work.cev.gaps);
+        for ((d, next), now) in work.cons.iter_mut().zip(next).zip(now) {
+            *d = next - now;
         }
         work.solve(&dr);
         work.path_residual = dr;
@@ -883,6 +890,12 @@ impl Body3 {
     }
 }
 
+/// The gravity path at the body's lengths: the load fraction `t` from 0
+/// to 1, hanging from the front cup when `hang` says so.
+fn load_path(hang: Option<Hanging>) -> impl Fn(f64) -> Param {
+    move |t| Param { load: t, scale: [1.0; 3], hang }
+}
+
 /// The error for a Newton run that stopped for `reason`.
 fn fail(solver: &Solver, stage: Stage, state: &State, residual: f64, reason: StopReason) -> SolveError {
     match solver.options.deadline.check() {
@@ -890,5 +903,52 @@ fn fail(solver: &Solver, stage: Stage, state: &State, residual: f64, reason: Sto
             SolveError::Stopped { halt, iterations: state.iterations, residual }
         }
         _ => SolveError::NotConverged { stage, iterations: state.iterations, residual, reason },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::body3::rotation::exp;
+    use crate::robot::Robot;
+    use crate::scene::Plane3;
+
+    /// [`Body3::tangent`]'s premise: along the feeding and gravity paths
+    /// (hanging or not, with a contact row) the residual is affine in the
+    /// path parameter, so `F(tau + 1) - F(tau)` is its derivative, here
+    /// against a central difference of step 1e-5 at a bent, twisted state
+    /// with nonzero multipliers.
+    #[test]
+    fn residual_is_affine_along_the_paths() {
+        let body = Body3::from_robot(&Robot::builtin(), [0.09, 0.12, 0.07]).unwrap();
+        let frames = Frames((0..body.links()).map(|u| exp([0.2, -0.3 + 0.05 * u as f64, 0.1])).collect());
+        let lambda: Vec<f64> = (0..PLATE_ROWS + 1).map(|r| 0.3 - 0.07 * r as f64).collect();
+        let plane = Plane3 { point_m: [0.0, -0.01, 0.0], normal: [0.0, 1.0, 0.0] };
+        let contact = [ContactRow3 { tube: 1, link: 3, solid: 0, plane }];
+        let hang = Hanging { up: [0.6, 0.0, 0.8], unit_mass_kg: 0.1 };
+        let residual = |param: Param| {
+            let (mut ev, mut cev) = (Eval3::new(&body), ContactEval::default());
+            let mut r = vec![0.0; 3 * body.links()];
+            body.evaluate_with::<false>(&frames, &lambda, param, &contact, &mut ev, &mut cev, &mut r);
+            r.extend(ev.constraints);
+            r.extend(cev.gaps);
+            r
+        };
+        let feed = body.feed_path();
+        let paths: [&dyn Fn(f64) -> Param; 3] = [&feed, &load_path(None), &load_path(Some(hang))];
+        const H: f64 = 1e-5;
+        for (p, path) in paths.iter().enumerate() {
+            for tau in [0.0, 0.4, 0.9] {
+                let difference = |a: f64, b: f64, over: f64| -> Vec<f64> {
+                    residual(path(a)).iter().zip(residual(path(b))).map(|(x, y)| (x - y) / over).collect()
+                };
+                let (unit, central) = (difference(tau + 1.0, tau, 1.0), difference(tau + H, tau - H, 2.0 * H));
+                let size = sup(&unit);
+                assert!(size > 1e-3, "path {p}: the residual moves along it");
+                for (i, (a, b)) in unit.iter().zip(central).enumerate() {
+                    assert!((a - b).abs() <= 1e-8 * size, "path {p}, tau {tau}, entry {i}: {a} against {b}");
+                }
+            }
+        }
     }
 }
