@@ -627,6 +627,19 @@ pub fn distance(a: &Frames, b: &Frames) -> f64 {
     a.0.iter().zip(&b.0).fold(0.0, |m, (x, y)| f64::max(m, angle_between(x, y)))
 }
 
+/// Whether [`distance`]`(a, b) <= limit` (rad), without a logarithm per
+/// link: the angle `theta` between two frames has
+/// `tr(A^T B) = 1 + 2 cos theta`, and `cos` falls on `[0, pi]`, so
+/// `theta <= limit < pi` exactly when `tr(A^T B) >= 1 + 2 cos(limit)`.
+pub(crate) fn within(a: &Frames, b: &Frames, limit: f64) -> bool {
+    if limit >= std::f64::consts::PI {
+        return true;
+    }
+    let least = 1.0 + 2.0 * limit.cos();
+    let trace = |x: &Mat3, y: &Mat3| (0..3).map(|r| super::rotation::dot(x[r], y[r])).sum::<f64>();
+    a.0.iter().zip(&b.0).all(|(x, y)| trace(x, y) >= least)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -645,6 +658,25 @@ mod tests {
             let mut ev = Eval3::new(&body);
             body.evaluate(&frames, &lambda, param, &mut ev);
             border_reaches_as_declared(&body.pattern(param.hang.is_some(), 0), &ev);
+        }
+    }
+
+    /// [`within`] says what [`distance`] does, on pairs of states turned
+    /// apart by angles from 0.01 to 3 rad, at limits on both sides.
+    #[test]
+    fn within_agrees_with_distance() {
+        let turn = |angle: f64, u: usize| {
+            exp([angle * 0.6, -angle * 0.8 * (u % 2) as f64, angle * 0.8 * (u % 3 == 0) as u8 as f64])
+        };
+        let base = Frames((0..7).map(|u| exp([0.3 * u as f64, 0.1, -0.2])).collect());
+        for angle in [0.01, 0.3, 0.5, 1.2, 3.0] {
+            let moved = Frames(
+                base.0.iter().enumerate().map(|(u, r)| super::super::rotation::mul(r, &turn(angle, u))).collect(),
+            );
+            let d = distance(&base, &moved);
+            for limit in [0.5 * d, 0.999 * d, 1.001 * d, 2.0 * d, 4.0, f64::INFINITY] {
+                assert_eq!(within(&base, &moved, limit), d <= limit, "angle {angle}, limit {limit}");
+            }
         }
     }
 

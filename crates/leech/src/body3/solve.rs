@@ -27,7 +27,7 @@
 //! persisting jump at the smallest step is a fold, reported as
 //! [`Event::Snap`].
 
-use super::body3::{distance, retract, Body3, Eval3, Frames, Param, PLATE_ROWS};
+use super::body3::{distance, retract, within, Body3, Eval3, Frames, Param, PLATE_ROWS};
 use super::contact3::{Contact3, ContactEval, ContactRow3};
 use super::hold3::Hanging;
 use super::rotation::{apply, axpy, cross};
@@ -723,7 +723,7 @@ impl Body3 {
                 && work.damping == 0.0
                 && sup(&work.step) < tuning.reuse_factors_step
                 && moved_multipliers < tuning.reuse_factors_step;
-            if budget.leash.is_finite() && distance(&state.frames, &work.frames_saved) > budget.leash {
+            if !within(&state.frames, &work.frames_saved, budget.leash) {
                 let res = self.residual_norm(&work.ev, &work.cev, &work.residual);
                 return (res, Err(StopReason::LeftBranch));
             }
@@ -844,7 +844,7 @@ impl Body3 {
             let tolerance = if last { o.tolerance } else { o.path_tolerance };
             let budget = Budget { max_iter: o.max_corrector_iterations, tolerance, leash: o.jump_tolerance };
             let (res, out) = self.newton(solver, state, path(tau + dtau), budget, work);
-            if out == Ok(true) && distance(&state.frames, &work.frames_saved) <= o.jump_tolerance {
+            if out == Ok(true) && within(&state.frames, &work.frames_saved, o.jump_tolerance) {
                 tau = if last { 1.0 } else { tau + dtau };
                 state.steps += 1;
                 residual = res;
