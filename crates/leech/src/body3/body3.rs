@@ -641,9 +641,17 @@ pub(crate) fn within(a: &Frames, b: &Frames, limit: f64) -> bool {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::body3::rotation::exp;
+
+    /// A bent, twisted state of `body` (link `u` turned by
+    /// `Exp(0.1, -0.2 + 0.03 u, 0.05)`) and a front hold to hang it from:
+    /// a generic point for checks of the evaluation.
+    pub(crate) fn bent_and_hanging(body: &Body3) -> (Frames, super::super::hold3::Hanging) {
+        let frames = Frames((0..body.links()).map(|u| exp([0.1, -0.2 + 0.03 * u as f64, 0.05])).collect());
+        (frames, super::super::hold3::Hanging { up: [0.6, 0.0, 0.8], unit_mass_kg: 0.1 })
+    }
 
     /// The border reach declared to the factorization must hold: every
     /// border entry of the evaluation before a row's declared start on a
@@ -651,9 +659,8 @@ mod tests {
     #[test]
     fn border_rows_reach_no_further_than_declared() {
         let body = Body3::from_robot(&Robot::builtin(), [0.08, 0.07, 0.06]).unwrap();
-        let frames = Frames((0..body.links()).map(|u| exp([0.1, -0.2 + 0.03 * u as f64, 0.05])).collect());
+        let (frames, hang) = bent_and_hanging(&body);
         let lambda: [f64; PLATE_ROWS] = std::array::from_fn(|r| 0.3 + r as f64);
-        let hang = super::super::hold3::Hanging { up: [0.6, 0.0, 0.8], unit_mass_kg: 0.1 };
         for param in [Param::FULL, Param { hang: Some(hang), ..Param::FULL }] {
             let mut ev = Eval3::new(&body);
             body.evaluate(&frames, &lambda, param, &mut ev);

@@ -909,7 +909,7 @@ fn fail(solver: &Solver, stage: Stage, state: &State, residual: f64, reason: Sto
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::body3::rotation::exp;
+    use crate::body3::body3::tests::bent_and_hanging;
     use crate::robot::Robot;
     use crate::scene::Plane3;
 
@@ -921,11 +921,10 @@ mod tests {
     #[test]
     fn residual_is_affine_along_the_paths() {
         let body = Body3::from_robot(&Robot::builtin(), [0.09, 0.12, 0.07]).unwrap();
-        let frames = Frames((0..body.links()).map(|u| exp([0.2, -0.3 + 0.05 * u as f64, 0.1])).collect());
+        let (frames, hang) = bent_and_hanging(&body);
         let lambda: Vec<f64> = (0..PLATE_ROWS + 1).map(|r| 0.3 - 0.07 * r as f64).collect();
         let plane = Plane3 { point_m: [0.0, -0.01, 0.0], normal: [0.0, 1.0, 0.0] };
         let contact = [ContactRow3 { tube: 1, link: 3, solid: 0, plane }];
-        let hang = Hanging { up: [0.6, 0.0, 0.8], unit_mass_kg: 0.1 };
         let residual = |param: Param| {
             let (mut ev, mut cev) = (Eval3::new(&body), ContactEval::default());
             let mut r = vec![0.0; 3 * body.links()];
