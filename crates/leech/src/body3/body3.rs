@@ -632,10 +632,31 @@ pub fn distance(a: &Frames, b: &Frames) -> f64 {
     a.0.iter().zip(&b.0).fold(0.0, |m, (x, y)| f64::max(m, angle_between(x, y)))
 }
 
+/// Whether [`distance`]`(a, b) <= limit` (rad), without a logarithm per
+/// link: the angle `theta` between two frames has
+/// `tr(A^T B) = 1 + 2 cos theta`, and `cos` falls on `[0, pi]`, so
+/// `theta <= limit < pi` exactly when `tr(A^T B) >= 1 + 2 cos(limit)`.
+pub(crate) fn within(a: &Frames, b: &Frames, limit: f64) -> bool {
+    if limit >= std::f64::consts::PI {
+        return true;
+    }
+    let least = 1.0 + 2.0 * limit.cos();
+    let trace = |x: &Mat3, y: &Mat3| (0..3).map(|r| super::rotation::dot(x[r], y[r])).sum::<f64>();
+    a.0.iter().zip(&b.0).all(|(x, y)| trace(x, y) >= least)
+}
+
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::body3::rotation::exp;
+
+    /// A bent, twisted state of `body` (link `u` turned by
+    /// `Exp(0.1, -0.2 + 0.03 u, 0.05)`) and a front hold to hang it from:
+    /// a generic point for checks of the evaluation.
+    pub(crate) fn bent_and_hanging(body: &Body3) -> (Frames, super::super::hold3::Hanging) {
+        let frames = Frames((0..body.links()).map(|u| exp([0.1, -0.2 + 0.03 * u as f64, 0.05])).collect());
+        (frames, super::super::hold3::Hanging { up: [0.6, 0.0, 0.8], unit_mass_kg: 0.1 })
+    }
 
     /// The border reach declared to the factorization must hold: every
     /// border entry of the evaluation before a row's declared start on a
@@ -643,13 +664,31 @@ mod tests {
     #[test]
     fn border_rows_reach_no_further_than_declared() {
         let body = Body3::from_robot(&Robot::builtin(), [0.08, 0.07, 0.06]).unwrap();
-        let frames = Frames((0..body.links()).map(|u| exp([0.1, -0.2 + 0.03 * u as f64, 0.05])).collect());
+        let (frames, hang) = bent_and_hanging(&body);
         let lambda: [f64; PLATE_ROWS] = std::array::from_fn(|r| 0.3 + r as f64);
-        let hang = super::super::hold3::Hanging { up: [0.6, 0.0, 0.8], unit_mass_kg: 0.1 };
         for param in [Param::FULL, Param { hang: Some(hang), ..Param::FULL }] {
             let mut ev = Eval3::new(&body);
             body.evaluate(&frames, &lambda, param, &mut ev);
             border_reaches_as_declared(&body.pattern(param.hang.is_some(), 0), &ev);
+        }
+    }
+
+    /// [`within`] says what [`distance`] does, on pairs of states turned
+    /// apart by angles from 0.01 to 3 rad, at limits on both sides.
+    #[test]
+    fn within_agrees_with_distance() {
+        let turn = |angle: f64, u: usize| {
+            exp([angle * 0.6, -angle * 0.8 * (u % 2) as f64, angle * 0.8 * (u % 3 == 0) as u8 as f64])
+        };
+        let base = Frames((0..7).map(|u| exp([0.3 * u as f64, 0.1, -0.2])).collect());
+        for angle in [0.01, 0.3, 0.5, 1.2, 3.0] {
+            let moved = Frames(
+                base.0.iter().enumerate().map(|(u, r)| super::super::rotation::mul(r, &turn(angle, u))).collect(),
+            );
+            let d = distance(&base, &moved);
+            for limit in [0.5 * d, 0.999 * d, 1.001 * d, 2.0 * d, 4.0, f64::INFINITY] {
+                assert_eq!(within(&base, &moved, limit), d <= limit, "angle {angle}, limit {limit}");
+            }
         }
     }
 
