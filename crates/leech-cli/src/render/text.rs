@@ -276,7 +276,12 @@ pub fn sideways(out: &mut String, a: &crate::args::ClimbSideways, plan: &leech::
     say!(out, "stride  phase          L1/L2/L3 (mm)          rear cup y, z (mm)  SF     front cup y, z (mm)  SF");
     let cup = |c: &Option<leech::body3::CupState3>| match c {
         Some(c) => {
-            format!("({:7.1}, {:7.1})  {:5.2}", c.centre_m[1] * 1e3, c.centre_m[2] * 1e3, c.verdict.safety_factor)
+            format!(
+                "({:7.1}, {:7.1})  {:>5}",
+                c.centre_m[1] * 1e3,
+                c.centre_m[2] * 1e3,
+                safety_factor(c.verdict.safety_factor)
+            )
         }
         None => format!("{:<25}", "-"),
     };
@@ -308,15 +313,22 @@ pub fn sideways(out: &mut String, a: &crate::args::ClimbSideways, plan: &leech::
     }
 }
 
+/// A safety factor in a table: two decimals, or powers of ten where a cup
+/// carries next to nothing (a loop closed without preload leaves one cup
+/// rounding's load).
+fn safety_factor(f: f64) -> String {
+    if f < 1e3 {
+        format!("{f:.2}")
+    } else {
+        format!("{f:.1e}")
+    }
+}
+
 /// `leech climb`: one line per phase's end, then the totals (and why an
 /// impossible climb is).
 pub fn climb(out: &mut String, r: &ClimbReport, elapsed_s: f64) {
     let mm = |p: [f64; 2]| format!("({:7.1}, {:7.1})", p[0] * 1e3, p[1] * 1e3);
-    let factor = |f: Option<f64>| match f {
-        None => "-".to_string(),
-        Some(f) if f < 1e3 => format!("{f:.2}"),
-        Some(f) => format!("{f:.1e}"),
-    };
+    let factor = |f: Option<f64>| f.map_or("-".to_string(), safety_factor);
     say!(out, "{} ({}): to ({:.3}, {:.3}) m within {} m", r.scenario, r.robot, r.goal_m[0], r.goal_m[1], r.tolerance_m);
     for s in &r.steps {
         say!(
