@@ -16,7 +16,7 @@
 //! front hold's six when both cups hold, then the contacts'): O(n) per step. As in
 //! [`crate::statics`]: the shift is the smallest of a geometric sequence
 //! that makes the reduced Hessian positive definite (Sylvester's inertia:
-//! exactly 12 negative eigenvalues), so steps head for stable equilibria
+//! one negative eigenvalue per row), so steps head for stable equilibria
 //! (searched from the last shift's place in the sequence, down or up);
 //! shifted steps stay within the trust radius and are accepted on the
 //! merit `V/k + rho |C/s|_1`, plain Newton steps also on the residual; a
