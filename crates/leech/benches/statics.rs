@@ -50,7 +50,7 @@ fn chain_cold_30(bencher: divan::Bencher) {
 /// has 28/30 as many).
 #[divan::bench(args = [30, 100, 300, 1000, 3000], sample_count = 20)]
 fn shape_cold_links(bencher: divan::Bencher, links: usize) {
-    let robot = Robot::builtin().with_element_length(0.30 / links as f64).unwrap();
+    let robot = Robot::builtin().with_element_length(element_length(links)).unwrap();
     let body = robot.body(0.30, 0.28).unwrap();
     let solver = Solver::default();
     bencher.bench_local(|| body.solve(&solver).unwrap());
@@ -61,8 +61,15 @@ fn shape_cold_links(bencher: divan::Bencher, links: usize) {
 /// minimization at g = 0), so only the load continuation remains.
 #[divan::bench(args = [3000], sample_count = 20)]
 fn shape_cold_equal_links(bencher: divan::Bencher, links: usize) {
-    let robot = Robot::builtin().with_element_length(0.30 / links as f64).unwrap();
+    let robot = Robot::builtin().with_element_length(element_length(links)).unwrap();
     let body = robot.body(0.30, 0.30).unwrap();
     let solver = Solver::default();
     bencher.bench_local(|| body.solve(&solver).unwrap());
+}
+
+/// The element length that cuts 0.30 m into `links` links: 0.30 / 3000
+/// rounds to just below the smallest length a robot file allows, which
+/// stands for it (3000 links still).
+fn element_length(links: usize) -> f64 {
+    (0.30 / links as f64).max(leech::chain::ELEMENT_LENGTH_M.0)
 }
