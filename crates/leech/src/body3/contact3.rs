@@ -148,21 +148,25 @@ pub(crate) struct ContactEval {
     pub scales: Vec<f64>,
 }
 
-/// Where [`Body3::point_terms`] puts run-time row `r` of `m`: its
-/// Jacobian into `jacobian` (at `i * m + r`), with `HESSIAN` its diagonal
-/// Hessian blocks into `ev`.
+/// Where a run-time row's terms go, row `r` of `m`: its Jacobian into
+/// `jacobian` (at `i * m + r`), with `HESSIAN` its diagonal Hessian blocks
+/// and, where the row couples a link with the plate (link `plate`; the
+/// solids turning with it under a front hold), the cross block into `ev`.
 pub(crate) fn row_sink<'a, const HESSIAN: bool>(
     ev: &'a mut Eval3,
     jacobian: &'a mut [f64],
-    m: usize,
-    r: usize,
-) -> impl FnMut(usize, Vec3, Mat3) + 'a {
-    move |u, grad, hess| {
+    (m, r): (usize, usize),
+    plate: usize,
+) -> impl FnMut(usize, Vec3, Mat3, Option<Mat3>) + 'a {
+    move |u, grad, hess, cross| {
         for (c, g) in grad.iter().enumerate() {
             jacobian[(3 * u + c) * m + r] = *g;
         }
         if HESSIAN {
             ev.add_hessian(u, u, &hess);
+            if let Some(cross) = cross {
+                ev.add_hessian(plate, u, &cross);
+            }
         }
     }
 }
@@ -206,24 +210,13 @@ impl Body3 {
         for (r, (row, mu)) in rows.iter().zip(&extra[held..]).enumerate() {
             let r = held + r;
             cev.scales[r] = self.row_scale(0);
+            let mut sink = row_sink::<HESSIAN>(ev, &mut cev.jacobian, (m, r), plate);
             cev.gaps[r] = if param.hang.is_some() {
                 // Under the front hold the solids turn with the plate: the
                 // gap couples the plate with every link it reaches.
-                let (jacobian, ev) = (&mut cev.jacobian, &mut *ev);
-                let put = |u: usize, grad: Vec3, hess: Mat3, cross: Option<Mat3>| {
-                    for (c, g) in grad.iter().enumerate() {
-                        jacobian[(3 * u + c) * m + r] = *g;
-                    }
-                    if HESSIAN {
-                        ev.add_hessian(u, u, &hess);
-                        if let Some(cross) = cross {
-                            ev.add_hessian(plate, u, &cross);
-                        }
-                    }
-                };
-                self.front_contact_terms(frames, row, *mu, put)
+                self.front_contact_terms(frames, row, *mu, sink)
             } else {
-                self.contact_terms(frames, row, *mu, row_sink::<HESSIAN>(ev, &mut cev.jacobian, m, r));
+                self.contact_terms(frames, row, *mu, |u, grad, hess| sink(u, grad, hess, None));
                 self.contact_gap(frames, row)
             };
         }

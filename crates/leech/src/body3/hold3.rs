@@ -165,6 +165,7 @@
 
 use super::body3::{is_rotation, Body3, Derivatives, Eval3, Frames, Param, PLATE_ROWS};
 use super::contact3::{row_sink, ContactEval, ContactRow3};
+use super::place3::{front_cup_centre, front_tip};
 use super::rotation::{
     apply, axpy, cross, dot, exp, hat, jr_inv, linear_terms, log, mul, mul_tn, pair_terms, scale, scale_mat, transpose,
     Mat3, Vec3,
@@ -649,7 +650,7 @@ impl Body3 {
     ) -> Result<Held3, StanceError> {
         let md = robot.driving_unit.mass_kg;
         let normal = [plate[0][1], plate[1][1], plate[2][1]];
-        let tip = axpy(robot.body.tip_spacing_m + robot.cup.front_offset_m, normal, centre);
+        let tip = front_tip(robot, centre, plate);
         let front = |turn: f64| FrontHold { tip, plate: mul(&exp(scale(turn, normal)), plate), unit_mass_kg: md };
         // The surface's moment about n on the plate turned by `turn`, from a
         // picture converged there.
@@ -787,9 +788,7 @@ impl Body3 {
     /// `-R_P e_y`, and the surface's outward normal `R_P e_y`.
     pub fn front_face(&self, robot: &Robot, frames: &Frames) -> (Vec3, Vec3) {
         let plate = self.plate_frame(frames);
-        let normal = [plate[0][1], plate[1][1], plate[2][1]];
-        let d = robot.body.tip_spacing_m + robot.cup.front_offset_m;
-        (axpy(-d, normal, self.endpoint(frames)), normal)
+        (front_cup_centre(robot, self.endpoint(frames), &plate), [plate[0][1], plate[1][1], plate[2][1]])
     }
 
     /// The reaction the front hold exerts on the robot when both cups hold
@@ -842,7 +841,8 @@ impl Body3 {
             normal[c] = 1.0;
             cev.gaps[c] = gap[c];
             cev.scales[c] = self.row_scale(0);
-            self.point_terms(frames, 0, last, normal, mu[c], row_sink::<HESSIAN>(ev, &mut cev.jacobian, m, c));
+            let mut sink = row_sink::<HESSIAN>(ev, &mut cev.jacobian, (m, c), self.links() - 1);
+            self.point_terms(frames, 0, last, normal, mu[c], |u, grad, hess| sink(u, grad, hess, None));
         }
         let p = self.links() - 1;
         let w = [-mu[3], -mu[4], -mu[5]];

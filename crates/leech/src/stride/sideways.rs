@@ -364,10 +364,7 @@ impl<'a> Planner<'a> {
 
     /// The front cup's face of a rear-held body: centre and normal.
     fn front_face(&self, held: &Held3) -> (Vec3, Vec3) {
-        let plate = held.body.plate_frame(&held.equilibrium.frames);
-        let normal = column(&plate, 1);
-        let d = self.robot.body.tip_spacing_m + self.robot.cup.front_offset_m;
-        (axpy(-d, normal, held.body.endpoint(&held.equilibrium.frames)), normal)
+        held.body.front_face(&self.robot, &held.equilibrium.frames)
     }
 
     /// Secant on `L1` (from `guess`) for a face (`face` of a solved state) at
