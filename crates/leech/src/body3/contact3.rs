@@ -427,7 +427,7 @@ impl Body3 {
 mod tests {
     use super::*;
     use crate::body3::body3::retract;
-    use crate::body3::rotation::exp;
+    use crate::body3::rotation::{column, exp};
     use crate::robot::Robot;
     use crate::scene::Solid3;
 
@@ -586,7 +586,7 @@ mod tests {
         let frames = body.straight();
         // A ceiling just above tube 1 (the unit's y axis up): only tube 1's points are near.
         let base = body.base_frame();
-        let up = [base[0][1], base[1][1], base[2][1]];
+        let up = column(&base, 1);
         let point_m = axpy(0.001, up, body.tube(0).root());
         let scene = Scene3::new("ceiling", vec![Solid3::HalfSpace { point_m, normal: scale(-1.0, up) }]).unwrap();
         let mut rows = Vec::new();

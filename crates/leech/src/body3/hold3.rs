@@ -167,8 +167,8 @@ use super::body3::{is_rotation, Body3, Derivatives, Eval3, Frames, Param, PLATE_
 use super::contact3::{row_sink, ContactEval, ContactRow3};
 use super::place3::{front_cup_centre, front_tip};
 use super::rotation::{
-    apply, axpy, cross, dot, exp, hat, jr_inv, linear_terms, log, mul, mul_tn, pair_terms, scale, scale_mat, transpose,
-    Mat3, Vec3,
+    apply, axpy, column, cross, dot, exp, hat, jr_inv, linear_terms, log, mul, mul_tn, pair_terms, scale, scale_mat,
+    transpose, Mat3, Vec3,
 };
 use super::solve::Equilibrium3;
 use crate::cup::{Cup, CupVerdict};
@@ -649,7 +649,7 @@ impl Body3 {
         scene: Option<(&Scene3, f64)>,
     ) -> Result<Held3, StanceError> {
         let md = robot.driving_unit.mass_kg;
-        let normal = [plate[0][1], plate[1][1], plate[2][1]];
+        let normal = column(plate, 1);
         let tip = front_tip(robot, centre, plate);
         let front = |turn: f64| FrontHold { tip, plate: mul(&exp(scale(turn, normal)), plate), unit_mass_kg: md };
         // The surface's moment about n on the plate turned by `turn`, from a
@@ -788,7 +788,7 @@ impl Body3 {
     /// `-R_P e_y`, and the surface's outward normal `R_P e_y`.
     pub fn front_face(&self, robot: &Robot, frames: &Frames) -> (Vec3, Vec3) {
         let plate = self.plate_frame(frames);
-        (front_cup_centre(robot, self.endpoint(frames), &plate), [plate[0][1], plate[1][1], plate[2][1]])
+        (front_cup_centre(robot, self.endpoint(frames), &plate), column(&plate, 1))
     }
 
     /// The reaction the front hold exerts on the robot when both cups hold

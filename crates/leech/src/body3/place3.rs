@@ -24,7 +24,7 @@
 
 use super::body3::{triangle, Body3};
 use super::hold3::Hold3;
-use super::rotation::{apply, axpy, exp, mul, rot_z, Mat3, Vec3};
+use super::rotation::{apply, axpy, column, exp, mul, rot_z, Mat3, Vec3};
 use crate::robot::Robot;
 use crate::scene::{Scene3, ON_SURFACE_M};
 
@@ -37,14 +37,14 @@ pub fn plate_frame_from_angles(angle: f64, yaw: f64, roll: f64) -> Mat3 {
 /// plate's frame `plate`, on `robot`'s body.
 pub fn front_cup_centre(robot: &Robot, tip_m: Vec3, plate: &Mat3) -> Vec3 {
     let d = robot.body.tip_spacing_m + robot.cup.front_offset_m;
-    axpy(-d, [plate[0][1], plate[1][1], plate[2][1]], tip_m)
+    axpy(-d, column(plate, 1), tip_m)
 }
 
 /// Tube 1's tip (m) for the front cup's face centre at `centre_m` and the
 /// plate's frame `plate`: the inverse of [`front_cup_centre`].
 pub fn front_tip(robot: &Robot, centre_m: Vec3, plate: &Mat3) -> Vec3 {
     let d = robot.body.tip_spacing_m + robot.cup.front_offset_m;
-    axpy(d, [plate[0][1], plate[1][1], plate[2][1]], centre_m)
+    axpy(d, column(plate, 1), centre_m)
 }
 
 impl Body3 {
@@ -141,7 +141,7 @@ mod tests {
         assert!(dot(axpy(-1.0, [0.3, 0.0, 0.1], at), axpy(-1.0, [0.3, 0.0, 0.1], at)).sqrt() < 1e-15);
         // A solid 1 cm over tube 1's root, its face towards the unit's y axis.
         let base = body.base_frame();
-        let up = [base[0][1], base[1][1], base[2][1]];
+        let up = column(&base, 1);
         let over = Solid3::HalfSpace { point_m: axpy(0.01, up, body.tube(0).root()), normal: up };
         let held = hold_points(&robot, &body, &Hold3::Rear);
         assert_eq!(held.len(), 4);

@@ -93,6 +93,12 @@ pub fn mul_tn(a: &Mat3, b: &Mat3) -> Mat3 {
     mul(&transpose(a), b)
 }
 
+/// Column `k` of `a` (a frame's `k`-th axis).
+#[inline]
+pub fn column(a: &Mat3, k: usize) -> Vec3 {
+    [a[0][k], a[1][k], a[2][k]]
+}
+
 /// `A^T`.
 #[inline]
 pub fn transpose(a: &Mat3) -> Mat3 {

@@ -70,7 +70,7 @@ use serde::Deserialize;
 
 use super::machine::Phase;
 use super::plan::Status;
-use crate::body3::rotation::{axpy, cross, dot, exp, mul, scale, Mat3, Vec3};
+use crate::body3::rotation::{axpy, column, cross, dot, exp, mul, scale, Mat3, Vec3};
 use crate::body3::{Body3, Held3, Hold3};
 use crate::error::{within, InputError};
 use crate::robot::Robot;
@@ -328,11 +328,6 @@ fn onto_wall(a: Vec3) -> Mat3 {
 /// Angle between the unit vector `a` and the wall's normal (rad).
 fn tilt(a: Vec3) -> f64 {
     dot(cross(a, WALL_NORMAL), cross(a, WALL_NORMAL)).sqrt().atan2(dot(a, WALL_NORMAL))
-}
-
-/// Column `k` of `m`.
-fn column(m: &Mat3, k: usize) -> Vec3 {
-    [m[0][k], m[1][k], m[2][k]]
 }
 
 impl<'a> Planner<'a> {
