@@ -146,6 +146,9 @@ pub(crate) struct ContactEval {
     pub jacobian: Vec<f64>,
     /// Each row's scale (m, or 1 for a rotation row): residuals are divided by it.
     pub scales: Vec<f64>,
+    /// Each row's compliance `c` (its value is `g + c mu`; zero but for
+    /// the front hold's rows on the start of the both cups' path).
+    pub compliance: Vec<f64>,
 }
 
 /// Where a run-time row's terms go, row `r` of `m`: its Jacobian into
@@ -201,6 +204,8 @@ impl Body3 {
         let m = held + rows.len();
         cev.gaps.resize(m, 0.0);
         cev.scales.resize(m, self.row_scale(0));
+        cev.compliance.resize(m, 0.0);
+        cev.compliance.fill(0.0);
         cev.jacobian.resize(3 * self.links() * m, 0.0);
         cev.jacobian.fill(0.0);
         if let Some(target) = &param.front {

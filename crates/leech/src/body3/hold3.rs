@@ -185,11 +185,13 @@ const E_X: Vec3 = [1.0, 0.0, 0.0];
 pub const FRONT_ROWS: usize = 6;
 
 /// The front hold's target when both cups hold: tube 1's tip (m) and the
-/// plate's frame.
+/// plate's frame, held through a compliance (m/N for the tip rows, rad/(N
+/// m) for the frame's; zero: rigidly) that starts the path (module doc).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct FrontTarget {
     pub tip: Vec3,
     pub plate: Mat3,
+    pub compliance: [f64; 2],
 }
 
 impl FrontTarget {
@@ -200,6 +202,7 @@ impl FrontTarget {
         FrontTarget {
             tip: axpy(t, axpy(-1.0, self.tip, to.tip), self.tip),
             plate: mul(&self.plate, &exp(scale(t, turn))),
+            compliance: self.compliance,
         }
     }
 }
@@ -602,7 +605,7 @@ impl Body3 {
                     .into());
                 }
                 let equilibrium = self
-                    .solve_both_on(solver, FrontTarget { tip: tip_m, plate })
+                    .solve_both_on(solver, FrontTarget { tip: tip_m, plate, compliance: [0.0; 2] })
                     .map_err(|source| self.beyond_reach(source, tip_m))?;
                 let rear = Some(self.rear_cup(robot, &equilibrium)?);
                 let (centre, normal) = self.front_face(robot, &equilibrium.frames);
@@ -839,8 +842,9 @@ impl Body3 {
         for c in 0..3 {
             let mut normal = [0.0; 3];
             normal[c] = 1.0;
-            cev.gaps[c] = gap[c];
+            cev.gaps[c] = gap[c] + target.compliance[0] * mu[c];
             cev.scales[c] = self.row_scale(0);
+            cev.compliance[c] = target.compliance[0];
             let mut sink = row_sink::<HESSIAN>(ev, &mut cev.jacobian, (m, c), self.links() - 1);
             self.point_terms(frames, 0, last, normal, mu[c], |u, grad, hess| sink(u, grad, hess, None));
         }
@@ -848,8 +852,9 @@ impl Body3 {
         let w = [-mu[3], -mu[4], -mu[5]];
         let terms = pair_terms(&mul_tn(&target.plate, &frames.as_slice()[p]), |_| w, [0.0; 3], HESSIAN);
         for c in 0..3 {
-            cev.gaps[3 + c] = terms.theta[c];
+            cev.gaps[3 + c] = terms.theta[c] + target.compliance[1] * mu[3 + c];
             cev.scales[3 + c] = 1.0;
+            cev.compliance[3 + c] = target.compliance[1];
             for (k, j) in terms.jacobian_b[c].iter().enumerate() {
                 cev.jacobian[(3 * p + k) * m + 3 + c] = *j;
             }
@@ -885,7 +890,7 @@ mod tests {
             exp([0.3 * (0.7 * t).sin(), 0.2 + 0.05 * t, -0.4 * (0.3 * t).cos()])
         });
         let frames = body.frames_from(frames.collect()).unwrap();
-        let target = FrontTarget { tip: [0.1, 0.2, -0.05], plate: exp([0.4, -0.9, 0.3]) };
+        let target = FrontTarget { tip: [0.1, 0.2, -0.05], plate: exp([0.4, -0.9, 0.3]), compliance: [0.0; 2] };
         (body, frames, target, [1.5, -0.7, 2.2, 0.03, -0.05, 0.02])
     }
 
@@ -896,6 +901,7 @@ mod tests {
             gaps: vec![0.0; FRONT_ROWS],
             jacobian: vec![0.0; 3 * body.links() * FRONT_ROWS],
             scales: vec![0.0; FRONT_ROWS],
+            compliance: vec![0.0; FRONT_ROWS],
         };
         body.add_front_rows::<true>(frames, target, mu, &mut ev, &mut cev);
         (cev, ev)

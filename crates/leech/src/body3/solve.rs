@@ -55,6 +55,13 @@ const ESCAPE_BISECTIONS: usize = 30;
 /// third of its factorizations (0.3 to 0.5 rad within 5 % of each other).
 const FIRST_TURN: f64 = 0.5;
 
+/// The both cups' path starts with the front hold's rows this compliant,
+/// relative to tube 1 as a cantilever ([`Body3::start_compliance`]): stiff
+/// enough that a straight body buckles under the tip rows' force well
+/// before the target has moved far, soft enough that the rows' Jacobian
+/// along a straight tube 1 (zero) leaves the KKT matrix regular.
+const START_SOFTNESS: f64 = 1e-3;
+
 /// Stages gravity is raised in among a scene's solids, each settled with
 /// the contact rows' active set.
 pub const LOAD_STAGES: usize = 8;
@@ -326,6 +333,11 @@ impl Work {
                 self.corner[a * border + 3 + r] = *j;
             }
         }
+        // A compliant row `g + c mu`: its unknown is `-mu`, so `-c`.
+        for (r, c) in cev.compliance.iter().enumerate() {
+            let at = 3 + PLATE_ROWS + r;
+            self.corner[at * border + at] = -c;
+        }
         self.border_loaded = true;
     }
 
@@ -428,16 +440,35 @@ impl Body3 {
     /// equilibrium on the default path, then the front hold's target moved
     /// by continuation from where the endpoint is (tube 1's tip and the
     /// plate's frame) to `to`: the tip along the segment, the frame along
-    /// the geodesic ([`FrontTarget::toward`]), under full gravity.
+    /// the geodesic ([`FrontTarget::toward`]), under full gravity, with the
+    /// rows compliant ([`Body3::start_compliance`]); then their compliance
+    /// taken from there to 0 by continuation, the target held.
     pub(crate) fn solve_both_on(&self, solver: &Solver, to: FrontTarget) -> Result<Equilibrium3, SolveError> {
         let (mut state, mut work, _) = self.loaded(solver, None)?;
-        let from = FrontTarget { tip: self.endpoint(&state.frames), plate: self.plate_frame(&state.frames) };
+        let soft = self.start_compliance();
+        let from =
+            FrontTarget { tip: self.endpoint(&state.frames), plate: self.plate_frame(&state.frames), compliance: soft };
         work.hold_front(self);
         // The rows hold where the endpoint is: zero multipliers to start.
         state.lambda.splice(PLATE_ROWS..PLATE_ROWS, [0.0; FRONT_ROWS]);
-        let path = |t: f64| Param { front: Some(from.toward(&to, t)), ..Param::FULL };
-        let residual = self.continuation(solver, &mut state, &path, Stage::Load, &mut work)?;
-        Ok(self.finish(solver, state, residual, path(1.0), &mut work))
+        let to_soft = FrontTarget { compliance: soft, ..to };
+        let path = |t: f64| Param { front: Some(from.toward(&to_soft, t)), ..Param::FULL };
+        self.continuation(solver, &mut state, &path, Stage::Load, &mut work)?;
+        let stiffen = |t: f64| Param {
+            front: Some(FrontTarget { compliance: soft.map(|c| (1.0 - t) * c), ..to }),
+            ..Param::FULL
+        };
+        let residual = self.continuation(solver, &mut state, &stiffen, Stage::Load, &mut work)?;
+        Ok(self.finish(solver, state, residual, stiffen(1.0), &mut work))
+    }
+
+    /// The front hold's compliance on the both cups' path's start: tube 1
+    /// as a cantilever, `L^3 / (k l)` (m/N) and `L / (k l)` (rad/(N m)),
+    /// times [`START_SOFTNESS`].
+    fn start_compliance(&self) -> [f64; 2] {
+        let length = self.tube(0).tube_length();
+        let bending = self.moment_scale() * self.row_scale(0);
+        [START_SOFTNESS * length.powi(3) / bending, START_SOFTNESS * length / bending]
     }
 
     /// The tubes fed from the shortest length at `g = 0` (each tube's links
@@ -673,13 +704,20 @@ impl Body3 {
         let budget = Budget { max_iter: o.max_minimization_iterations, tolerance: o.tolerance, leash: f64::INFINITY };
         let mut escaped = None;
         for attempt in 0..=ESCAPES {
+            // A landing back where it was left is kicked harder each time.
+            let kick = solver.options.tuning.escape_kick * ESCAPE_KICK_GROWTH.powi(attempt as i32);
             match self.newton(solver, state, param, budget, work) {
                 (residual, Ok(true)) => return Ok((residual, escaped)),
                 (residual, Ok(false)) => {
-                    // A landing back on the saddle is kicked harder each time.
-                    let kick = solver.options.tuning.escape_kick * ESCAPE_KICK_GROWTH.powi(attempt as i32);
                     let side = self.escape(solver, state, work, kick);
                     escaped = Some(side.map_err(|reason| fail(solver, stage, state, residual, reason))?);
+                }
+                (residual, Err(StopReason::NoDescent)) if attempt < ESCAPES => {
+                    // Past a fold no equilibrium is near: the steps stall
+                    // where the gradient is least (the fold's ghost), along
+                    // the softest mode. The energy falls along it one way.
+                    self.snap(solver, state, param, work, kick)
+                        .map_err(|reason| fail(solver, stage, state, residual, reason))?;
                 }
                 (residual, Err(reason)) => return Err(fail(solver, stage, state, residual, reason)),
             }
@@ -698,6 +736,65 @@ impl Body3 {
     /// mode mostly in the plane of the clamp, along `+z` (towards tube 2)
     /// for one mostly out of it; [`Side::Right`] names the positive side.
     fn escape(&self, solver: &Solver, state: &mut State, work: &mut Work, kick: f64) -> Result<Side, StopReason> {
+        let v = self.softest_mode(solver, work)?;
+        // The endpoint's displacement along v: sum_j l_j R_j (v_j x e_x) over tube 1.
+        let mut d = [0.0; 3];
+        for (j, l) in self.tube(0).lengths().iter().enumerate() {
+            let u = self.index(0, j);
+            let local = cross([v[3 * u], v[3 * u + 1], v[3 * u + 2]], [1.0, 0.0, 0.0]);
+            d = axpy(*l, apply(&state.frames.0[u], local), d);
+        }
+        let base = self.base_frame();
+        let right = -(base[0][1] * d[0] + base[1][1] * d[1] + base[2][1] * d[2]);
+        let measure = if right.abs() >= d[2].abs() { right } else { d[2] };
+        let (side, wanted) = match solver.options.branch {
+            BranchRule::Right => (Side::Right, 1.0),
+            BranchRule::Left => (Side::Left, -1.0),
+            BranchRule::Refuse => return Err(StopReason::UnstableRefused),
+        };
+        let sign = if measure < 0.0 { -wanted } else { wanted };
+        let frames = state.frames.clone();
+        moved(&frames, &v, sign * kick, &mut state.frames);
+        Ok(side)
+    }
+
+    /// Leaves a point past a fold (evaluated in `work.ev`) where no step
+    /// descends: a kick of `kick` rad along the reduced Hessian's softest
+    /// mode ([`Body3::softest_mode`]), to whichever side has the lower
+    /// merit (no branch to choose: the equilibrium left has ended).
+    fn snap(
+        &self,
+        solver: &Solver,
+        state: &mut State,
+        param: Param,
+        work: &mut Work,
+        kick: f64,
+    ) -> Result<(), StopReason> {
+        let v = self.softest_mode(solver, work)?;
+        let rho = work.rho;
+        let mut best = (f64::INFINITY, 0.0);
+        for sign in [1.0, -1.0] {
+            moved(&state.frames, &v, sign * kick, &mut work.frames_trial);
+            let (ev, cev, residual) = (&mut work.trial, &mut work.cev_trial, &mut work.residual_trial);
+            self.evaluate_with::<false>(&work.frames_trial, &state.lambda, param, &work.contacts, ev, cev, residual);
+            let merit = self.merit(&work.trial, &work.cev_trial, rho);
+            if merit < best.0 {
+                best = (merit, sign);
+            }
+        }
+        if !best.0.is_finite() {
+            return Err(StopReason::NonFinite);
+        }
+        let frames = state.frames.clone();
+        moved(&frames, &v, best.1 * kick, &mut state.frames);
+        Ok(())
+    }
+
+    /// The reduced Hessian's softest (most negative) mode at the point
+    /// evaluated in `work.ev`, as a step (3 per link, largest entry 1):
+    /// inverse iteration on the KKT matrix shifted to just above its least
+    /// curvature, found by bisection on the inertia.
+    fn softest_mode(&self, solver: &Solver, work: &mut Work) -> Result<Vec<f64>, StopReason> {
         let tuning = &solver.options.tuning;
         let k = self.moment_scale();
         let tiny = tuning.tiny_pivot * k;
@@ -731,25 +828,7 @@ impl Body3 {
             }
             v.iter_mut().zip(&work.step).for_each(|(a, b)| *a = b / norm);
         }
-        // The endpoint's displacement along v: sum_j l_j R_j (v_j x e_x) over tube 1.
-        let mut d = [0.0; 3];
-        for (j, l) in self.tube(0).lengths().iter().enumerate() {
-            let u = self.index(0, j);
-            let local = cross([v[3 * u], v[3 * u + 1], v[3 * u + 2]], [1.0, 0.0, 0.0]);
-            d = axpy(*l, apply(&state.frames.0[u], local), d);
-        }
-        let base = self.base_frame();
-        let right = -(base[0][1] * d[0] + base[1][1] * d[1] + base[2][1] * d[2]);
-        let measure = if right.abs() >= d[2].abs() { right } else { d[2] };
-        let (side, wanted) = match solver.options.branch {
-            BranchRule::Right => (Side::Right, 1.0),
-            BranchRule::Left => (Side::Left, -1.0),
-            BranchRule::Refuse => return Err(StopReason::UnstableRefused),
-        };
-        let sign = if measure < 0.0 { -wanted } else { wanted };
-        let frames = state.frames.clone();
-        moved(&frames, &v, sign * kick, &mut state.frames);
-        Ok(side)
+        Ok(v)
     }
 
     /// [`Body3::settle`] at path parameter `at`, reporting a bifurcation left.
@@ -821,6 +900,12 @@ impl Body3 {
                 // Within a few orders of the tolerance no step improves on rounding.
                 if res <= o.rounding_slack * budget.tolerance {
                     return (res, Ok(work.factor(0.0, tiny).0));
+                }
+                // Damped steps cannot leave a saddle whose unstable mode the
+                // gradient does not reach (a straight column compressed past
+                // its buckling load, by symmetry): an unstable landing.
+                if min_shift > 0.0 {
+                    return (res, Ok(false));
                 }
                 return (res, Err(StopReason::NoDescent));
             }

@@ -393,6 +393,71 @@ fn both_holds_equal_the_planar_stance() {
     }
 }
 
+/// Both cups holding from a straight rear-held body (equal lengths): a
+/// tip pushed towards the driving unit and a plate turned can only be
+/// reached by buckling, where the tip rows along tube 1 have no Jacobian.
+/// Nearly straight (the built-in robot, `b != c`) and exactly straight
+/// (`b = c`, standing up): every target of a grid is held (see
+/// [`held_both`]); the exactly straight body reports the buckling it went
+/// through.
+#[test]
+fn both_holds_start_from_a_straight_body() {
+    let mut even = Robot::builtin();
+    even.body.tip_spacing_m = even.body.base_spacing_m;
+    for (robot, straight) in [(Robot::builtin(), false), (even, true)] {
+        // Tube 1's tip 0 to 8 cm aside and 5 to 9 cm below where the
+        // upright body's reaches, the plate turned 45 or 80 deg from upright.
+        for x in [0.0, 0.04, 0.08] {
+            for y in [0.16, 0.20] {
+                for degrees in [10.0, 45.0] {
+                    let held = held_both(&robot, [0.25; 3], [x, y, 0.0], degrees);
+                    let events = &held.equilibrium.events;
+                    let buckled = events.iter().any(|e| matches!(e, Event::Bifurcation { .. }));
+                    assert!(buckled || !straight, "({x}, {y}) at {degrees} deg: {events:?}");
+                }
+            }
+        }
+    }
+}
+
+/// Bent bodies whose both cups' path loses stability on the way (the tip
+/// pushed straight down on an upright body): where no equilibrium is near
+/// any more, the solver leaves along the softest mode and lands held.
+#[test]
+fn both_holds_leave_a_path_that_ends() {
+    for (x, y, degrees) in [(0.04, 0.12, 90.0), (0.04, 0.16, 90.0), (-0.08, 0.12, 135.0)] {
+        held_both(&Robot::builtin(), [0.25, 0.23, 0.23], [x, y, 0.0], degrees);
+    }
+}
+
+/// `robot` at `lengths` held at the rear and at the front with tube 1's tip
+/// at `tip_m` and the plate at `degrees` about z: the equilibrium is
+/// stable, held where asked, and the two cups carry the whole robot in
+/// force and moment (the masses alone).
+fn held_both(robot: &Robot, lengths: [f64; 3], tip_m: [f64; 3], degrees: f64) -> Held3 {
+    let body = Body3::from_robot(robot, lengths).unwrap();
+    let plate = rot_z(f64::to_radians(degrees));
+    let case = format!("{lengths:?} {:?}, {tip_m:?} at {degrees} deg", robot.body);
+    let held = body.solve_held(robot, Hold3::Both { tip_m, plate }, &Solver::default()).expect(&case);
+    let eq = &held.equilibrium;
+    assert!(eq.stable && eq.residual < 1e-10, "{case}: {} {}", eq.stable, eq.residual);
+    let end = held.body.endpoint(&eq.frames);
+    assert!((0..3).all(|a| (end[a] - tip_m[a]).abs() < 1e-11), "{case}: {end:?}");
+    let frame = held.body.plate_frame(&eq.frames);
+    assert!(leech::body3::body3::angle_between(&frame, &plate) < 1e-11, "{case}");
+    let (rear, front) = (held.rear.clone().unwrap(), held.front.clone().unwrap());
+    let (force, moment) = balance(&held.body, eq, robot.driving_unit.mass_kg, rear.centre_m);
+    let arm = cross(axpy(-1.0, rear.centre_m, front.centre_m), front.reaction.force_n);
+    let reach = lengths[0].max(lengths[1]).max(lengths[2]);
+    for a in 0..3 {
+        let total_force = rear.reaction.force_n[a] + front.reaction.force_n[a];
+        let total_moment = rear.reaction.moment_nm[a] + front.reaction.moment_nm[a] + arm[a];
+        assert!((total_force - force[a]).abs() < 1e-8 * force[1], "{case}: force {a}");
+        assert!((total_moment - moment[a]).abs() < 1e-8 * force[1] * reach, "{case}: moment {a}");
+    }
+    held
+}
+
 /// A target beyond tube 1's reach ends in an error (no stretched body);
 /// a plate frame that is not a rotation or a tip that is not finite is
 /// refused, naming the field.
