@@ -91,11 +91,6 @@ pub(super) fn situation3(
         }
     };
     if let Some(file) = scene {
-        if matches!(hold, Hold3::Both { .. }) {
-            return Err(Failure::Input(
-                "--hold both: got a --scene too, expected rear, front or front-pivot among a scene's solids (both cups are solved without one)".into(),
-            ));
-        }
         if let Some(p) = first_inside(&file.scene, &hold_points(robot, body, &hold)) {
             let [x, y, z] = p.point_m.map(|c| c * 1e3);
             let (flag, value) = match (a.front, placed) {

@@ -292,18 +292,22 @@ fn scenes_give_contacts_and_bad_holds_exit_2_naming_the_flag() {
     assert_eq!(out.status.code(), Some(3));
     let e = String::from_utf8(out.stderr).unwrap();
     assert!(e.contains("out of reach") && e.contains("0.2500 m"), "{e}");
-    let e = rejected(&[
+    // Both cups on the built-in floor: the loop rests on it.
+    let v = json_of(&[
         "shape3d",
         "--lengths",
-        "0.25,0.25,0.25",
+        "0.3,0.28,0.28",
+        "--scene",
+        "floor",
         "--hold",
         "both",
         "--front",
-        "0,0.2,0,90",
-        "--scene",
-        "floor",
+        "0.15,0.032,0,0",
     ]);
-    assert!(e.starts_with("leech: --hold both: got a --scene"), "{e}");
+    assert_eq!((v["status"].as_str(), v["hold"].as_str()), (Some("converged"), Some("both")), "{v}");
+    let contacts = v["contacts"].as_array().unwrap();
+    assert!(!contacts.is_empty() && contacts.iter().all(|c| c["force_n"].as_f64().unwrap() >= 0.0), "{v}");
+    assert!(v["rear_cup"]["force_n"].is_array() && v["front_cup"]["force_n"].is_array(), "{v}");
     let e = rejected(&["shape3d", "--lengths", "0.25,0.25,0.25", "--hold", "front", "--front", "0,0.3,0,90,400"]);
     assert!(e.starts_with("leech: --front yaw (deg)") && e.contains("400"), "{e}");
     let e = rejected(&["shape3d", "--lengths", "0.25,0.25,0.25", "--front", "0,0.3,90"]);

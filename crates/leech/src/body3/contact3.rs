@@ -388,14 +388,15 @@ impl Body3 {
         margin: f64,
         out: &mut Vec<ContactRow3>,
     ) {
-        self.contact_rows_in(frames, scene, clearance, margin, None, out);
+        self.contact_rows_in(frames, scene, clearance, margin, None, false, out);
     }
 
     /// [`Body3::contact_rows`] in the solver's picture of the front hold
     /// `front` when there is one: the points placed in the world to meet the
-    /// scene, the planes kept in the held plate's frame, and no row at the
-    /// tips of a tube's last two links, which the hold fixes (a row there
-    /// would be zero, or a combination of the weld's).
+    /// scene, the planes kept in the held plate's frame. Held at the front
+    /// (`front_held`: that picture, or both cups), no row at the tips of a
+    /// tube's last two links, which the hold fixes (a row there would be
+    /// zero, or a combination of the weld's and the hold's).
     pub(crate) fn contact_rows_in(
         &self,
         frames: &Frames,
@@ -403,12 +404,13 @@ impl Body3 {
         clearance: f64,
         margin: f64,
         front: Option<&FrontHold>,
+        front_held: bool,
         out: &mut Vec<ContactRow3>,
     ) {
         out.clear();
         for tube in 0..3 {
             let links = self.tube(tube).len();
-            let free = if front.is_some() { links.saturating_sub(2) } else { links };
+            let free = if front_held { links.saturating_sub(2) } else { links };
             for link in 0..free {
                 let mut p = self.link_tip(frames, tube, link);
                 if let Some(held) = front {

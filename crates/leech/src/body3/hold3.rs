@@ -595,17 +595,8 @@ impl Body3 {
             }
             Hold3::Both { tip_m, plate } => {
                 check_hold("both holds: front tip (m)", tip_m, "both holds: front plate frame", &plate)?;
-                if scene.is_some() {
-                    return Err(InputError::Invalid {
-                        field: "hold".into(),
-                        value: "both".into(),
-                        allowed: "rear, front or front-pivot among a scene's solids (both cups are solved without one)"
-                            .into(),
-                    }
-                    .into());
-                }
                 let equilibrium = self
-                    .solve_both_on(solver, FrontTarget { tip: tip_m, plate, compliance: [0.0; 2] })
+                    .solve_both_on(solver, FrontTarget { tip: tip_m, plate, compliance: [0.0; 2] }, scene)
                     .map_err(|source| self.beyond_reach(source, tip_m))?;
                 let rear = Some(self.rear_cup(robot, &equilibrium)?);
                 let (centre, normal) = self.front_face(robot, &equilibrium.frames);

@@ -442,23 +442,53 @@ impl Body3 {
     /// plate's frame) to `to`: the tip along the segment, the frame along
     /// the geodesic ([`FrontTarget::toward`]), under full gravity, with the
     /// rows compliant ([`Body3::start_compliance`]); then their compliance
-    /// taken from there to 0 by continuation, the target held.
-    pub(crate) fn solve_both_on(&self, solver: &Solver, to: FrontTarget) -> Result<Equilibrium3, SolveError> {
-        let (mut state, mut work, _) = self.loaded(solver, None)?;
+    /// taken from there to 0 by continuation, the target held. Among the
+    /// solids of `scene` (with the tubes' `clearance`, m) when there is one:
+    /// the rear-held equilibrium among them, then each path in
+    /// [`LOAD_STAGES`] stages, the contact rows' active set updated at the
+    /// end of each ([`Body3::settle_among`]).
+    pub(crate) fn solve_both_on(
+        &self,
+        solver: &Solver,
+        to: FrontTarget,
+        scene: Option<(&Scene3, f64)>,
+    ) -> Result<Equilibrium3, SolveError> {
+        let (mut state, mut work, _) = match scene {
+            None => self.loaded(solver, None)?,
+            Some((scene, clearance)) => self.loaded_among(solver, scene, clearance, None)?,
+        };
         let soft = self.start_compliance();
-        let from =
-            FrontTarget { tip: self.endpoint(&state.frames), plate: self.plate_frame(&state.frames), compliance: soft };
+        let frames = &state.frames;
+        let from = FrontTarget { tip: self.endpoint(frames), plate: self.plate_frame(frames), compliance: soft };
         work.hold_front(self);
         // The rows hold where the endpoint is: zero multipliers to start.
         state.lambda.splice(PLATE_ROWS..PLATE_ROWS, [0.0; FRONT_ROWS]);
         let to_soft = FrontTarget { compliance: soft, ..to };
-        let path = |t: f64| Param { front: Some(from.toward(&to_soft, t)), ..Param::FULL };
-        self.continuation(solver, &mut state, &path, Stage::Load, &mut work)?;
+        let approach = |t: f64| Param { front: Some(from.toward(&to_soft, t)), ..Param::FULL };
         let stiffen = |t: f64| Param {
             front: Some(FrontTarget { compliance: soft.map(|c| (1.0 - t) * c), ..to }),
             ..Param::FULL
         };
-        let residual = self.continuation(solver, &mut state, &stiffen, Stage::Load, &mut work)?;
+        let mut residual = 0.0;
+        match scene {
+            None => {
+                for path in [&approach as &dyn Fn(f64) -> Param, &stiffen] {
+                    residual = self.continuation(solver, &mut state, &path, Stage::Load, &mut work)?;
+                }
+            }
+            Some((scene, clearance)) => {
+                let mut among = Among { scene, clearance, front: None, changes: 0 };
+                for path in [&approach as &dyn Fn(f64) -> Param, &stiffen] {
+                    for stage in 0..LOAD_STAGES {
+                        let [t0, t1] = [stage, stage + 1].map(|t| t as f64 / LOAD_STAGES as f64);
+                        let part = |tau: f64| path(t0 + tau * (t1 - t0));
+                        self.continuation(solver, &mut state, &part, Stage::Load, &mut work)?;
+                        residual =
+                            self.settle_among(solver, &mut state, path(t1), Stage::Load, &mut among, &mut work)?;
+                    }
+                }
+            }
+        }
         Ok(self.finish(solver, state, residual, stiffen(1.0), &mut work))
     }
 
@@ -503,6 +533,19 @@ impl Body3 {
         clearance: f64,
         front: Option<&FrontHold>,
     ) -> Result<Equilibrium3, SolveError> {
+        let (state, mut work, residual) = self.loaded_among(solver, scene, clearance, front)?;
+        let param = Param { hang: front.map(FrontHold::hanging), ..Param::FULL };
+        Ok(self.finish(solver, state, residual, param, &mut work))
+    }
+
+    /// [`Body3::solve_among_on`]'s end: the state, its scratch and the residual.
+    fn loaded_among(
+        &self,
+        solver: &Solver,
+        scene: &Scene3,
+        clearance: f64,
+        front: Option<&FrontHold>,
+    ) -> Result<(State, Work, f64), SolveError> {
         let hang = front.map(FrontHold::hanging);
         let mut work = Work::new(self, hang);
         let mut state = State::new(self.straight());
@@ -513,7 +556,7 @@ impl Body3 {
             let param = Param { load, hang, ..Param::FULL };
             residual = self.settle_among(solver, &mut state, param, Stage::Load, &mut among, &mut work)?;
         }
-        Ok(self.finish(solver, state, residual, Param { hang, ..Param::FULL }, &mut work))
+        Ok((state, work, residual))
     }
 
     /// The equilibrium held at the front by `front` among `scene`'s solids
@@ -564,18 +607,29 @@ impl Body3 {
         let mut candidates = Vec::new();
         loop {
             let residual = self.settle_reporting(solver, state, param, param.load, stage, work)?;
-            let forces = &state.lambda[PLATE_ROWS..];
+            // The contacts' forces follow the weld's and the front hold's rows.
+            let first = PLATE_ROWS + work.front_rows;
+            let forces = &state.lambda[first..];
             let pulling = (0..forces.len()).filter(|r| forces[*r] < -force_tolerance);
             let mut rows = work.contacts.clone();
             if let Some(r) = pulling.min_by(|a, b| forces[*a].total_cmp(&forces[*b])) {
                 rows.remove(r);
-                state.lambda.remove(PLATE_ROWS + r);
+                state.lambda.remove(first + r);
             } else {
                 // Each tube's deepest point inside, one at a time: a body
                 // sagging through a floor would otherwise bring all its
                 // points at once, where a few rows lift the rest.
                 let (scene, clearance, front) = (among.scene, among.clearance, among.front);
-                self.contact_rows_in(&state.frames, scene, clearance, -gap_tolerance, front, &mut candidates);
+                let front_held = front.is_some() || work.front_rows > 0;
+                self.contact_rows_in(
+                    &state.frames,
+                    scene,
+                    clearance,
+                    -gap_tolerance,
+                    front,
+                    front_held,
+                    &mut candidates,
+                );
                 let mut changed = false;
                 for tube in 0..3 {
                     let new = candidates.iter().filter(|c| c.tube == tube);
@@ -599,7 +653,7 @@ impl Body3 {
                 if !changed {
                     return Ok(residual);
                 }
-                if 3 + PLATE_ROWS + rows.len() > MAX_BORDER {
+                if 3 + first + rows.len() > MAX_BORDER {
                     return Err(fail(solver, stage, state, residual, StopReason::TooManyActiveRows));
                 }
             }

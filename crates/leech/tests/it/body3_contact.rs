@@ -51,12 +51,18 @@ fn check(robot: &Robot, held: &Held3, scene: &Scene3) {
             assert!(d >= radius - 1e-9, "tube {tube} link {link}: {d} from the solid");
         }
     }
-    // Whole-body balance about the holding cup's centre.
+    // Whole-body balance about the holding cup's centre (the rear one when
+    // both hold, the front cup's force and moment carried there).
     let rear = held.rear.as_ref().or(held.front.as_ref()).unwrap();
     let g = body.gravity();
     let (mass, first) = body.first_moment(&eq.frames, robot.driving_unit.mass_kg);
     let mut force = rear.reaction.force_n;
     let mut moment = rear.reaction.moment_nm;
+    if let (Some(_), Some(front)) = (&held.rear, &held.front) {
+        force = axpy(1.0, front.reaction.force_n, force);
+        let arm = cross(axpy(-1.0, rear.centre_m, front.centre_m), front.reaction.force_n);
+        moment = axpy(1.0, axpy(1.0, arm, front.reaction.moment_nm), moment);
+    }
     for c in &eq.contacts {
         let f = scale(c.force_n, c.row.plane.normal);
         force = axpy(1.0, f, force);
@@ -70,7 +76,7 @@ fn check(robot: &Robot, held: &Held3, scene: &Scene3) {
         assert!((force[a] - weight[a]).abs() < 1e-8 * w, "force {force:?} against {weight:?}");
         assert!((moment[a] - expected_moment[a]).abs() < 1e-8 * w, "moment {moment:?} against {expected_moment:?}");
     }
-    if held.front.is_some() {
+    if held.front.is_some() && held.rear.is_none() {
         let (force, moment) = crate::body3_hold::unit_imbalance(held, robot.driving_unit.mass_kg);
         assert!(force.iter().chain(&moment).all(|x| x.abs() < 1e-8 * w), "the unit: {force:?} {moment:?}");
     }
@@ -313,4 +319,49 @@ fn a_turning_body_rests_on_a_box_on_the_floor() {
     let held = body.solve_held_among(&robot, Hold3::Rear, &scene, &Solver::default()).unwrap();
     check(&robot, &held, &scene);
     assert!(held.equilibrium.contacts.iter().any(|c| c.row.solid == 1), "nothing rests on the block");
+}
+
+/// Both cups holding on a floor: the body along it (clamp angle 0) rests on
+/// it held at the rear; the front cup then holds tube 1's tip 5 mm back
+/// and 3 mm above that endpoint, the plate tilted up: the loop rests on the
+/// floor, every contact pushing and touching, the cups and the floor
+/// carrying the whole body, the front hold where asked. Solids out of reach
+/// change nothing.
+#[test]
+fn both_cups_hold_a_body_resting_on_a_floor() {
+    let robot = flat();
+    let solver = Solver::default();
+    for lengths in [[0.25, 0.25, 0.25], [0.25, 0.22, 0.27]] {
+        let (rear, floor) = on_floor(&robot, lengths);
+        assert!(!rear.equilibrium.contacts.is_empty(), "{lengths:?}: the rear-held body does not rest on the floor");
+        let frames = &rear.equilibrium.frames;
+        let tip_m = axpy(1.0, [-0.005, 0.003, 0.0], rear.body.endpoint(frames));
+        let plate = leech::body3::rotation::mul(&leech::body3::rotation::rot_z(0.1), &rear.body.plate_frame(frames));
+        let hold = Hold3::Both { tip_m, plate };
+        let held = rear.body.solve_held_among(&robot, hold, &floor, &solver).unwrap();
+        check(&robot, &held, &floor);
+        let eq = &held.equilibrium;
+        assert!(!eq.contacts.is_empty(), "{lengths:?}: the loop does not rest on the floor");
+        let end = held.body.endpoint(&eq.frames);
+        assert!((0..3).all(|a| (end[a] - tip_m[a]).abs() < 1e-11), "{lengths:?}: {end:?} {tip_m:?}");
+        let force: f64 = eq.contacts.iter().map(|c| c.force_n).sum();
+        let front = held.front.as_ref().unwrap();
+        eprintln!(
+            "both cups on a floor, {lengths:?}: {} contacts, {force:.6} N, front cup {:?} N, safety {:.3}",
+            eq.contacts.len(),
+            front.reaction.force_n,
+            front.verdict.safety_factor
+        );
+        let far = Scene3::new("far", vec![Solid3::HalfSpace { point_m: [0.0, -50.0, 0.0], normal: [0.0, 1.0, 0.0] }]);
+        let among = rear.body.solve_held_among(&robot, hold, &far.unwrap(), &solver).unwrap();
+        let alone = rear.body.solve_held(&robot, hold, &solver).unwrap();
+        assert!(among.equilibrium.contacts.is_empty());
+        for i in 0..3 {
+            let a = alone.body.points(&alone.equilibrium.frames, i);
+            let b = among.body.points(&among.equilibrium.frames, i);
+            for (p, q) in a.iter().zip(&b) {
+                assert!((0..3).all(|k| (p[k] - q[k]).abs() < 1e-9), "{lengths:?}: far solids moved {p:?} to {q:?}");
+            }
+        }
+    }
 }
