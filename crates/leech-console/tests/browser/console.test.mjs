@@ -176,7 +176,7 @@ test("a short plan is previewed and carried out", async () => {
   await page.fill("#goal-y", "0");
   await page.fill("#goal-tol", "0.05");
   await page.click("#plan");
-  await page.waitForFunction(() => /reached|impossible|refused/.test(document.getElementById("plan-info").textContent),
+  await page.waitForFunction(() => /reached|impossible|stopped|refused/.test(document.getElementById("plan-info").textContent),
     null, { timeout: 120000 });
   assert.match(await page.locator("#plan-info").textContent(), /^reached/);
   await page.waitForFunction(() => document.getElementById("caption").textContent.length > 0, null, { timeout: 5000 });

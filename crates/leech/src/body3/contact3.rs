@@ -134,6 +134,17 @@ pub struct Contact3 {
     pub force_n: f64,
 }
 
+/// Which cups hold the body whose contact rows are sought.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum HeldAt<'a> {
+    /// The rear cup alone: the body as built.
+    Rear,
+    /// Both cups: the body as built, its plate fixed too.
+    Both,
+    /// The front cup alone: the solver's picture of that hold.
+    Front(&'a FrontHold),
+}
+
 /// The run-time rows' values and Jacobian at one point, beside an
 /// [`Eval3`]: the front hold's six when both cups hold
 /// ([`super::hold3`]), then the contact rows.
@@ -388,25 +399,29 @@ impl Body3 {
         margin: f64,
         out: &mut Vec<ContactRow3>,
     ) {
-        self.contact_rows_in(frames, scene, clearance, margin, None, false, out);
+        self.contact_rows_in(frames, scene, clearance, margin, HeldAt::Rear, out);
     }
 
-    /// [`Body3::contact_rows`] in the solver's picture of the front hold
-    /// `front` when there is one: the points placed in the world to meet the
-    /// scene, the planes kept in the held plate's frame. Held at the front
-    /// (`front_held`: that picture, or both cups), no row at the tips of a
-    /// tube's last two links, which the hold fixes (a row there would be
-    /// zero, or a combination of the weld's and the hold's).
+    /// [`Body3::contact_rows`] for the body `held`: in the solver's picture
+    /// of a front hold, the points placed in the world to meet the scene
+    /// and the planes kept in the held plate's frame; held at the front
+    /// (that picture, or both cups), no row at the tips of a tube's last two
+    /// links, which the hold fixes (a row there would be zero, or a
+    /// combination of the weld's and the hold's).
     pub(crate) fn contact_rows_in(
         &self,
         frames: &Frames,
         scene: &Scene3,
         clearance: f64,
         margin: f64,
-        front: Option<&FrontHold>,
-        front_held: bool,
+        held: HeldAt,
         out: &mut Vec<ContactRow3>,
     ) {
+        let front = match held {
+            HeldAt::Front(hold) => Some(hold),
+            HeldAt::Rear | HeldAt::Both => None,
+        };
+        let front_held = !matches!(held, HeldAt::Rear);
         out.clear();
         for tube in 0..3 {
             let links = self.tube(tube).len();

@@ -165,7 +165,7 @@
 
 use super::body3::{is_rotation, Body3, Derivatives, Eval3, Frames, Param, PLATE_ROWS};
 use super::contact3::{row_sink, ContactEval, ContactRow3};
-use super::place3::{front_cup_centre, front_tip};
+use super::place3::{first_inside, front_cup_centre, front_tip, hold_points};
 use super::rotation::{
     apply, axpy, column, cross, dot, exp, hat, jr_inv, linear_terms, log, mul, mul_tn, pair_terms, scale, scale_mat,
     transpose, Mat3, Vec3,
@@ -580,13 +580,36 @@ impl Body3 {
     ) -> Result<Held3, StanceError> {
         let md = robot.driving_unit.mass_kg;
         match hold {
+            Hold3::Rear => {}
+            Hold3::Front { tip_m, plate } => {
+                check_hold("front hold tip (m)", tip_m, "front hold plate frame", &plate)?;
+            }
+            Hold3::Both { tip_m, plate } => {
+                check_hold("both holds: front tip (m)", tip_m, "both holds: front plate frame", &plate)?;
+            }
+            Hold3::FrontPivot { centre_m, plate } => {
+                check_hold("front pivot centre (m)", centre_m, "front pivot plate frame", &plate)?;
+            }
+        }
+        if let Some((solids, _)) = scene {
+            // A cup or the plate inside a solid has no equilibrium to find.
+            if let Some(p) = first_inside(solids, &hold_points(robot, self, &hold)) {
+                let [x, y, z] = p.point_m.map(|c| Num(c).to_string());
+                return Err(InputError::Invalid {
+                    field: "hold".into(),
+                    value: format!("{} at ({x}, {y}, {z}) m", p.what),
+                    allowed: "a hold that leaves the driving unit, the plate and the holding cups in free space or on a surface".into(),
+                }
+                .into());
+            }
+        }
+        match hold {
             Hold3::Rear => {
                 let equilibrium = self.picture(solver, None, scene)?;
                 let rear = Some(self.rear_cup(robot, &equilibrium)?);
                 Ok(Held3 { hold, body: self.clone(), equilibrium, rear, front: None, pivot_turn_rad: None })
             }
             Hold3::Front { tip_m, plate } => {
-                check_hold("front hold tip (m)", tip_m, "front hold plate frame", &plate)?;
                 let held = FrontHold { tip: tip_m, plate, unit_mass_kg: md };
                 let picture = self.picture(solver, Some(&held), scene)?;
                 let (body, equilibrium) = self.hung(&picture, &held);
@@ -594,7 +617,6 @@ impl Body3 {
                 Ok(Held3 { hold, body, equilibrium, rear: None, front, pivot_turn_rad: None })
             }
             Hold3::Both { tip_m, plate } => {
-                check_hold("both holds: front tip (m)", tip_m, "both holds: front plate frame", &plate)?;
                 let equilibrium = self
                     .solve_both_on(solver, FrontTarget { tip: tip_m, plate, compliance: [0.0; 2] }, scene)
                     .map_err(|source| self.beyond_reach(source, tip_m))?;
@@ -604,10 +626,7 @@ impl Body3 {
                 let front = Some(cup_state(robot, centre, normal, reaction)?);
                 Ok(Held3 { hold, body: self.clone(), equilibrium, rear, front, pivot_turn_rad: None })
             }
-            Hold3::FrontPivot { centre_m, plate } => {
-                check_hold("front pivot centre (m)", centre_m, "front pivot plate frame", &plate)?;
-                self.swing(robot, hold, centre_m, &plate, solver, scene)
-            }
+            Hold3::FrontPivot { centre_m, plate } => self.swing(robot, hold, centre_m, &plate, solver, scene),
         }
     }
 

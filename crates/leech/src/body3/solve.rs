@@ -29,7 +29,7 @@
 //! [`Event::Snap`].
 
 use super::body3::{distance, retract, within, Body3, Eval3, Frames, Param, PLATE_ROWS};
-use super::contact3::{Contact3, ContactEval, ContactRow3};
+use super::contact3::{Contact3, ContactEval, ContactRow3, HeldAt};
 use super::hold3::{FrontHold, FrontTarget, Hanging, FRONT_ROWS};
 use super::rotation::{apply, axpy, cross, dot};
 use crate::linalg::{BorderedLdl, MAX_BORDER};
@@ -620,16 +620,12 @@ impl Body3 {
                 // sagging through a floor would otherwise bring all its
                 // points at once, where a few rows lift the rest.
                 let (scene, clearance, front) = (among.scene, among.clearance, among.front);
-                let front_held = front.is_some() || work.front_rows > 0;
-                self.contact_rows_in(
-                    &state.frames,
-                    scene,
-                    clearance,
-                    -gap_tolerance,
-                    front,
-                    front_held,
-                    &mut candidates,
-                );
+                let held = match front {
+                    Some(hold) => HeldAt::Front(hold),
+                    None if work.front_rows > 0 => HeldAt::Both,
+                    None => HeldAt::Rear,
+                };
+                self.contact_rows_in(&state.frames, scene, clearance, -gap_tolerance, held, &mut candidates);
                 let mut changed = false;
                 for tube in 0..3 {
                     let new = candidates.iter().filter(|c| c.tube == tube);

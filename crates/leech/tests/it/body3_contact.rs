@@ -154,6 +154,11 @@ fn a_bad_clearance_or_hold_is_refused() {
     let hold = Hold3::FrontPivot { centre_m: [f64::NAN, 0.0, 0.0], plate: body.base_frame() };
     let e = body.solve_held_among(&robot, hold, &floor, &Solver::default()).unwrap_err().to_string();
     assert!(e.starts_with("front pivot centre (m)"), "{e}");
+    // The clamp points up, so the rear cup's surface is a wall on the +x
+    // side (the unit's y axis its outward normal): a plate 0.2 m into it.
+    let hold = Hold3::Front { tip_m: [0.2, 0.1, 0.0], plate: body.base_frame() };
+    let e = body.solve_held_among(&robot, hold, &floor, &Solver::default()).unwrap_err().to_string();
+    assert!(e.starts_with("hold: ") && e.contains("the endpoint plate at (") && !e.contains('\n'), "{e}");
 }
 
 /// The front cup on a vertical wall (outward normal `+z`), the plate along
@@ -322,8 +327,8 @@ fn a_turning_body_rests_on_a_box_on_the_floor() {
 }
 
 /// Both cups holding on a floor: the body along it (clamp angle 0) rests on
-/// it held at the rear; the front cup then holds tube 1's tip 5 mm back
-/// and 3 mm above that endpoint, the plate tilted up: the loop rests on the
+/// it held at the rear; the front cup then holds on the floor, level, 3 cm
+/// back from where that endpoint rests: the loop arches and sags onto the
 /// floor, every contact pushing and touching, the cups and the floor
 /// carrying the whole body, the front hold where asked. Solids out of reach
 /// change nothing.
@@ -331,13 +336,14 @@ fn a_turning_body_rests_on_a_box_on_the_floor() {
 fn both_cups_hold_a_body_resting_on_a_floor() {
     let robot = flat();
     let solver = Solver::default();
-    for lengths in [[0.25, 0.25, 0.25], [0.25, 0.22, 0.27]] {
+    for lengths in [[0.3, 0.28, 0.28], [0.3, 0.27, 0.29]] {
         let (rear, floor) = on_floor(&robot, lengths);
         assert!(!rear.equilibrium.contacts.is_empty(), "{lengths:?}: the rear-held body does not rest on the floor");
-        let frames = &rear.equilibrium.frames;
-        let tip_m = axpy(1.0, [-0.005, 0.003, 0.0], rear.body.endpoint(frames));
-        let plate = leech::body3::rotation::mul(&leech::body3::rotation::rot_z(0.1), &rear.body.plate_frame(frames));
-        let hold = Hold3::Both { tip_m, plate };
+        let end = rear.body.endpoint(&rear.equilibrium.frames);
+        // The cup's centre on the floor: tube 1's tip `c + front_offset` above it.
+        let lift = robot.body.tip_spacing_m + robot.cup.front_offset_m;
+        let tip_m = [end[0] - 0.03, rear.body.rear_cup_centre(&robot)[1] + lift, 0.0];
+        let hold = Hold3::Both { tip_m, plate: rear.body.base_frame() };
         let held = rear.body.solve_held_among(&robot, hold, &floor, &solver).unwrap();
         check(&robot, &held, &floor);
         let eq = &held.equilibrium;
