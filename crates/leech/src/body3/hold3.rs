@@ -93,8 +93,13 @@
 //! endpoint is, `(p_tip, R_P)`, to `(P_f, R_f)` under full gravity by
 //! continuation in `t` from 0 to 1: `P(t) = p_tip + t (P_f - p_tip)`,
 //! `R(t) = R_P Exp(t Log(R_P^T R_f))` (the geodesic). At `t = 0` the rows
-//! hold with zero multipliers. A target out of reach ends in an error with
-//! the residual, never a stretched body.
+//! hold with zero multipliers. Along it the rows are compliant, `C + c mu =
+//! 0` (`c` on the tip rows `1e-3 L1^3 / (k l)` m/N, on the frame's `1e-3 L1 /
+//! (k l)` rad/(N m)), which keeps the KKT matrix regular where a straight
+//! tube 1 gives the tip rows no Jacobian (the body then buckles under the
+//! rows' force, a bifurcation like any other); at `t = 1` a second
+//! continuation takes `c` to 0 with the target held. A target out of reach
+//! ends in an error with the residual, never a stretched body.
 //!
 //! **The front reaction** is the six multipliers: `J^T mu` is the
 //! generalized force of a force `mu_tip` at tube 1's tip and of a moment

@@ -31,7 +31,7 @@
 use super::body3::{distance, retract, within, Body3, Eval3, Frames, Param, PLATE_ROWS};
 use super::contact3::{Contact3, ContactEval, ContactRow3, HeldAt};
 use super::hold3::{FrontHold, FrontTarget, Hanging, FRONT_ROWS};
-use super::rotation::{apply, axpy, cross, dot};
+use super::rotation::{apply, axpy, column, cross, dot};
 use crate::linalg::{BorderedLdl, MAX_BORDER};
 use crate::scene::Scene3;
 use crate::statics::{BranchRule, Equilibrium, Event, Side, SolveError, Solver, Stage, StopReason, Tuning};
@@ -76,12 +76,12 @@ const PARALLEL: f64 = 0.9999995;
 const ACTIVE_SET_CHANGES: usize = 4;
 
 /// A solve among a scene's solids: the scene, the clearance (m) the tubes'
-/// centre lines keep, the front hold if the body hangs from it, and the
-/// active set's changes so far (a bound stops a cycling set).
+/// centre lines keep, which cups hold the body, and the active set's
+/// changes so far (a bound stops a cycling set).
 struct Among<'a> {
     scene: &'a Scene3,
     clearance: f64,
-    front: Option<&'a FrontHold>,
+    held: HeldAt<'a>,
     changes: usize,
 }
 
@@ -469,23 +469,17 @@ impl Body3 {
             front: Some(FrontTarget { compliance: soft.map(|c| (1.0 - t) * c), ..to }),
             ..Param::FULL
         };
+        // Among solids in stages, the active set updated at each end.
+        let stages = if scene.is_some() { LOAD_STAGES } else { 1 };
+        let mut among = scene.map(|(scene, clearance)| Among { scene, clearance, held: HeldAt::Both, changes: 0 });
         let mut residual = 0.0;
-        match scene {
-            None => {
-                for path in [&approach as &dyn Fn(f64) -> Param, &stiffen] {
-                    residual = self.continuation(solver, &mut state, &path, Stage::Load, &mut work)?;
-                }
-            }
-            Some((scene, clearance)) => {
-                let mut among = Among { scene, clearance, front: None, changes: 0 };
-                for path in [&approach as &dyn Fn(f64) -> Param, &stiffen] {
-                    for stage in 0..LOAD_STAGES {
-                        let [t0, t1] = [stage, stage + 1].map(|t| t as f64 / LOAD_STAGES as f64);
-                        let part = |tau: f64| path(t0 + tau * (t1 - t0));
-                        self.continuation(solver, &mut state, &part, Stage::Load, &mut work)?;
-                        residual =
-                            self.settle_among(solver, &mut state, path(t1), Stage::Load, &mut among, &mut work)?;
-                    }
+        for path in [&approach as &dyn Fn(f64) -> Param, &stiffen] {
+            for stage in 0..stages {
+                let [t0, t1] = [stage, stage + 1].map(|t| t as f64 / stages as f64);
+                let part = |tau: f64| path(t0 + tau * (t1 - t0));
+                residual = self.continuation(solver, &mut state, &part, Stage::Load, &mut work)?;
+                if let Some(among) = &mut among {
+                    residual = self.settle_among(solver, &mut state, path(t1), Stage::Load, among, &mut work)?;
                 }
             }
         }
@@ -550,7 +544,8 @@ impl Body3 {
         let mut work = Work::new(self, hang);
         let mut state = State::new(self.straight());
         let mut residual = self.feed(solver, &mut state, &mut work)?;
-        let mut among = Among { scene, clearance, front, changes: 0 };
+        let held = front.map_or(HeldAt::Rear, HeldAt::Front);
+        let mut among = Among { scene, clearance, held, changes: 0 };
         for stage in 1..=LOAD_STAGES {
             let load = stage as f64 / LOAD_STAGES as f64;
             let param = Param { load, hang, ..Param::FULL };
@@ -580,7 +575,7 @@ impl Body3 {
             rows.iter().map(|r| ContactRow3 { plane: front.plane_local(&r.plane), ..*r }).collect();
         state.lambda.resize(PLATE_ROWS + local.len(), 0.0);
         work.set_contacts(self, &local);
-        let mut among = Among { scene, clearance, front: Some(front), changes: 0 };
+        let mut among = Among { scene, clearance, held: HeldAt::Front(front), changes: 0 };
         let param = Param { hang, ..Param::FULL };
         let residual = self.settle_among(solver, &mut state, param, Stage::WarmStart, &mut among, &mut work)?;
         Ok(self.finish(solver, state, residual, param, &mut work))
@@ -619,12 +614,7 @@ impl Body3 {
                 // Each tube's deepest point inside, one at a time: a body
                 // sagging through a floor would otherwise bring all its
                 // points at once, where a few rows lift the rest.
-                let (scene, clearance, front) = (among.scene, among.clearance, among.front);
-                let held = match front {
-                    Some(hold) => HeldAt::Front(hold),
-                    None if work.front_rows > 0 => HeldAt::Both,
-                    None => HeldAt::Rear,
-                };
+                let (scene, clearance, held) = (among.scene, among.clearance, among.held);
                 self.contact_rows_in(&state.frames, scene, clearance, -gap_tolerance, held, &mut candidates);
                 let mut changed = false;
                 for tube in 0..3 {
@@ -632,7 +622,8 @@ impl Body3 {
                     let same_tip = |r: &ContactRow3, c: &ContactRow3| (r.tube, r.link) == (c.tube, c.link);
                     // A tip has at most one row per solid (two in a corner).
                     let new = new.filter(|c| !rows.iter().any(|r| same_tip(r, c) && r.solid == c.solid));
-                    let gap = |c: &&ContactRow3| self.row_gap(&state.frames, c, front.is_some());
+                    let hanging = matches!(held, HeldAt::Front(_));
+                    let gap = |c: &&ContactRow3| self.row_gap(&state.frames, c, hanging);
                     let Some(c) = new.min_by(|a, b| gap(a).total_cmp(&gap(b))) else { continue };
                     changed = true;
                     // Two rows of one tip facing the same way would be
@@ -794,8 +785,7 @@ impl Body3 {
             let local = cross([v[3 * u], v[3 * u + 1], v[3 * u + 2]], [1.0, 0.0, 0.0]);
             d = axpy(*l, apply(&state.frames.0[u], local), d);
         }
-        let base = self.base_frame();
-        let right = -(base[0][1] * d[0] + base[1][1] * d[1] + base[2][1] * d[2]);
+        let right = -dot(column(&self.base_frame(), 1), d);
         let measure = if right.abs() >= d[2].abs() { right } else { d[2] };
         let (side, wanted) = match solver.options.branch {
             BranchRule::Right => (Side::Right, 1.0),
@@ -835,8 +825,8 @@ impl Body3 {
         if !best.0.is_finite() {
             return Err(StopReason::NonFinite);
         }
-        let frames = state.frames.clone();
-        moved(&frames, &v, best.1 * kick, &mut state.frames);
+        moved(&state.frames, &v, best.1 * kick, &mut work.frames_trial);
+        std::mem::swap(&mut state.frames, &mut work.frames_trial);
         Ok(())
     }
 
