@@ -318,11 +318,13 @@ impl Constraints for Body {
 
 impl StaticSystem for Body {
     /// Potential and weld write every entry of `ev` (no free coordinates,
-    /// the weld's rows only): the clear, a pass over the Jacobian and
-    /// curvature per evaluation, is left out.
+    /// the weld's rows only, all rigid): the clear, a pass over the
+    /// Jacobian and curvature per evaluation, is left out.
     fn evaluate(&self, q: &[f64], t: f64, ev: &mut Evaluation) {
         self.potential(q, t, ev);
         Constraints::constraints(self, q, t, ev);
+        // Rigid rows (a scratch may come from a system with compliant ones).
+        ev.compliance.fill(0.0);
     }
 
     fn side_measure(&self, q: &[f64], dq: &[f64]) -> f64 {
@@ -425,6 +427,7 @@ impl StaticSystem for Feeding<'_> {
     fn evaluate(&self, q: &[f64], t: f64, ev: &mut Evaluation) {
         self.potential(q, t, ev);
         Constraints::constraints(self, q, t, ev);
+        ev.compliance.fill(0.0);
     }
 
     fn side_measure(&self, q: &[f64], dq: &[f64]) -> f64 {

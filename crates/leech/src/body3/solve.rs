@@ -34,6 +34,7 @@ use super::hold3::{FrontHold, FrontTarget, Hanging, FRONT_ROWS};
 use super::rotation::{apply, axpy, column, cross, dot};
 use crate::linalg::{BorderedLdl, MAX_BORDER};
 use crate::scene::Scene3;
+use crate::stance::start_compliance;
 use crate::statics::{BranchRule, Equilibrium, Event, Side, SolveError, Solver, Stage, StopReason, Tuning};
 
 /// Unstable landings left in one settle before it gives up.
@@ -54,13 +55,6 @@ const ESCAPE_BISECTIONS: usize = 30;
 /// iterations to 1 %, 0.64 times those of the whole path first, and a
 /// third of its factorizations (0.3 to 0.5 rad within 5 % of each other).
 const FIRST_TURN: f64 = 0.5;
-
-/// The both cups' path starts with the front hold's rows this compliant,
-/// relative to tube 1 as a cantilever ([`Body3::start_compliance`]): stiff
-/// enough that a straight body buckles under the tip rows' force well
-/// before the target has moved far, soft enough that the rows' Jacobian
-/// along a straight tube 1 (zero) leaves the KKT matrix regular.
-const START_SOFTNESS: f64 = 1e-3;
 
 /// Stages gravity is raised in among a scene's solids, each settled with
 /// the contact rows' active set.
@@ -487,12 +481,9 @@ impl Body3 {
     }
 
     /// The front hold's compliance on the both cups' path's start: tube 1
-    /// as a cantilever, `L^3 / (k l)` (m/N) and `L / (k l)` (rad/(N m)),
-    /// times [`START_SOFTNESS`].
+    /// as a cantilever ([`start_compliance`]).
     fn start_compliance(&self) -> [f64; 2] {
-        let length = self.tube(0).tube_length();
-        let bending = self.moment_scale() * self.row_scale(0);
-        [START_SOFTNESS * length.powi(3) / bending, START_SOFTNESS * length / bending]
+        start_compliance(self.tube(0).tube_length(), self.moment_scale() * self.row_scale(0))
     }
 
     /// The tubes fed from the shortest length at `g = 0` (each tube's links

@@ -2,7 +2,7 @@
 //! unit's pose `(p0, phi0)`, under the weld and the holds.
 
 use super::contact::{chain_terms, ContactRow, Touching, FRONT_CUP, REAR_CUP};
-use super::hold::{Hold, Pose};
+use super::hold::{start_compliance, Hold, Pose};
 use crate::body::{Body, WELD_ROWS};
 use crate::chain::Chain;
 use crate::geom::{dot, right_normal, unit, Vec2};
@@ -18,8 +18,14 @@ pub const HOLD_ROWS: usize = 3;
 pub enum Approach {
     /// Gravity, from 0 (`t = 0`) to `g` (`t = 1`); the holds stay.
     Load,
-    /// The front hold's target, from this pose (`t = 0`) to the hold's (`t = 1`), under full gravity.
+    /// The front hold's target, from this pose (`t = 0`) to the hold's
+    /// (`t = 1`), under full gravity, its rows compliant
+    /// ([`FloatingBody::front_compliance`]).
     Front(Pose),
+    /// The front hold's rows stiffened, their compliance from
+    /// [`FloatingBody::front_compliance`] (`t = 0`) to zero (`t = 1`), the
+    /// target the hold's, under full gravity.
+    Stiffen,
 }
 
 /// The floating body: a [`StaticSystem`] with coordinates
@@ -254,15 +260,37 @@ impl<'a> FloatingBody<'a> {
     fn front_target(&self, t: f64) -> Option<Pose> {
         let front = self.hold.front()?;
         Some(match self.approach {
-            Approach::Load => front,
+            Approach::Load | Approach::Stiffen => front,
             Approach::Front(from) => from.lerp(&front, t),
         })
+    }
+
+    /// The compliance of the front hold's rows while the front cup attaches:
+    /// chain A as a cantilever ([`start_compliance`]), m/N for the
+    /// endpoint's rows and rad/(N m) for the plate's angle. Along a straight
+    /// chain A the endpoint's row has a zero Jacobian (an inextensible tube
+    /// cannot move its tip along itself), so rigid rows there make the KKT
+    /// matrix singular; compliant ones load the tube as a column, which
+    /// buckles (a bifurcation the path reports) instead.
+    pub fn front_compliance(&self) -> [f64; 2] {
+        let chain = self.body.chain_a();
+        start_compliance(chain.tube_length(), self.body.moment_scale() * chain.lengths()[0])
+    }
+
+    /// The front rows' compliance at `t` (positions, angle) and its rate.
+    fn front_softness(&self, t: f64) -> ([f64; 2], [f64; 2]) {
+        let soft = self.front_compliance();
+        match self.approach {
+            Approach::Load => ([0.0; 2], [0.0; 2]),
+            Approach::Front(_) => (soft, [0.0; 2]),
+            Approach::Stiffen => (soft.map(|c| (1.0 - t) * c), soft.map(|c| -c)),
+        }
     }
 
     fn load(&self, t: f64) -> f64 {
         match self.approach {
             Approach::Load => t,
-            Approach::Front(_) => 1.0,
+            Approach::Front(_) | Approach::Stiffen => 1.0,
         }
     }
 
@@ -384,6 +412,8 @@ impl Constraints for FloatingBody<'_> {
         }
         if let (Some(row), Some(pose)) = (front, self.front_target(t)) {
             self.front_rows(q, row, pose, &oa, ev);
+            let (soft, _) = self.front_softness(t);
+            ev.compliance[row..row + HOLD_ROWS].copy_from_slice(&[soft[0], soft[0], soft[1]]);
         }
         let first = self.contact_row();
         for (i, contact) in self.contacts.iter().enumerate() {
@@ -510,12 +540,12 @@ impl Touching for FloatingBody<'_> {
         self.hold.front().is_some() && (link + 1 == n || (link + 2 == n && fraction >= 1.0))
     }
 
-    /// A load raises gravity; a front approach moves a target under full
-    /// gravity, a warm start's continuation.
+    /// A load raises gravity; a front approach moves a target (or stiffens
+    /// its rows) under full gravity, a warm start's continuation.
     fn stage(&self) -> Stage {
         match self.approach {
             Approach::Load => Stage::Load,
-            Approach::Front(_) => Stage::WarmStart,
+            Approach::Front(_) | Approach::Stiffen => Stage::WarmStart,
         }
     }
 }
@@ -533,7 +563,7 @@ impl StaticSystem for FloatingBody<'_> {
 }
 
 impl Path for FloatingBody<'_> {
-    fn path(&self, q: &[f64], _t: f64, ev: &Evaluation, out: &mut PathTerms) {
+    fn path(&self, q: &[f64], t: f64, ev: &Evaluation, out: &mut PathTerms) {
         let n = self.chains();
         match self.approach {
             Approach::Load => {
@@ -552,6 +582,11 @@ impl Path for FloatingBody<'_> {
                 out.constraints[row] = from.point_m[0] - to.point_m[0];
                 out.constraints[row + 1] = from.point_m[1] - to.point_m[1];
                 out.constraints[row + 2] = from.angle_rad - to.angle_rad;
+            }
+            Approach::Stiffen => {
+                let (_, Some(row)) = self.hold_rows() else { return };
+                let (_, rate) = self.front_softness(t);
+                out.compliance[row..row + HOLD_ROWS].copy_from_slice(&[rate[0], rate[0], rate[1]]);
             }
         }
     }

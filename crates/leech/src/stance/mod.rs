@@ -51,9 +51,15 @@
 //!   front hold, then gravity raised from 0 to `g`: the driving unit swings
 //!   down, as after the rear cup releases;
 //! * both: the rear-held equilibrium, then the front hold's target moved from
-//!   where the endpoint is to where it is asked for, under full gravity. A
-//!   target out of reach fails to converge: an error with the residual, never
-//!   a stretched body.
+//!   where the endpoint is to where it is asked for, under full gravity, with
+//!   the front hold's rows compliant, `C + c lambda = 0` (chain A as a
+//!   cantilever times [`START_SOFTNESS`]: `c = s L^3/(k l)` m/N for the
+//!   endpoint, `s L/(k l)` rad/(N m) for the plate); then that compliance
+//!   taken to zero, the target held. Rigid rows from the start fail where
+//!   chain A is straight: its tip cannot move along itself, a zero row of the
+//!   Jacobian; compliant ones load it as a column, which buckles (a reported
+//!   bifurcation). A target out of reach fails to converge: an error with the
+//!   residual, never a stretched body.
 
 mod contact;
 mod feeding;
@@ -66,7 +72,7 @@ pub mod tube;
 pub use contact::{detect, penetration, swept_clear, ContactOptions, ContactRow, Touching, FRONT_CUP, REAR_CUP};
 pub use feeding::{FEED_STEP_M, MIN_FEED_STEP_M};
 pub use floating::{Approach, CupFaces, FloatingBody, FREE, HOLD_ROWS};
-pub use hold::{Hold, Pose};
+pub use hold::{start_compliance, Hold, Pose, START_SOFTNESS};
 pub use tube::{tube_in, Tube, TubeHeld, TUBE_FEED_START_M};
 
 use crate::body::{Body, WELD_ROWS};
@@ -450,12 +456,23 @@ fn unloaded(robot: &Robot, lengths: [f64; 2], solver: &Solver) -> Result<Vec<f64
     Ok(robot.with_gravity(0.0)?.body(lengths[0], lengths[1])?.solve(solver)?.q)
 }
 
-/// Follows `floating`'s approach from `q` (an equilibrium at `t = 0`) to `t = 1`.
+/// Follows `floating`'s approach from `q` (an equilibrium at `t = 0`) to
+/// `t = 1`; a front approach then stiffens the front hold's rows
+/// ([`Approach::Stiffen`]) from where it ended.
 fn continued(floating: &FloatingBody<'_>, q: Vec<f64>, solver: &Solver) -> Result<Held, StanceError> {
+    let stiffened = floating.clone().with_approach(Approach::Stiffen);
+    let phases = match floating.approach() {
+        Approach::Front(_) => [floating, &stiffened].to_vec(),
+        _ => [floating].to_vec(),
+    };
     Scratch::with_spare(floating, |ws| {
         let mut it = Iterate::new(q);
-        let residual = solver.continuation(floating, &mut it, 0.0, Stage::Load, ws)?;
-        Ok(Held::new(floating, solver.finish(floating, it, residual, ws)))
+        let mut residual = 0.0;
+        for phase in &phases {
+            residual = solver.continuation(*phase, &mut it, 0.0, Stage::Load, ws)?;
+        }
+        let last = phases[phases.len() - 1];
+        Ok(Held::new(last, solver.finish(last, it, residual, ws)))
     })
 }
 

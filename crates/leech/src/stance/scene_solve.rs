@@ -3,7 +3,7 @@
 //! stages, the contact rows refreshed at each until they settle.
 
 use super::contact::{detect, on_cup, penetration, ContactOptions, ContactRow, Touching};
-use super::floating::FloatingBody;
+use super::floating::{Approach, FloatingBody};
 use super::{ContactForce, Held, StanceError};
 use crate::geom::dot;
 use crate::scene::Scene;
@@ -114,7 +114,8 @@ pub(super) fn contact_forces<S: Touching>(
 
 /// Takes `floating` (without contacts) from the equilibrium `q` at `t = 0`
 /// along its approach in [`APPROACH_STAGES`] stages, refreshing its contact
-/// rows in `scene` at each.
+/// rows in `scene` at each; a front approach then stiffens the front hold's
+/// rows ([`Approach::Stiffen`]) in as many stages.
 pub(super) fn approached<'a>(
     floating: FloatingBody<'a>,
     q: Vec<f64>,
@@ -123,12 +124,18 @@ pub(super) fn approached<'a>(
     solver: &Solver,
 ) -> Result<Settled<FloatingBody<'a>>, StanceError> {
     let options = ContactOptions::default();
+    let phases = if let Approach::Front(_) = floating.approach() { 2 } else { 1 };
     let mut settled = Settled { equilibrium: start(&floating, q), system: floating };
     let mut pushing = Vec::new();
-    for stage in 1..=APPROACH_STAGES {
-        let t = stage as f64 / APPROACH_STAGES as f64;
-        settled = settle(settled, &pushing, t, scene, radius, &options, solver)?;
-        pushing = settled.pushing();
+    for phase in 0..phases {
+        if phase > 0 {
+            settled.system = settled.system.with_approach(Approach::Stiffen);
+        }
+        for stage in 1..=APPROACH_STAGES {
+            let t = stage as f64 / APPROACH_STAGES as f64;
+            settled = settle(settled, &pushing, t, scene, radius, &options, solver)?;
+            pushing = settled.pushing();
+        }
     }
     Ok(settled)
 }

@@ -15,14 +15,20 @@ impl Solver {
     /// `ws.kkt`. Differentiating `grad V - J^T lambda = 0`, `C = 0` along `t`:
     ///
     /// ```text
-    /// H q' + J^T y = -(d(grad V)/dt - (dJ/dt)^T lambda),   J q' = -dC/dt,   lambda' = -y
+    /// H q' + J^T y = -(d(grad V)/dt - (dJ/dt)^T lambda),   lambda' = -y,
+    /// J q' - c y = -(dC/dt + (dc/dt) lambda)
     /// ```
+    ///
+    /// (a compliant row holds `C + c lambda = 0`, [`Evaluation::compliance`]).
+    ///
+    /// [`Evaluation::compliance`]: super::Evaluation::compliance
     pub(super) fn tangent<S: Path + ?Sized>(&self, sys: &S, it: &Iterate, t: f64, ws: &mut Scratch) {
         ws.path_terms(sys, &it.q, t);
         transposed_product(&ws.path.gradient, &ws.path.jacobian, &it.lambda, &mut ws.tangent);
         ws.tangent.iter_mut().for_each(|x| *x = -*x);
-        for (rhs, dc) in ws.rhs.iter_mut().zip(&ws.path.constraints) {
-            *rhs = -dc;
+        let rates = ws.path.constraints.iter().zip(&ws.path.compliance).zip(&it.lambda);
+        for (rhs, ((dc, dcompliance), lambda)) in ws.rhs.iter_mut().zip(rates) {
+            *rhs = -(dc + dcompliance * lambda);
         }
         ws.kkt.solve(&ws.tangent, &ws.rhs, &mut ws.step, &mut ws.lambda_tangent);
         ws.tangent.copy_from_slice(&ws.step);

@@ -26,6 +26,10 @@ pub struct Evaluation {
     pub hessian_corner: Vec<f64>,
     /// Constraint values `C` (m for positions, rad for angles), `m` of them.
     pub constraints: Vec<f64>,
+    /// Each row's compliance `c_r` (m/N for positions, rad/(N m) for
+    /// angles; zero for a rigid row): the row holds `C_r + c_r lambda_r = 0`,
+    /// a stiff spring of stiffness `1/c_r` instead of a rigid constraint.
+    pub compliance: Vec<f64>,
     /// Constraint Jacobian, interleaved by coordinate: `dC_r/dq_i` at `i m + r`.
     pub jacobian: Vec<f64>,
     /// Diagonals of the constraint Hessians `d2C_r/dq_i2`, laid out as `jacobian`.
@@ -60,6 +64,7 @@ impl Evaluation {
         self.hessian_border.resize(chains * free, 0.0);
         self.hessian_corner.resize(free * free, 0.0);
         self.constraints.resize(m, 0.0);
+        self.compliance.resize(m, 0.0);
         self.jacobian.resize(n * m, 0.0);
         self.curvature.resize(n * m, 0.0);
         self.cos.resize(n, 0.0);
@@ -86,11 +91,17 @@ impl Evaluation {
             &mut self.hessian_border,
             &mut self.hessian_corner,
             &mut self.constraints,
+            &mut self.compliance,
             &mut self.jacobian,
             &mut self.curvature,
         ] {
             v.fill(0.0);
         }
+    }
+
+    /// Row `r`'s residual with multiplier `lambda`: `C_r + c_r lambda`.
+    pub fn row_value(&self, r: usize, lambda: f64) -> f64 {
+        self.constraints[r] + self.compliance[r] * lambda
     }
 }
 
@@ -104,6 +115,8 @@ pub struct PathTerms {
     pub jacobian: Vec<f64>,
     /// `dC/dt`.
     pub constraints: Vec<f64>,
+    /// `dc/dt` of each row's compliance ([`Evaluation::compliance`]).
+    pub compliance: Vec<f64>,
 }
 
 impl PathTerms {
@@ -119,6 +132,7 @@ impl PathTerms {
         self.gradient.resize(n, 0.0);
         self.jacobian.resize(n * m, 0.0);
         self.constraints.resize(m, 0.0);
+        self.compliance.resize(m, 0.0);
     }
 
     /// Sets everything to zero.
@@ -126,5 +140,6 @@ impl PathTerms {
         self.gradient.fill(0.0);
         self.jacobian.fill(0.0);
         self.constraints.fill(0.0);
+        self.compliance.fill(0.0);
     }
 }

@@ -88,33 +88,74 @@ impl Solver {
         }
     }
 
-    /// The scaled sup norm of `(r, C_A)`, `r = grad V - J^T lambda` of `ev`.
+    /// The scaled sup norm of `(r, g_A)`, `r = grad V - J^T lambda` of `ev`
+    /// and `g = C + c lambda` the rows' values ([`Evaluation::row_value`]).
     fn residual_norm(ev: &Evaluation, rows: &[Row], it: &Iterate, k: f64, r: &[f64]) -> f64 {
         let mut norm = sup_norm(r) / k;
         for (row, spec) in rows.iter().enumerate() {
             if it.active[row] {
-                norm = norm.max((ev.constraints[row] / spec.scale).abs());
+                norm = norm.max((ev.row_value(row, it.lambda[row]) / spec.scale).abs());
             }
         }
         norm
     }
 
-    /// Scaled Euclidean norm of `(grad V - J^T lambda, C_A)`, for step acceptance.
+    /// Scaled Euclidean norm of `(grad V - J^T lambda, g_A)`, for step acceptance.
     /// `r` is `grad V - J^T lambda` of `ev`.
-    fn residual_l2(ev: &Evaluation, rows: &[Row], r: &[f64], active: &[bool], k: f64) -> f64 {
+    fn residual_l2(ev: &Evaluation, rows: &[Row], r: &[f64], lambda: &[f64], active: &[bool], k: f64) -> f64 {
         let s = r.iter().fold(0.0, |s, ri| s + (ri / k) * (ri / k));
-        Self::infeasibility(s, ev, rows, active, 2)
+        Self::row_squares(s, ev, rows, lambda, active)
     }
 
-    /// `start + sum |C_r / s_r|^p` over the active rows (p = 1 or 2).
-    fn infeasibility(start: f64, ev: &Evaluation, rows: &[Row], active: &[bool], p: i32) -> f64 {
+    /// `start + sum (g_r / s_r)^2` over the active rows, `g_r` the row's
+    /// value with multiplier `lambda_r`.
+    fn row_squares(start: f64, ev: &Evaluation, rows: &[Row], lambda: &[f64], active: &[bool]) -> f64 {
         let terms = rows.iter().enumerate().filter(|(r, _)| active[*r]);
-        terms.fold(start, |acc, (r, spec)| acc + (ev.constraints[r] / spec.scale).abs().powi(p))
+        terms.fold(start, |acc, (r, spec)| acc + (ev.row_value(r, lambda[r]) / spec.scale).powi(2))
     }
 
-    /// The exact-penalty merit `V/k + rho |C_A|_1`.
+    /// The merit: `V/k`, plus each active compliant row's spring energy
+    /// `C^2/(2 c)/k` (the compliant equilibrium minimizes `V + sum C^2/(2c)`),
+    /// plus the exact penalty `rho |C_R / s|_1` of the rigid active rows `R`.
     fn merit(ev: &Evaluation, rows: &[Row], active: &[bool], rho: f64, k: f64) -> f64 {
-        ev.energy / k + rho * Self::infeasibility(0.0, ev, rows, active, 1)
+        let mut springs = 0.0;
+        let mut penalty = 0.0;
+        for (r, spec) in rows.iter().enumerate().filter(|(r, _)| active[*r]) {
+            let (c, compliance) = (ev.constraints[r], ev.compliance[r]);
+            if compliance > 0.0 {
+                springs += c * c / (2.0 * compliance);
+            } else {
+                penalty += (c / spec.scale).abs();
+            }
+        }
+        (ev.energy + springs) / k + rho * penalty
+    }
+
+    /// The merit's slope along `step` ([`Solver::merit`]) where the step
+    /// restores the rigid rows' linearization (`J dq = -C` there): the
+    /// energy's and the springs' `(grad V + sum_c (C/c) J_c) . dq`, over `k`,
+    /// minus the penalty; `descent` is `grad V . dq`.
+    fn merit_slope(
+        ev: &Evaluation,
+        rows: &[Row],
+        active: &[bool],
+        step: &[f64],
+        descent: f64,
+        rho: f64,
+        k: f64,
+    ) -> f64 {
+        let m = rows.len();
+        let mut slope = descent;
+        for (r, spec) in rows.iter().enumerate().filter(|(r, _)| active[*r]) {
+            let (c, compliance) = (ev.constraints[r], ev.compliance[r]);
+            if compliance > 0.0 {
+                let along: f64 = step.iter().enumerate().map(|(i, d)| ev.jacobian[i * m + r] * d).sum();
+                slope += c / compliance * along;
+            } else {
+                slope -= rho * k * (c / spec.scale).abs();
+            }
+        }
+        slope / k
     }
 
     /// Factors the Lagrangian Hessian of `ws.current` with multipliers
@@ -392,14 +433,14 @@ impl Solver {
     }
 
     /// The length (rad, sup norm) of the least-change step that restores the
-    /// active rows, `-J^T (J J^T)^-1 C`: the KKT step as the shift grows
+    /// active rows, `-J^T (J J^T)^-1 g`: the KKT step as the shift grows
     /// without bound, taken here with a shift of `1e6 k`. Leaves the factors
     /// shifted: the caller factors again for its next trial.
     fn restoring_length(&self, it: &Iterate, ws: &mut Scratch, k: f64) -> f64 {
         ws.factor_kkt(1e6 * k, &it.active, self.options.tuning.tiny_pivot * k);
         ws.q_trial.fill(0.0);
-        for (rhs, c) in ws.rhs.iter_mut().zip(&ws.current.constraints) {
-            *rhs = -c;
+        for (r, rhs) in ws.rhs.iter_mut().enumerate() {
+            *rhs = -ws.current.row_value(r, it.lambda[r]);
         }
         ws.kkt.solve(&ws.q_trial, &ws.rhs, &mut ws.step, &mut ws.dual_step);
         sup_norm(&ws.step)
@@ -421,10 +462,13 @@ impl Solver {
         let tuning = &self.options.tuning;
         let k = sys.moment_scale();
         let m = ws.rows.len();
-        // The step solves (H + shift I) dq + J_A^T y = -r, J_A dq = -C_A:
-        // the negative of the solution for (r, C_A), exactly (the solve is
-        // linear and negation exact).
-        ws.kkt.solve(&ws.residual, &ws.current.constraints, &mut ws.step, &mut ws.dual_step);
+        // The step solves (H + shift I) dq + J_A^T y = -r, J_A dq - c y = -g_A
+        // (y = -dlambda): the negative of the solution for (r, g_A), exactly
+        // (the solve is linear and negation exact).
+        for (r, rhs) in ws.rhs.iter_mut().enumerate() {
+            *rhs = ws.current.row_value(r, it.lambda[r]);
+        }
+        ws.kkt.solve(&ws.residual, &ws.rhs, &mut ws.step, &mut ws.dual_step);
         ws.dual_step.iter_mut().for_each(|y| *y = -*y);
         let mut longest = 0.0f64;
         for d in ws.step.iter_mut() {
@@ -463,19 +507,20 @@ impl Solver {
         }
         state.first_trial = false;
         let phi0 = Self::merit(&ws.current, &ws.rows, &it.active, state.rho, k);
-        // One pass for the slope, the residual's norm and the trial point.
+        // One pass for the energy's slope, the residual's norm and the trial point.
         let (mut descent, mut squares) = (0.0, 0.0);
         for i in 0..ws.n {
             descent += ws.current.gradient[i] * ws.step[i];
             squares += (ws.residual[i] / k) * (ws.residual[i] / k);
             ws.q_trial[i] = it.q[i] + ws.step[i];
         }
-        let slope = descent / k - state.rho * Self::infeasibility(0.0, &ws.current, &ws.rows, &it.active, 1);
-        let r0 = Self::infeasibility(squares, &ws.current, &ws.rows, &it.active, 2).sqrt();
+        let slope = Self::merit_slope(&ws.current, &ws.rows, &it.active, &ws.step, descent, state.rho, k);
+        let r0 = Self::row_squares(squares, &ws.current, &ws.rows, &it.lambda, &it.active).sqrt();
         sys.evaluate(&ws.q_trial, t, &mut ws.trial);
         let phi = Self::merit(&ws.trial, &ws.rows, &it.active, state.rho, k);
         transposed_product(&ws.trial.gradient, &ws.trial.jacobian, &ws.lambda_trial, &mut ws.residual_trial);
-        let r_trial = Self::residual_l2(&ws.trial, &ws.rows, &ws.residual_trial, &it.active, k).sqrt();
+        let r_trial =
+            Self::residual_l2(&ws.trial, &ws.rows, &ws.residual_trial, &ws.lambda_trial, &it.active, k).sqrt();
         // A decrease lost in rounding is no progress: accepting it would
         // spend the iteration budget on null steps.
         let measurable = phi0 - phi > tuning.measurable_decrease * phi0.abs().max(1.0);

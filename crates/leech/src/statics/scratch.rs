@@ -35,8 +35,9 @@ pub(super) struct KktSolver {
     /// The active rows in order: border row `free + s` is row `slots[s]`.
     slots: Vec<usize>,
     /// The assembled border `[H_cf | J_A^T]` (chains x k) and corner
-    /// `[[H_ff, J_Af^T], [J_Af, 0]]` (k x k), `k = free + active rows`, when
-    /// the border is not the Jacobian itself.
+    /// `[[H_ff, J_Af^T], [J_Af, -c_A]]` (k x k, `c` the rows' compliance),
+    /// `k = free + active rows`; with the border the Jacobian itself, the
+    /// corner is `-c_A` alone.
     border: Vec<f64>,
     corner: Vec<f64>,
     /// Right-hand side and solution of the border rows (k).
@@ -104,10 +105,21 @@ impl KktSolver {
                 corner[a * k + f + s] = j;
             }
         }
+        self.comply(ev);
     }
 
-    /// Factors `[H + shift I, J_A^T; J_A, 0]` (the free coordinates shifted
-    /// too) and reports the inertia of the working set's KKT matrix.
+    /// A compliant row's value is `C + c lambda` and its unknown in the
+    /// solve is `-dlambda`: `-c` on the corner's diagonal.
+    fn comply(&mut self, ev: &Evaluation) {
+        let k = self.free + self.slots.len();
+        for (s, r) in self.slots.iter().enumerate() {
+            let at = self.free + s;
+            self.corner[at * k + at] = -ev.compliance[*r];
+        }
+    }
+
+    /// Factors `[H + shift I, J_A^T; J_A, -c_A]` (the free coordinates
+    /// shifted too) and reports the inertia of the working set's KKT matrix.
     ///
     /// # Panics
     /// If more rows are active than [`KktSolver::active_capacity`].
@@ -126,6 +138,7 @@ impl KktSolver {
         self.ldl.set_border_rows(k);
         let count = if self.direct() {
             self.corner[..k * k].fill(0.0);
+            self.comply(ev);
             self.ldl.factor(diag, &ev.hessian_off, &ev.jacobian, &self.corner[..k * k], shift, tiny)
         } else {
             self.assemble(ev, lagrangian_corner);
@@ -144,8 +157,9 @@ impl KktSolver {
         }
     }
 
-    /// Solves the factored system: `(H + shift) x + J_A^T y_A = r`, `J_A x = c_A`,
-    /// `y` zero on inactive rows.
+    /// Solves the factored system: `(H + shift) x + J_A^T y_A = r`,
+    /// `J_A x - c_A y_A = c_A'` (`c'` the rows' right-hand side), `y` zero
+    /// on inactive rows.
     pub fn solve(&mut self, r: &[f64], c: &[f64], x: &mut [f64], y: &mut [f64]) {
         let (n, f) = (self.chains, self.free);
         let k = f + self.slots.len();

@@ -90,6 +90,8 @@ fn check_system<S: Path>(sys: &S, q: &[f64], t: f64) -> Result<(), TestCaseError
     }
     for r in 0..m {
         close(along.constraints[r], (ahead.constraints[r] - behind.constraints[r]) / (2.0 * H), 1.0, "dC/dt")?;
+        let rate = (ahead.compliance[r] - behind.compliance[r]) / (2.0 * H);
+        close(along.compliance[r], rate, 0.0, "dc/dt")?;
     }
     Ok(())
 }
@@ -299,7 +301,7 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
 
     /// The floating body under every kind of hold, with contact rows at
-    /// nodes and between nodes, along both approaches.
+    /// nodes and between nodes, along every approach.
     #[test]
     fn floating_body_derivatives(
         la in 0.03f64..0.075,
@@ -319,7 +321,11 @@ proptest! {
         let front = Pose { point_m: [pose[3], pose[4]], angle_rad: pose[5] };
         let hold = [Hold::Rear(rear), Hold::Front(front), Hold::Both { rear, front }][hold_kind];
         let from = Pose { point_m: [0.1, -0.2], angle_rad: 0.3 };
-        let approach = if hold_kind == 2 && t > 0.5 { Approach::Front(from) } else { Approach::Load };
+        let approach = match (hold_kind, t) {
+            (2, t) if t > 0.7 => Approach::Stiffen,
+            (2, t) if t > 0.4 => Approach::Front(from),
+            _ => Approach::Load,
+        };
         let contacts = vec![
             ContactRow { chain: 0, link: 1, fraction: 1.0, normal: [0.6, 0.8], offset: 0.01 },
             ContactRow { chain: 1, link: 2, fraction, normal: [-0.8, 0.6], offset: -0.02 },
