@@ -297,6 +297,12 @@ impl Chain {
         self.nominal_stiffness
     }
 
+    /// The element length `l` (m): the tube's bending stiffness is
+    /// `EI = k l` ([`Chain::nominal_stiffness`]).
+    pub fn element_length(&self) -> f64 {
+        self.element_length
+    }
+
     /// The discrete shape parameter `k / (m g l)` of a whole element under
     /// `gravity` (dimensionless; 0 without gravity or mass).
     pub fn discrete_stiffness(&self, gravity: f64) -> f64 {

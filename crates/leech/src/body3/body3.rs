@@ -283,6 +283,11 @@ impl Body3 {
         out
     }
 
+    /// The element length `l` (m).
+    pub fn element_length(&self) -> f64 {
+        self.element_length
+    }
+
     /// Scale of row `r` (m for positions, 1 for rotations): residuals are divided by it.
     pub fn row_scale(&self, r: usize) -> f64 {
         if r % 6 < 3 {

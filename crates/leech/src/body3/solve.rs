@@ -483,7 +483,7 @@ impl Body3 {
     /// The front hold's compliance on the both cups' path's start: tube 1
     /// as a cantilever ([`start_compliance`]).
     fn start_compliance(&self) -> [f64; 2] {
-        start_compliance(self.tube(0).tube_length(), self.moment_scale() * self.row_scale(0))
+        start_compliance(self.tube(0).tube_length(), self.moment_scale() * self.element_length())
     }
 
     /// The tubes fed from the shortest length at `g = 0` (each tube's links

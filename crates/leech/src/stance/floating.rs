@@ -274,7 +274,7 @@ impl<'a> FloatingBody<'a> {
     /// buckles (a bifurcation the path reports) instead.
     pub fn front_compliance(&self) -> [f64; 2] {
         let chain = self.body.chain_a();
-        start_compliance(chain.tube_length(), self.body.moment_scale() * chain.lengths()[0])
+        start_compliance(chain.tube_length(), chain.nominal_stiffness() * chain.element_length())
     }
 
     /// The front rows' compliance at `t` (positions, angle) and its rate.

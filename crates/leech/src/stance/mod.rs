@@ -460,18 +460,15 @@ fn unloaded(robot: &Robot, lengths: [f64; 2], solver: &Solver) -> Result<Vec<f64
 /// `t = 1`; a front approach then stiffens the front hold's rows
 /// ([`Approach::Stiffen`]) from where it ended.
 fn continued(floating: &FloatingBody<'_>, q: Vec<f64>, solver: &Solver) -> Result<Held, StanceError> {
-    let stiffened = floating.clone().with_approach(Approach::Stiffen);
-    let phases = match floating.approach() {
-        Approach::Front(_) => [floating, &stiffened].to_vec(),
-        _ => [floating].to_vec(),
-    };
+    let front = matches!(floating.approach(), Approach::Front(_));
+    let stiffened = front.then(|| floating.clone().with_approach(Approach::Stiffen));
+    let last = stiffened.as_ref().unwrap_or(floating);
     Scratch::with_spare(floating, |ws| {
         let mut it = Iterate::new(q);
         let mut residual = 0.0;
-        for phase in &phases {
-            residual = solver.continuation(*phase, &mut it, 0.0, Stage::Load, ws)?;
+        for phase in std::iter::once(floating).chain(stiffened.as_ref()) {
+            residual = solver.continuation(phase, &mut it, 0.0, Stage::Load, ws)?;
         }
-        let last = phases[phases.len() - 1];
         Ok(Held::new(last, solver.finish(last, it, residual, ws)))
     })
 }

@@ -352,6 +352,14 @@ impl Solver {
                         let stable = self.factor(k, it, ws).0 == Inertia::Minimum;
                         return Newton { residual: res, result: Ok(stable) };
                     }
+                    // A saddle whose unstable mode the gradient does not reach
+                    // (a straight column compressed past its buckling load by
+                    // a compliant row: symmetric, the mode orthogonal to the
+                    // residual) has no descending step: an unstable point,
+                    // which the caller leaves along its most negative curvature.
+                    if inertia == Inertia::Indefinite {
+                        return Newton { residual: res, result: Ok(false) };
+                    }
                     return Newton::failed(res, StopReason::NoDescent);
                 }
             }
