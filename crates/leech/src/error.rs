@@ -255,3 +255,82 @@ pub enum JobError {
     #[error("stopped: {0}")]
     Stopped(#[from] crate::budget::Stopped),
 }
+
+/// The parser's message with its line number, folded to one line (the
+/// parser's own text spans several lines and draws a caret under the spot),
+/// escaped and cut short: it may quote the file's bytes (an unknown key).
+/// Shared by robot, scene and scenario files. A message that names no key
+/// (a wrong type, a duplicate) gets the key of its line, dotted under its
+/// table (`tube.element_length_m`), and reads in the house format: `line 9:
+/// tube.element_length_m: got string "ten", expected a number`.
+pub(crate) fn one_line(text: &str, error: &toml::de::Error) -> String {
+    let folded = house(&error.message().split_whitespace().collect::<Vec<_>>().join(" "));
+    let message = clip(&folded, MESSAGE_CHARS);
+    let Some(span) = error.span() else { return message };
+    let start = span.start.min(text.len());
+    let line = text[..start].matches('\n').count() + 1;
+    match key_at(text, start).filter(|_| !folded.contains('`')) {
+        Some(key) => format!("line {line}: {}: {message}", clip(&key, EXCERPT_CHARS)),
+        None => format!("line {line}: {message}"),
+    }
+}
+
+/// The key written on the line of byte `at` of a TOML `text`, dotted under
+/// the table it is in (`tube.element_length_m`), or the table header itself
+/// (`[world]`); none on a line without a key (an array running on).
+fn key_at(text: &str, at: usize) -> Option<String> {
+    let line_start = text[..at].rfind('\n').map_or(0, |i| i + 1);
+    let line = text[line_start..].lines().next().unwrap_or("");
+    let code = line.split('#').next().unwrap_or("").trim();
+    if code.starts_with('[') {
+        return Some(code.to_string());
+    }
+    let key = code.split_once('=')?.0.trim();
+    if key.is_empty() {
+        return None;
+    }
+    // The last table header above the line.
+    let table = text[..line_start].lines().rev().find_map(|l| {
+        let l = l.split('#').next().unwrap_or("").trim();
+        l.starts_with('[').then(|| l.trim_matches(['[', ']']).trim().to_string())
+    });
+    Some(match table {
+        Some(table) => format!("{table}.{key}"),
+        None => key.to_string(),
+    })
+}
+
+/// A serde or TOML message in the house format (`got ..., expected ...`),
+/// Rust's type names as a user's (`f64`: a number), each backquoted key
+/// clipped (an unknown key may be a file's worth).
+fn house(message: &str) -> String {
+    let message = if let Some(rest) = message.strip_prefix("invalid type: ") {
+        format!("got {rest}")
+    } else if let Some(rest) = message.strip_prefix("invalid length ") {
+        format!("got length {rest}")
+    } else if message == "duplicate key" {
+        "got it a second time, expected each key and table once".to_string()
+    } else {
+        message.to_string()
+    };
+    let message = match message.rsplit_once(", expected ") {
+        Some((got, expected)) => {
+            let expected = match expected {
+                "f64" | "f32" => "a number",
+                "u8" | "u16" | "u32" | "u64" | "usize" => "a whole number >= 0",
+                "i8" | "i16" | "i32" | "i64" | "isize" => "a whole number",
+                "a sequence" => "an array",
+                other => other,
+            };
+            format!("{got}, expected {expected}")
+        }
+        None => message,
+    };
+    // Odd-numbered pieces between backquotes are keys.
+    message
+        .split('`')
+        .enumerate()
+        .map(|(i, piece)| if i % 2 == 1 { clip(piece, EXCERPT_CHARS) } else { piece.into() })
+        .collect::<Vec<_>>()
+        .join("`")
+}

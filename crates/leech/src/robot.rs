@@ -406,7 +406,7 @@ impl Robot {
     /// Parses and validates a robot file.
     pub fn from_toml_str(text: &str) -> Result<Robot, InputError> {
         let raw: RawRobot =
-            toml::from_str(text).map_err(|e| InputError::Toml { message: crate::scene::file::one_line(text, &e) })?;
+            toml::from_str(text).map_err(|e| InputError::Toml { message: crate::error::one_line(text, &e) })?;
         // First: every other length is checked against it.
         let l = check_element_length("tube.element_length_m", raw.tube.element_length_m)?;
         let (per_element, mass) = either(
