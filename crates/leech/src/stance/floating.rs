@@ -28,6 +28,17 @@ pub enum Approach {
     Stiffen,
 }
 
+impl Approach {
+    /// The approach that follows this one on its path: a front approach's
+    /// compliant rows are then stiffened; none after the others.
+    pub fn then(self) -> Option<Approach> {
+        match self {
+            Approach::Front(_) => Some(Approach::Stiffen),
+            Approach::Load | Approach::Stiffen => None,
+        }
+    }
+}
+
 /// The floating body: a [`StaticSystem`] with coordinates
 /// `q = (phi^A, phi^B, p0_x, p0_y, phi0)` (see the [module doc](super)).
 #[derive(Clone, Debug)]
@@ -277,12 +288,13 @@ impl<'a> FloatingBody<'a> {
         start_compliance(chain.tube_length(), chain.nominal_stiffness() * chain.element_length())
     }
 
-    /// The front rows' compliance at `t` (positions, angle) and its rate.
-    fn front_softness(&self, t: f64) -> ([f64; 2], [f64; 2]) {
-        let soft = self.front_compliance();
+    /// The front hold's three rows' compliance at `t` and its rate along `t`.
+    fn front_softness(&self, t: f64) -> ([f64; HOLD_ROWS], [f64; HOLD_ROWS]) {
+        let [tip, angle] = self.front_compliance();
+        let soft = [tip, tip, angle];
         match self.approach {
-            Approach::Load => ([0.0; 2], [0.0; 2]),
-            Approach::Front(_) => (soft, [0.0; 2]),
+            Approach::Load => ([0.0; HOLD_ROWS], [0.0; HOLD_ROWS]),
+            Approach::Front(_) => (soft, [0.0; HOLD_ROWS]),
             Approach::Stiffen => (soft.map(|c| (1.0 - t) * c), soft.map(|c| -c)),
         }
     }
@@ -412,8 +424,7 @@ impl Constraints for FloatingBody<'_> {
         }
         if let (Some(row), Some(pose)) = (front, self.front_target(t)) {
             self.front_rows(q, row, pose, &oa, ev);
-            let (soft, _) = self.front_softness(t);
-            ev.compliance[row..row + HOLD_ROWS].copy_from_slice(&[soft[0], soft[0], soft[1]]);
+            ev.compliance[row..row + HOLD_ROWS].copy_from_slice(&self.front_softness(t).0);
         }
         let first = self.contact_row();
         for (i, contact) in self.contacts.iter().enumerate() {
@@ -585,8 +596,7 @@ impl Path for FloatingBody<'_> {
             }
             Approach::Stiffen => {
                 let (_, Some(row)) = self.hold_rows() else { return };
-                let (_, rate) = self.front_softness(t);
-                out.compliance[row..row + HOLD_ROWS].copy_from_slice(&[rate[0], rate[0], rate[1]]);
+                out.compliance[row..row + HOLD_ROWS].copy_from_slice(&self.front_softness(t).1);
             }
         }
     }

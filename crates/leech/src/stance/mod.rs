@@ -457,11 +457,10 @@ fn unloaded(robot: &Robot, lengths: [f64; 2], solver: &Solver) -> Result<Vec<f64
 }
 
 /// Follows `floating`'s approach from `q` (an equilibrium at `t = 0`) to
-/// `t = 1`; a front approach then stiffens the front hold's rows
-/// ([`Approach::Stiffen`]) from where it ended.
+/// `t = 1`, then the one that follows it from where it ended
+/// ([`Approach::then`]: a front approach's rows stiffened).
 fn continued(floating: &FloatingBody<'_>, q: Vec<f64>, solver: &Solver) -> Result<Held, StanceError> {
-    let front = matches!(floating.approach(), Approach::Front(_));
-    let stiffened = front.then(|| floating.clone().with_approach(Approach::Stiffen));
+    let stiffened = floating.approach().then().map(|next| floating.clone().with_approach(next));
     let last = stiffened.as_ref().unwrap_or(floating);
     Scratch::with_spare(floating, |ws| {
         let mut it = Iterate::new(q);

@@ -3,7 +3,7 @@
 //! stages, the contact rows refreshed at each until they settle.
 
 use super::contact::{detect, on_cup, penetration, ContactOptions, ContactRow, Touching};
-use super::floating::{Approach, FloatingBody};
+use super::floating::FloatingBody;
 use super::{ContactForce, Held, StanceError};
 use crate::geom::dot;
 use crate::scene::Scene;
@@ -114,8 +114,9 @@ pub(super) fn contact_forces<S: Touching>(
 
 /// Takes `floating` (without contacts) from the equilibrium `q` at `t = 0`
 /// along its approach in [`APPROACH_STAGES`] stages, refreshing its contact
-/// rows in `scene` at each; a front approach then stiffens the front hold's
-/// rows ([`Approach::Stiffen`]) in as many stages.
+/// rows in `scene` at each; then along the approach that follows it
+/// ([`Approach::then`](super::Approach::then): a front approach's rows
+/// stiffened) in as many stages.
 pub(super) fn approached<'a>(
     floating: FloatingBody<'a>,
     q: Vec<f64>,
@@ -124,20 +125,17 @@ pub(super) fn approached<'a>(
     solver: &Solver,
 ) -> Result<Settled<FloatingBody<'a>>, StanceError> {
     let options = ContactOptions::default();
-    let phases = if let Approach::Front(_) = floating.approach() { 2 } else { 1 };
     let mut settled = Settled { equilibrium: start(&floating, q), system: floating };
     let mut pushing = Vec::new();
-    for phase in 0..phases {
-        if phase > 0 {
-            settled.system = settled.system.with_approach(Approach::Stiffen);
-        }
+    loop {
         for stage in 1..=APPROACH_STAGES {
             let t = stage as f64 / APPROACH_STAGES as f64;
             settled = settle(settled, &pushing, t, scene, radius, &options, solver)?;
             pushing = settled.pushing();
         }
+        let Some(next) = settled.system.approach().then() else { return Ok(settled) };
+        settled.system = settled.system.with_approach(next);
     }
-    Ok(settled)
 }
 
 /// Settles `system` (without contacts) at full load from `q`, resting on
