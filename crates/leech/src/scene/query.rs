@@ -363,6 +363,38 @@ impl Scene {
         solid_hit(solid, &self.solids[solid], p).distance
     }
 
+    /// Whether a flat face moving from the segment `was` to the segment
+    /// `now` (each rim on a straight line, both ends outside every solid)
+    /// stays out of the polygons: no rim's path crosses an edge and no
+    /// exposed convex corner lies inside the area the face sweeps (the two
+    /// triangles of the quadrilateral `was[0], was[1], now[1], now[0]`), each
+    /// by more than [`ON_SURFACE_M`] (a face sliding on a surface or over a
+    /// corner it rests on touches, it does not cross).
+    pub fn face_sweep_clear(&self, was: [Vec2; 2], now: [Vec2; 2], corners: &[Corner]) -> bool {
+        let tol = ON_SURFACE_M;
+        let paths_clear = self.solids.iter().all(|solid| match solid {
+            Solid::Polygon { points_m } => (0..points_m.len()).all(|e| {
+                let (a, b) = (points_m[e], next(points_m, e));
+                (0..2).all(|i| !crosses_beyond(was[i], now[i], a, b, tol))
+            }),
+            Solid::HalfPlane { .. } => true,
+        });
+        let inside = |p: Vec2, t: [Vec2; 3]| {
+            let sides = [0, 1, 2].map(|i| {
+                let (a, b) = (t[i], t[(i + 1) % 3]);
+                let length = norm(sub(b, a));
+                if length > 0.0 {
+                    cross(sub(b, a), sub(p, a)) / length
+                } else {
+                    0.0
+                }
+            });
+            sides.iter().all(|d| *d > tol) || sides.iter().all(|d| *d < -tol)
+        };
+        let swept = |p: Vec2| inside(p, [was[0], was[1], now[1]]) || inside(p, [was[0], now[1], now[0]]);
+        paths_clear && !corners.iter().any(|c| swept(c.point))
+    }
+
     /// Whether a disc of radius `clearance` (m) centred at `p` stays out of
     /// every solid (touching allowed). With no solids, everything is free.
     pub fn is_free(&self, p: Vec2, clearance: f64) -> bool {

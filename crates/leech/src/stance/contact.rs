@@ -80,7 +80,7 @@ pub fn on_cup(chain: usize) -> bool {
 /// A static system whose chains may touch a scene's solids: what contact
 /// detection and the staged solves among solids need of it. Its contact
 /// rows are its last rows.
-pub trait Touching: StaticSystem + Sized {
+pub trait Touching: StaticSystem + Sized + Clone {
     /// Number of chains.
     fn chain_count(&self) -> usize;
     /// Chain `c`'s centre line where it is (m): the clamp, the first joint
@@ -120,7 +120,12 @@ pub trait Touching: StaticSystem + Sized {
         if on_cup(contact.chain) {
             let rims = self.free_cup_rims(q);
             let (_, rims) = rims.iter().find(|(c, _)| *c == contact.chain).expect("a row on a free cup's rim");
-            return rims[contact.link];
+            if contact.fraction >= 1.0 {
+                return rims[contact.link];
+            }
+            // A corner's point on the face, a fraction from the rim behind.
+            let f = contact.fraction;
+            return [rims[0][0] + f * (rims[1][0] - rims[0][0]), rims[0][1] + f * (rims[1][1] - rims[0][1])];
         }
         let points = self.chain_points(q, contact.chain);
         // The link's start is the point before its tip.
@@ -137,7 +142,9 @@ pub struct ContactRow {
     pub chain: usize,
     /// The link (0-based) the point is on (a cup's rim: 0 behind, 1 ahead).
     pub link: usize,
-    /// How far along the link (1 at its tip: node `link + 1`).
+    /// How far along the link (1 at its tip: node `link + 1`). On a cup's
+    /// face: 1 at the rim `link`; below 1, a convex corner touching the face
+    /// between its rims, this fraction of the way from the rim behind.
     pub fraction: f64,
     /// Outward unit normal of the surface, frozen (into free space).
     pub normal: Vec2,
@@ -230,14 +237,38 @@ pub fn detect<S: Touching>(
             }
         }
     }
-    // A free cup's face may start inside a solid (a released unit that hung
-    // through a floor in free space): its rims take the closest surface at
-    // any depth.
+    // A rim gets a row per nearby feature, as a node does: in an inside
+    // corner it touches both faces, and one row for the closest alone
+    // switches between them from one refresh to the next. A free cup's face
+    // may also start inside a solid (a released unit that hung through a
+    // floor in free space): then its rims take the closest surface at any
+    // depth as well.
     for (cup, rims) in body.free_cup_rims(q) {
         for (rim, p) in rims.iter().enumerate() {
+            scene.features_near(*p, options.margin, &mut near);
+            for candidate in &near {
+                let n = candidate.normal;
+                out.push(ContactRow {
+                    chain: cup,
+                    link: rim,
+                    fraction: 1.0,
+                    normal: n,
+                    offset: dot(n, candidate.closest),
+                });
+            }
             let (distance, _, n, closest) = scene.signed_distance(*p);
-            if distance <= options.margin {
+            let listed = near
+                .iter()
+                .any(|c| dot(c.normal, n) > 1.0 - 1e-12 && (dot(n, closest) - dot(n, c.closest)).abs() < 1e-12);
+            if distance <= options.margin && !listed {
                 out.push(ContactRow { chain: cup, link: rim, fraction: 1.0, normal: n, offset: dot(n, closest) });
+            }
+        }
+        // A face resting on a nosing touches it between its rims.
+        for corner in &corners {
+            let (distance, s, n) = Scene::segment_corner_distance(rims[0], rims[1], corner);
+            if distance <= options.margin && s > 1e-9 && s < 1.0 - 1e-9 {
+                out.push(ContactRow { chain: cup, link: 0, fraction: s, normal: n, offset: dot(n, corner.point) });
             }
         }
     }
@@ -273,6 +304,15 @@ pub fn penetration<S: Touching>(body: &S, q: &[f64], scene: &Scene, radius: f64)
         }
     }
     deepest
+}
+
+/// The farthest any node or free cup's rim of `body` moved between `a` and
+/// `b` (m).
+pub(super) fn displacement<S: Touching>(body: &S, a: &[f64], b: &[f64]) -> f64 {
+    let far = |x: &[Vec2], y: &[Vec2]| x.iter().zip(y).fold(0.0f64, |m, (p, r)| m.max(norm(sub(*p, *r))));
+    let chains = (0..body.chain_count()).map(|c| far(&body.chain_points(a, c), &body.chain_points(b, c)));
+    let rims = body.free_cup_rims(a).into_iter().zip(body.free_cup_rims(b)).map(|((_, x), (_, y))| far(&x, &y));
+    chains.chain(rims).fold(0.0, f64::max)
 }
 
 /// The length of a polyline (m).
@@ -343,5 +383,22 @@ pub fn swept_clear<A: Touching, B: Touching>(before: (&A, &[f64]), after: (&B, &
             })
         });
         nodes_clear && links_clear
+    }) && rims_clear(before, after, scene, &corners)
+}
+
+/// Whether the free cups' faces could have moved from `before` to `after`
+/// without passing through a polygon ([`Scene::face_sweep_clear`]): the test
+/// of [`swept_clear`] for the faces, which rest on the solids with no
+/// clearance, so that a feeding step cannot tunnel a cup through a nosing.
+fn rims_clear<A: Touching, B: Touching>(
+    before: (&A, &[f64]),
+    after: (&B, &[f64]),
+    scene: &Scene,
+    corners: &[crate::scene::Corner],
+) -> bool {
+    let old = before.0.free_cup_rims(before.1);
+    after.0.free_cup_rims(after.1).iter().all(|(cup, now)| match old.iter().find(|(c, _)| c == cup) {
+        Some((_, was)) => scene.face_sweep_clear(*was, *now, corners),
+        None => true,
     })
 }

@@ -124,6 +124,13 @@ impl<'a> FloatingBody<'a> {
     /// [`FRONT_CUP`]), behind then ahead, each with its derivatives in its
     /// frame's angle (`phi0`, or chain A's last angle).
     fn rims(&self, q: &[f64], cup: usize) -> [[Vec2; 3]; 2] {
+        [-1.0, 1.0].map(|side| self.face_point(q, cup, side))
+    }
+
+    /// The point of the free `cup`'s face `side` half widths from its centre
+    /// (-1 the rim behind, 1 the rim ahead), with its derivatives as
+    /// [`FloatingBody::rims`].
+    fn face_point(&self, q: &[f64], cup: usize, side: f64) -> [Vec2; 3] {
         let faces = self.faces.expect("cup faces");
         let n = self.chains();
         let (origin, d, a) = if cup == REAR_CUP {
@@ -131,7 +138,14 @@ impl<'a> FloatingBody<'a> {
         } else {
             (self.endpoint(q), faces.front_m, q[self.body.chain_a().len() - 1])
         };
-        [-1.0, 1.0].map(|side| CupFaces::rim(origin, d, side * faces.half_width_m, a))
+        CupFaces::rim(origin, d, side * faces.half_width_m, a)
+    }
+
+    /// Where on its cup's face a row on a face touches, with derivatives: a
+    /// rim, or a corner's point between them ([`ContactRow::fraction`]).
+    fn face_terms(&self, q: &[f64], cup: usize, contact: &ContactRow) -> [Vec2; 3] {
+        let side = if contact.fraction >= 1.0 { [-1.0, 1.0][contact.link] } else { 2.0 * contact.fraction - 1.0 };
+        self.face_point(q, cup, side)
     }
 
     /// The same body with these contact rows (after the holds' rows).
@@ -486,7 +500,7 @@ impl FloatingBody<'_> {
     /// A row on the free rear cup's rim: `x = p0 + d nu(phi0) + s w e(phi0)`.
     fn rear_rim_terms(&self, q: &[f64], row: usize, contact: &ContactRow, ev: &mut Evaluation) {
         let (n, m, normal) = (self.chains(), ev.rows(), contact.normal);
-        let [x, dx, ddx] = self.rims(q, REAR_CUP)[contact.link];
+        let [x, dx, ddx] = self.face_terms(q, REAR_CUP, contact);
         ev.constraints[row] = dot(normal, x) - contact.offset;
         ev.jacobian[n * m + row] = normal[0];
         ev.jacobian[(n + 1) * m + row] = normal[1];
@@ -501,7 +515,7 @@ impl FloatingBody<'_> {
         let last = self.body.chain_a().len() - 1;
         let tip = ContactRow { chain: 0, link: last, fraction: 1.0, ..*contact };
         self.contact_terms(q, row, &tip, ev);
-        let [x, dx, ddx] = self.rims(q, FRONT_CUP)[contact.link];
+        let [x, dx, ddx] = self.face_terms(q, FRONT_CUP, contact);
         ev.constraints[row] = dot(contact.normal, x) - contact.offset;
         ev.jacobian[last * m + row] += dot(contact.normal, dx);
         ev.curvature[last * m + row] += dot(contact.normal, ddx);

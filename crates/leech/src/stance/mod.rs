@@ -61,6 +61,7 @@
 //!   bifurcation). A target out of reach fails to converge: an error with the
 //!   residual, never a stretched body.
 
+pub mod census;
 mod contact;
 mod feeding;
 mod floating;

@@ -2,7 +2,7 @@
 //! scene's solids: the load (or the front hold's approach) applied in
 //! stages, the contact rows refreshed at each until they settle.
 
-use super::contact::{detect, on_cup, penetration, ContactOptions, ContactRow, Touching};
+use super::contact::{detect, displacement, on_cup, penetration, ContactOptions, ContactRow, Touching};
 use super::floating::FloatingBody;
 use super::{ContactForce, Held, StanceError};
 use crate::geom::dot;
@@ -103,7 +103,7 @@ pub(super) fn contact_forces<S: Touching>(
             ContactForce {
                 chain: chain(c.chain),
                 node: if at_node { c.link + 1 } else { c.link },
-                fraction: if at_node || on_cup(c.chain) { 0.0 } else { c.fraction },
+                fraction: if at_node || (on_cup(c.chain) && c.fraction >= 1.0) { 0.0 } else { c.fraction },
                 point_m: system.contact_point(&equilibrium.q, c),
                 normal: c.normal,
                 force_n: force,
@@ -169,8 +169,42 @@ pub(super) fn start<S: Touching>(system: &S, q: Vec<f64>) -> Equilibrium {
 }
 
 /// Minimizes at `t` with contact rows detected from the current shape,
-/// again until the rows stop changing and nothing penetrates.
+/// again until the rows stop changing and nothing penetrates: first by the
+/// plain active set (rows join after Newton converges), and where that does
+/// not settle, again with blocking rows ([`Tuning::block_at_rows`]: a step
+/// stops at the first row it would cross, which joins the working set).
+/// The plain pass keeps the branch every earlier solve took where it
+/// settles; the blocking one settles the bodies pushed into a surface,
+/// where the plain one cycles.
+///
+/// [`Tuning::block_at_rows`]: crate::statics::Tuning::block_at_rows
 fn settle<S: Touching>(
+    settled: Settled<S>,
+    pushing: &[Pushing],
+    t: f64,
+    scene: &Scene,
+    radius: f64,
+    options: &ContactOptions,
+    solver: &Solver,
+) -> Result<Settled<S>, StanceError> {
+    if solver.options.tuning.block_at_rows {
+        return settle_rounds(settled, pushing, t, scene, radius, options, solver);
+    }
+    let again = Settled { system: settled.system.clone(), equilibrium: settled.equilibrium.clone() };
+    match settle_rounds(settled, pushing, t, scene, radius, options, solver) {
+        Ok(done) => Ok(done),
+        // A deadline that ran out stops both passes.
+        Err(e @ StanceError::Solve(SolveError::Stopped { .. })) => Err(e),
+        Err(_) => {
+            let mut blocking = solver.clone();
+            blocking.options.tuning.block_at_rows = true;
+            settle_rounds(again, pushing, t, scene, radius, options, &blocking)
+        }
+    }
+}
+
+/// One pass of [`settle`] with `solver` as it is.
+fn settle_rounds<S: Touching>(
     mut settled: Settled<S>,
     pushing: &[Pushing],
     t: f64,
@@ -185,6 +219,9 @@ fn settle<S: Touching>(
     let mut events = std::mem::take(&mut settled.equilibrium.events);
     let mut solved = false;
     let mut pushing = pushing.to_vec();
+    // Where the last solve started, when nothing penetrated there: its
+    // equilibrium record, contacts that pushed, and rows.
+    let mut from: Option<(Equilibrium, Vec<Pushing>, Vec<ContactRow>)> = None;
     for _ in 0..options.max_rounds {
         detect(&settled.system, &settled.equilibrium.q, scene, radius, options, &mut rows);
         if !solved {
@@ -196,6 +233,9 @@ fn settle<S: Touching>(
             let carried: Vec<_> = missing.filter_map(|p| p.row_in(system)).collect();
             rows.extend(carried);
         }
+        if solved {
+            guard(&settled, &mut rows, options);
+        }
         let deep = penetration(&settled.system, &settled.equilibrium.q, scene, radius);
         if solved && deep <= options.penetration_tolerance && still_settled(&settled, &rows, options) {
             settled.equilibrium.iterations = iterations;
@@ -204,6 +244,25 @@ fn settle<S: Touching>(
         }
         if solved {
             pushing = settled.pushing();
+        }
+        if let Some((start, start_pushing, start_rows)) = from.take().filter(|_| deep > options.penetration_tolerance) {
+            // The solve went through a surface it had no row for (a point
+            // moved farther than the margin). Its end is no state to go on
+            // from: back to its clear start, with a row for every feature
+            // within the distance the points moved, so that the blocking
+            // rows stop it this time (the rows only grow: no cycle).
+            let moved = displacement(&settled.system, &start.q, &settled.equilibrium.q);
+            let wide = ContactOptions { margin: options.margin + moved, ..*options };
+            detect(&settled.system, &start.q, scene, radius, &wide, &mut rows);
+            for row in start_rows {
+                if !rows.iter().any(|r| same_row(r, &row)) {
+                    rows.push(row);
+                }
+            }
+            settled.equilibrium = Equilibrium { iterations: settled.equilibrium.iterations, ..start };
+            pushing = start_pushing;
+        } else if deep <= options.penetration_tolerance {
+            from = Some((settled.equilibrium.clone(), pushing.clone(), rows.clone()));
         }
         let system = settled.system.with_contacts(rows.clone());
         let mut it = warm_iterate(&system, &settled.equilibrium, &pushing);
@@ -263,6 +322,25 @@ fn still_settled<S: Touching>(settled: &Settled<S>, rows: &[ContactRow], options
     let clear = |r: &ContactRow| dot(r.normal, system.contact_point(q, r)) - r.offset >= -options.penetration_tolerance;
     pushing_rows(system, &settled.equilibrium).all(|(p, _)| rows.iter().any(|r| same_row(p, r)))
         && rows.iter().all(clear)
+}
+
+/// Adds to the fresh `rows` the last solve's rows that did not push and are
+/// clear, where not detected again: guards. A Newton run may move a point
+/// farther than the detection's margin; without its row it could then pass
+/// through the surface it had just left, and the next round pull it back
+/// (a two-round cycle). With the guard, the step that would cross it is
+/// blocked and the row joins the working set. A row that pushed is not kept
+/// unless detected again: where it touched has moved (a corner's point along
+/// a link), and the fresh detection says where it is now.
+fn guard<S: Touching>(settled: &Settled<S>, rows: &mut Vec<ContactRow>, options: &ContactOptions) {
+    let (system, eq) = (&settled.system, &settled.equilibrium);
+    let first = system.contact_row();
+    for (row, force) in system.contacts().iter().zip(&eq.multipliers[first..]) {
+        let clear = dot(row.normal, system.contact_point(&eq.q, row)) - row.offset >= -options.penetration_tolerance;
+        if *force <= 0.0 && clear && !rows.iter().any(|r| same_row(r, row)) {
+            rows.push(*row);
+        }
+    }
 }
 
 /// Whether two rows are the same contact (normals and offsets to rounding).

@@ -76,6 +76,17 @@ enum Trial {
     Accepted,
     Rejected,
     TooLong,
+    /// An inactive inequality row blocks the step where it starts: it
+    /// joins the working set, and the point stays.
+    Joined,
+}
+
+/// What an iteration's step did.
+enum Taken {
+    /// The point moved, with this Levenberg shift.
+    Moved(f64),
+    /// A blocking row joined the working set; the point stayed.
+    Joined,
 }
 
 impl Solver {
@@ -131,17 +142,19 @@ impl Solver {
         (ev.energy + springs) / k + rho * penalty
     }
 
-    /// The merit's slope along `step` ([`Solver::merit`]) where the step
-    /// restores the rigid rows' linearization (`J dq = -C` there): the
+    /// The merit's slope along `step` ([`Solver::merit`]) where the step,
+    /// `cut` of a whole Newton step, restores that part of the rigid rows'
+    /// linearization (`J dq = -cut C` there): the
     /// energy's and the springs' `(grad V + sum_c (C/c) J_c) . dq`, over `k`,
     /// minus the penalty; `descent` is `grad V . dq`.
+    #[allow(clippy::too_many_arguments)]
     fn merit_slope(
         ev: &Evaluation,
         rows: &[Row],
         active: &[bool],
         step: &[f64],
         descent: f64,
-        rho: f64,
+        (rho, cut): (f64, f64),
         k: f64,
     ) -> f64 {
         let m = rows.len();
@@ -152,7 +165,7 @@ impl Solver {
                 let along: f64 = step.iter().enumerate().map(|(i, d)| ev.jacobian[i * m + r] * d).sum();
                 slope += c / compliance * along;
             } else {
-                slope -= rho * k * (c / spec.scale).abs();
+                slope -= cut * rho * k * (c / spec.scale).abs();
             }
         }
         slope / k
@@ -166,7 +179,16 @@ impl Solver {
         let tuning = &self.options.tuning;
         Self::lagrangian(ws, &it.lambda);
         let tiny = tuning.tiny_pivot * k;
-        let first = ws.factor_kkt(0.0, &it.active, tiny);
+        ws.dual = 0.0;
+        let mut first = ws.factor_kkt(0.0, &it.active, tiny);
+        // Dependent contact rows (a rigid piece resting at three points on
+        // one line) leave a zero pivot that no shift of H removes: the
+        // inequality rows are then regularized in the matrix alone.
+        let inequality = |r: usize| it.active[r] && ws.rows[r].kind == RowKind::Inequality;
+        if first == Inertia::Singular && (0..ws.rows.len()).any(inequality) {
+            ws.dual = tuning.dual_regularization / k;
+            first = ws.factor_kkt(0.0, &it.active, tiny);
+        }
         if first == Inertia::Minimum {
             return (first, 0.0);
         }
@@ -332,7 +354,13 @@ impl Solver {
                 return Newton::failed(res, StopReason::SingularJacobian);
             }
             match self.take_step(sys, it, t, ws, &mut state, min_shift) {
-                Some(shift) => {
+                Some(Taken::Joined) => {
+                    // The same point with one more row: its value is zero
+                    // and its multiplier too, so the residual stands.
+                    residual_known = true;
+                    factors_fresh = false;
+                }
+                Some(Taken::Moved(shift)) => {
                     residual_known = true;
                     // The Lagrangian's Hessian holds the multipliers too (the
                     // weld's curvature): the factors stay good only if they did
@@ -380,7 +408,7 @@ impl Solver {
         ws: &mut Scratch,
         state: &mut Damping,
         min_shift: f64,
-    ) -> Option<f64> {
+    ) -> Option<Taken> {
         let tuning = &self.options.tuning;
         let k = sys.moment_scale();
         // Levenberg-style damping on top of the inertia correction: a
@@ -405,8 +433,9 @@ impl Solver {
                     if shift > 0.0 {
                         self.unshifted_multipliers(it, ws, k, shift);
                     }
-                    return Some(shift);
+                    return Some(Taken::Moved(shift));
                 }
+                Trial::Joined => return Some(Taken::Joined),
                 Trial::TooLong if state.restoring.is_nan() => {
                     state.restoring = self.restoring_length(it, ws, k);
                     continue;
@@ -490,6 +519,8 @@ impl Solver {
         // a full Newton step across a released contact can leap far: those
         // steps are kept within the trust radius too.
         let guarded = min_shift > 0.0 || ws.rows.iter().any(|r| r.kind == RowKind::Inequality);
+        // The share of the Newton step taken (cut by the radius or a blocking row).
+        let mut whole = 1.0;
         let limit = if state.restoring.is_nan() { 0.0 } else { 2.0 * state.restoring };
         let radius = self.options.trust_radius.max(limit);
         if guarded && longest > radius {
@@ -502,6 +533,26 @@ impl Solver {
             let cut = radius / longest;
             ws.step.iter_mut().for_each(|d| *d *= cut);
             ws.dual_step.iter_mut().for_each(|y| *y *= cut);
+        }
+        // The first inactive inequality row the step would cross (by its
+        // linearization) stops it there and joins the working set: the
+        // iterates stay on the feasible side of the rows they meet, as a
+        // primal active-set method's do, instead of passing through a
+        // surface and being pulled back after convergence (which cycled).
+        let blocking = if tuning.block_at_rows {
+            Self::blocking(&ws.current, &ws.rows, &it.active, &ws.step, self.options.tolerance)
+        } else {
+            None
+        };
+        if let Some((row, fraction)) = blocking {
+            if fraction <= tuning.blocked_fraction {
+                it.active[row] = true;
+                it.lambda[row] = 0.0;
+                return Trial::Joined;
+            }
+            ws.step.iter_mut().for_each(|d| *d *= fraction);
+            ws.dual_step.iter_mut().for_each(|y| *y *= fraction);
+            whole *= fraction;
         }
         for row in 0..m {
             ws.lambda_trial[row] = if it.active[row] { it.lambda[row] - ws.dual_step[row] } else { 0.0 };
@@ -522,7 +573,7 @@ impl Solver {
             squares += (ws.residual[i] / k) * (ws.residual[i] / k);
             ws.q_trial[i] = it.q[i] + ws.step[i];
         }
-        let slope = Self::merit_slope(&ws.current, &ws.rows, &it.active, &ws.step, descent, state.rho, k);
+        let slope = Self::merit_slope(&ws.current, &ws.rows, &it.active, &ws.step, descent, (state.rho, whole), k);
         let r0 = Self::row_squares(squares, &ws.current, &ws.rows, &it.lambda, &it.active).sqrt();
         sys.evaluate(&ws.q_trial, t, &mut ws.trial);
         let phi = Self::merit(&ws.trial, &ws.rows, &it.active, state.rho, k);
@@ -536,14 +587,53 @@ impl Solver {
         // Where the curvature needed correcting, only energy descent counts:
         // a falling residual may be heading for a saddle.
         let decrease = min_shift == 0.0 && r_trial <= (1.0 - tuning.residual_decrease) * r0;
-        if phi.is_finite() && (armijo || decrease) {
+        // A descent step cut short by a blocking row makes progress by the
+        // row it brings in, however little the merit falls: within rounding
+        // of no increase it is taken (else a row met early would stop every
+        // trial, each too short to decrease measurably).
+        let rounding = tuning.measurable_decrease * phi0.abs().max(1.0);
+        let blocked = blocking.is_some() && slope < 0.0 && phi <= phi0 + rounding;
+        // Where the curvature needed correcting only because the multipliers
+        // are off (rows that just joined with none), the step that corrects
+        // them barely moves the point: a falling residual at no cost in
+        // merit is then no saddle being approached, and is taken.
+        let dual_only = sup_norm(&ws.step) <= tuning.reuse_factors_step
+            && phi <= phi0 + rounding
+            && r_trial <= (1.0 - tuning.residual_decrease) * r0;
+        if phi.is_finite() && (armijo || decrease || blocked || dual_only) {
             std::mem::swap(&mut it.q, &mut ws.q_trial);
             it.lambda.copy_from_slice(&ws.lambda_trial);
             std::mem::swap(&mut ws.current, &mut ws.trial);
             std::mem::swap(&mut ws.residual, &mut ws.residual_trial);
+            if let Some((row, _)) = blocking {
+                it.active[row] = true;
+            }
             return Trial::Accepted;
         }
         Trial::Rejected
+    }
+
+    /// The inactive inequality row, feasible now (`C_r / s_r >= -tolerance`),
+    /// that the step `dq` reaches first by its linearization `C_r + J_r dq`,
+    /// and the fraction of the step at which it does, if below one. Ties go
+    /// to the lowest row (Bland's rule, against cycling among equals).
+    fn blocking(ev: &Evaluation, rows: &[Row], active: &[bool], dq: &[f64], tolerance: f64) -> Option<(usize, f64)> {
+        let m = rows.len();
+        let mut first: Option<(usize, f64)> = None;
+        for (r, spec) in rows.iter().enumerate() {
+            if active[r] || spec.kind != RowKind::Inequality || ev.constraints[r] / spec.scale < -tolerance {
+                continue;
+            }
+            let along: f64 = dq.iter().enumerate().map(|(i, d)| ev.jacobian[i * m + r] * d).sum();
+            let value = ev.constraints[r].max(0.0);
+            if value + along < 0.0 {
+                let fraction = value / -along;
+                if first.is_none_or(|(_, f)| fraction < f) {
+                    first = Some((r, fraction));
+                }
+            }
+        }
+        first
     }
 }
 

@@ -141,6 +141,25 @@ pub struct Tuning {
     pub step_after_event: f64,
     /// Active-set changes allowed in one Newton run per inequality row.
     pub active_set_changes_per_row: usize,
+    /// Dual regularization of a degenerate working set's inequality rows,
+    /// dimensionless: `-eps s_r^2 / k` on the KKT corner (m/N for a row in
+    /// m), in the step's matrix only. Rows of one rigid piece touching one
+    /// line at three points are dependent; with it the step is unique, the
+    /// force shared among them in least squares, and Newton still converges
+    /// on the exact residual.
+    pub dual_regularization: f64,
+    /// A blocking inequality row met within this fraction of the step joins
+    /// the working set without a step (the point is on it already).
+    pub blocked_fraction: f64,
+    /// Whether a step stops at the first inactive inequality row it would
+    /// cross (by the row's linearization), which then joins the working set:
+    /// a primal active-set method, whose iterates stay on the feasible side
+    /// of every row they meet. Off, rows join only after Newton converges on
+    /// the working set (a primal-dual active set, which can pass a body
+    /// through a surface and back, and cycle). The staged solves among
+    /// solids ([`crate::stance`]) take the plain method first and this one
+    /// where that does not settle.
+    pub block_at_rows: bool,
 }
 
 impl Default for Tuning {
@@ -168,6 +187,9 @@ impl Default for Tuning {
             stiff_path: 2e4,
             step_after_event: 1e-3,
             active_set_changes_per_row: 4,
+            dual_regularization: 1e-8,
+            blocked_fraction: 1e-9,
+            block_at_rows: false,
         }
     }
 }

@@ -4,7 +4,7 @@
 use std::cell::RefCell;
 
 use super::evaluation::{Evaluation, PathTerms};
-use super::system::{Path, Row, StaticSystem};
+use super::system::{Path, Row, RowKind, StaticSystem};
 use crate::linalg::{BorderedLdl, Pattern, MAX_BORDER};
 
 /// What a factorization found about the KKT matrix of the working set.
@@ -85,7 +85,7 @@ impl KktSolver {
 
     /// Assembles border and corner from the Lagrangian corner, the potential's
     /// border Hessian and the Jacobian of the active rows.
-    fn assemble(&mut self, ev: &Evaluation, lagrangian_corner: &[f64]) {
+    fn assemble(&mut self, ev: &Evaluation, lagrangian_corner: &[f64], rows: &[Row], dual: f64) {
         let (f, m) = (self.free, self.m);
         let k = f + self.slots.len();
         for i in 0..self.chains {
@@ -105,16 +105,20 @@ impl KktSolver {
                 corner[a * k + f + s] = j;
             }
         }
-        self.comply(ev);
+        self.comply(ev, rows, dual);
     }
 
     /// A compliant row's value is `C + c lambda` and its unknown in the
-    /// solve is `-dlambda`: `-c` on the corner's diagonal.
-    fn comply(&mut self, ev: &Evaluation) {
+    /// solve is `-dlambda`: `-c` on the corner's diagonal. An inequality row
+    /// also gets the dual regularization `dual s_r^2` (`s_r` its scale): the
+    /// solve's matrix only, never the residual (see [`Scratch::dual`]).
+    fn comply(&mut self, ev: &Evaluation, rows: &[Row], dual: f64) {
         let k = self.free + self.slots.len();
         for (s, r) in self.slots.iter().enumerate() {
             let at = self.free + s;
-            self.corner[at * k + at] = -ev.compliance[*r];
+            let spec = rows[*r];
+            let regularized = if spec.kind == RowKind::Inequality { dual * spec.scale * spec.scale } else { 0.0 };
+            self.corner[at * k + at] = -(ev.compliance[*r] + regularized);
         }
     }
 
@@ -123,11 +127,13 @@ impl KktSolver {
     ///
     /// # Panics
     /// If more rows are active than [`KktSolver::active_capacity`].
+    #[allow(clippy::too_many_arguments)]
     pub fn factor(
         &mut self,
         diag: &[f64],
         ev: &Evaluation,
         lagrangian_corner: &[f64],
+        (rows, dual): (&[Row], f64),
         shift: f64,
         active: &[bool],
         tiny: f64,
@@ -138,10 +144,10 @@ impl KktSolver {
         self.ldl.set_border_rows(k);
         let count = if self.direct() {
             self.corner[..k * k].fill(0.0);
-            self.comply(ev);
+            self.comply(ev, rows, dual);
             self.ldl.factor(diag, &ev.hessian_off, &ev.jacobian, &self.corner[..k * k], shift, tiny)
         } else {
-            self.assemble(ev, lagrangian_corner);
+            self.assemble(ev, lagrangian_corner, rows, dual);
             let border = &self.border[..self.chains * k];
             self.ldl.factor(diag, &ev.hessian_off, border, &self.corner[..k * k], shift, tiny)
         };
@@ -207,6 +213,13 @@ pub struct Scratch {
     pub(super) lambda_saved: Vec<f64>,
     pub(super) lambda_trial: Vec<f64>,
     pub(super) rhs: Vec<f64>,
+    /// The dual regularization of the inequality rows in the factorization
+    /// (1/(N m)): zero unless the working set is degenerate (rows of one rigid
+    /// piece resting on one surface at three points, dependent with the weld),
+    /// where [`Tuning::dual_regularization`](super::Tuning::dual_regularization)
+    /// over the moment scale. It enters the step's matrix, not the residual,
+    /// so a converged point is exact.
+    pub(super) dual: f64,
 }
 
 impl Scratch {
@@ -237,6 +250,7 @@ impl Scratch {
             lambda_saved: Vec::new(),
             lambda_trial: Vec::new(),
             rhs: Vec::new(),
+            dual: 0.0,
         };
         ws.size_buffers(system);
         ws
@@ -326,7 +340,8 @@ impl Scratch {
     /// Factors the KKT matrix of the working set `active` at the current
     /// point with the Lagrangian Hessian in `lagrangian_*`, shifted by `shift`.
     pub(super) fn factor_kkt(&mut self, shift: f64, active: &[bool], tiny: f64) -> Inertia {
-        self.kkt.factor(&self.lagrangian_diag, &self.current, &self.lagrangian_corner, shift, active, tiny)
+        let rows = (&self.rows[..], self.dual);
+        self.kkt.factor(&self.lagrangian_diag, &self.current, &self.lagrangian_corner, rows, shift, active, tiny)
     }
 
     /// Fills the path derivatives at the current point.

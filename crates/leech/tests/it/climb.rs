@@ -339,25 +339,25 @@ points_m = [[0.20, -0.05], [0.22, -0.05], [0.22, 0.6], [0.20, 0.6]]
     }
 }
 
-/// Floor to wall: impossible for `cup_force`. Crossing into the inside
-/// corner, the pull drags the driving unit up off the floor while the front
-/// cup on the wall holds it; on the way the front cup's safety factor falls
-/// below its minimum. The reported state, solved again, shows the numbers:
-/// the front cup carries the robot's weight less what the floor still takes
-/// (force balance), and its verdict is below the minimum.
+/// Floor to wall: impossible. Pushing into the inside corner, the tubes
+/// run into the wall ahead and bend; on the way a tube bends tighter than
+/// the hose allows (the contact solve now settles these states, where it
+/// used to fail and the search went on to a pull the front cup could not
+/// hold). The reported state, solved again, shows it: its smallest bend
+/// radius is below the robot's minimum, with the rear cup holding on the
+/// floor and the tubes resting on the solids.
 #[test]
-fn into_the_corner_the_front_cup_cannot_hold_the_pull() {
-    let (robot, scenario, plan) = impossible("floor-to-wall", stride::Blocking::CupForce);
+fn into_the_corner_the_tubes_bend_too_tightly() {
+    let (robot, scenario, plan) = impossible("floor-to-wall", stride::Blocking::BendRadius);
     let at = plan.reason.unwrap().at.expect("the failing state");
     let held = stance::solve_among(&robot, at.lengths_m, at.hold, &scenario.scene, &Solver::default(), FreeCups::Rest)
         .unwrap();
-    let (rear, front) = held.cups(&robot).unwrap();
-    assert!(rear.is_none(), "the front cup holds alone");
-    let front = front.unwrap();
-    assert!(front.verdict.safety_factor < robot.cup.min_safety_factor, "{:?}", front.verdict);
-    // Force balance: the front hold and the contacts carry the weight.
+    assert!(held.min_bend_radius() < robot.tube.min_bend_radius_m, "{}", held.min_bend_radius());
+    assert!(held.rear.is_some() && held.front.is_none(), "the rear cup holds alone");
+    assert!(held.penetration_m(&robot, &scenario.scene) <= 1e-9);
+    // Force balance: the rear hold and the contacts carry the weight.
     let contacts: f64 = held.contacts.iter().map(|c| c.force_n * c.normal[1]).sum();
-    let up = front.force_n[1] + contacts;
+    let up = held.rear.unwrap().force_n[1] + contacts;
     assert!((up - held.weight_n).abs() < 1e-6 * held.weight_n, "{up} N up against {} N", held.weight_n);
     // The farthest stance is still on the floor, short of the wall.
     let rear = plan.steps.last().unwrap().held.rear_cup_m(&robot);

@@ -9,6 +9,7 @@ mod body3_references;
 mod calibration;
 mod climb;
 mod constant_curvature;
+mod contact_census;
 mod continuum;
 mod cup;
 mod derivatives;
