@@ -12,9 +12,9 @@
 //! its verdict as in [`crate::stance`].
 
 use leech::body3::place3::front_cup_centre;
-use leech::body3::rotation::{cross, dot, Vec3};
 use leech::body3::{Body3, CupState3, Frames, Held3};
 use leech::geom::Vec2;
+use leech::geom3::{cross, dot, Vec3};
 use leech::robot::Robot;
 use leech::scene::{Scene3, Solid3, MAX_COORDINATE_M};
 use leech::stride::{SidewaysPlan, SidewaysScenario};

@@ -15,8 +15,8 @@
 //! * anything else is printed as `unexpected`, with the case.
 
 use leech::body3::planar::compare;
-use leech::body3::rotation::rot_z;
 use leech::body3::Body3;
+use leech::geom3::rot_z;
 use leech::prelude::*;
 
 fn main() {

@@ -85,6 +85,7 @@ pub mod dynamics;
 pub mod error;
 pub mod files;
 pub mod geom;
+pub mod geom3;
 pub mod inverse_statics;
 pub mod least_squares;
 pub mod linalg;

@@ -111,7 +111,7 @@ pub(super) fn situation3(
 /// `--front X,Y,Z,DEG,YAW_DEG,ROLL_DEG`: tube 1's tip within the scenes'
 /// bounds and the plate's frame (`place3::plate_frame_from_angles`), the
 /// tangent angle within +-720 deg as `shape --front`, the turns within +-360 deg.
-fn front3([x, y, z, deg, yaw, roll]: [f64; 6]) -> Result<([f64; 3], leech::body3::rotation::Mat3), InputError> {
+fn front3([x, y, z, deg, yaw, roll]: [f64; 6]) -> Result<([f64; 3], leech::geom3::Mat3), InputError> {
     let m = MAX_COORDINATE_M;
     let tip =
         [within("--front x (m)", x, -m, m)?, within("--front y (m)", y, -m, m)?, within("--front z (m)", z, -m, m)?];

@@ -16,13 +16,13 @@
 //! plate (three dense *free* coordinates, since the weld's rotation rows
 //! couple the plate with the side tubes' last links).
 
-use super::rotation::{
-    add_scaled, apply, axpy, cross, linear_terms, mul_tn, pair_terms, rot_z, scale, tangent_hessian, transpose, Mat3,
-    Vec3,
-};
 use super::tube3::Tube3;
 use crate::chain::{Chain, Discretization};
 use crate::error::InputError;
+use crate::geom3::{
+    add_scaled, apply, axpy, cross, linear_terms, mul_tn, pair_terms, rot_z, scale, tangent_hessian, transpose, Mat3,
+    Vec3,
+};
 use crate::robot::Robot;
 
 /// Number of the plate's constraint rows: position and rotation of tubes 2 and 3.
@@ -126,7 +126,7 @@ impl Body3 {
     /// then shifted by `translation` (m).
     pub(crate) fn placed(&self, rotation: &Mat3, translation: Vec3) -> Body3 {
         let mut out = self.clone();
-        out.base = super::rotation::mul(rotation, &self.base);
+        out.base = crate::geom3::mul(rotation, &self.base);
         for tube in out.tubes.iter_mut() {
             tube.set_root(axpy(1.0, translation, apply(rotation, tube.root())));
         }
@@ -278,7 +278,7 @@ impl Body3 {
             out[6 * side..6 * side + 3].copy_from_slice(&gap);
             let last = self.tubes[side + 1].len() - 1;
             out[6 * side + 3..6 * side + 6]
-                .copy_from_slice(&super::rotation::log(&mul_tn(&plate, &self.frame(frames, side + 1, last))));
+                .copy_from_slice(&crate::geom3::log(&mul_tn(&plate, &self.frame(frames, side + 1, last))));
         }
         out
     }
@@ -312,7 +312,7 @@ impl Body3 {
             let mut prev = self.base;
             for j in 0..tube.len() {
                 let r = self.frame(frames, i, j);
-                most = most.max(super::rotation::log(&mul_tn(&prev, &r))[0].abs());
+                most = most.max(crate::geom3::log(&mul_tn(&prev, &r))[0].abs());
                 prev = r;
             }
         }
@@ -614,7 +614,7 @@ impl Eval3 {
 /// Whether `r` is a rotation: orthonormal to 1e-9, determinant +1 to 1e-9.
 pub(crate) fn is_rotation(r: &Mat3) -> bool {
     let gram = mul_tn(r, r);
-    let det = super::rotation::dot(r[0], cross(r[1], r[2]));
+    let det = crate::geom3::dot(r[0], cross(r[1], r[2]));
     let off = (0..3)
         .flat_map(|a| (0..3).map(move |b| (a, b)))
         .fold(0.0f64, |m, (a, b)| m.max((gram[a][b] - if a == b { 1.0 } else { 0.0 }).abs()));
@@ -623,13 +623,13 @@ pub(crate) fn is_rotation(r: &Mat3) -> bool {
 
 /// `R Exp(v)`, the retraction of a local step `v` (rad).
 pub(crate) fn retract(r: &Mat3, v: Vec3) -> Mat3 {
-    super::rotation::mul(r, &super::rotation::exp(v))
+    crate::geom3::mul(r, &crate::geom3::exp(v))
 }
 
 /// The angle between two frames (rad): `|Log(A^T B)|`.
 pub fn angle_between(a: &Mat3, b: &Mat3) -> f64 {
-    let v = super::rotation::log(&mul_tn(a, b));
-    super::rotation::dot(v, v).sqrt()
+    let v = crate::geom3::log(&mul_tn(a, b));
+    crate::geom3::dot(v, v).sqrt()
 }
 
 /// The largest [`angle_between`] over the links of two states (rad).
@@ -646,14 +646,14 @@ pub(crate) fn within(a: &Frames, b: &Frames, limit: f64) -> bool {
         return true;
     }
     let least = 1.0 + 2.0 * limit.cos();
-    let trace = |x: &Mat3, y: &Mat3| (0..3).map(|r| super::rotation::dot(x[r], y[r])).sum::<f64>();
+    let trace = |x: &Mat3, y: &Mat3| (0..3).map(|r| crate::geom3::dot(x[r], y[r])).sum::<f64>();
     a.0.iter().zip(&b.0).all(|(x, y)| trace(x, y) >= least)
 }
 
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::body3::rotation::exp;
+    use crate::geom3::exp;
 
     /// A bent, twisted state of `body` (link `u` turned by
     /// `Exp(0.1, -0.2 + 0.03 u, 0.05)`) and a front hold to hang it from:
@@ -687,9 +687,7 @@ pub(crate) mod tests {
         };
         let base = Frames((0..7).map(|u| exp([0.3 * u as f64, 0.1, -0.2])).collect());
         for angle in [0.01, 0.3, 0.5, 1.2, 3.0] {
-            let moved = Frames(
-                base.0.iter().enumerate().map(|(u, r)| super::super::rotation::mul(r, &turn(angle, u))).collect(),
-            );
+            let moved = Frames(base.0.iter().enumerate().map(|(u, r)| crate::geom3::mul(r, &turn(angle, u))).collect());
             let d = distance(&base, &moved);
             for limit in [0.5 * d, 0.999 * d, 1.001 * d, 2.0 * d, 4.0, f64::INFINITY] {
                 assert_eq!(within(&base, &moved, limit), d <= limit, "angle {angle}, limit {limit}");

@@ -110,9 +110,9 @@
 //! [`ConstantCurvature3::difference`] measures the rest.
 
 use super::body3::{angle_between, Body3, Frames};
-use super::rotation::{apply, axpy, cross, dot, exp, mul, rot_z, scale, Mat3, Vec3};
 use crate::constant_curvature::{sinc, Arc};
 use crate::error::{InputError, Num};
+use crate::geom3::{apply, axpy, cross, dot, exp, mul, rot_z, scale, Mat3, Vec3};
 use crate::robot::Robot;
 
 /// `sqrt(3)`.

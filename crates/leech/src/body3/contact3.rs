@@ -100,9 +100,9 @@
 
 use super::body3::{Body3, Eval3, Frames, Param, PLATE_ROWS};
 use super::hold3::{FrontHold, Held3, Hold3, FRONT_ROWS};
-use super::rotation::{apply, apply_t, axpy, dot, linear_terms, scale, scale_mat, Mat3, Vec3};
 use super::solve::Equilibrium3;
 use crate::error::InputError;
+use crate::geom3::{apply, apply_t, axpy, dot, linear_terms, scale, scale_mat, Mat3, Vec3};
 use crate::robot::Robot;
 use crate::scene::{Plane3, Scene3};
 use crate::stance::StanceError;
@@ -449,7 +449,7 @@ impl Body3 {
 mod tests {
     use super::*;
     use crate::body3::body3::retract;
-    use crate::body3::rotation::{column, exp};
+    use crate::geom3::{column, exp};
     use crate::robot::Robot;
     use crate::scene::Solid3;
 

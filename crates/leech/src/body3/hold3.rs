@@ -171,13 +171,13 @@
 use super::body3::{is_rotation, Body3, Derivatives, Eval3, Frames, Param, PLATE_ROWS};
 use super::contact3::{row_sink, ContactEval, ContactRow3};
 use super::place3::{first_inside, front_cup_centre, front_tip, hold_points};
-use super::rotation::{
-    apply, axpy, column, cross, dot, exp, hat, jr_inv, linear_terms, log, mul, mul_tn, pair_terms, scale, scale_mat,
-    transpose, Mat3, Vec3,
-};
 use super::solve::Equilibrium3;
 use crate::cup::{Cup, CupVerdict};
 use crate::error::{InputError, Num};
+use crate::geom3::{
+    apply, axpy, column, cross, dot, exp, hat, jr_inv, linear_terms, log, mul, mul_tn, pair_terms, scale, scale_mat,
+    transpose, Mat3, Vec3,
+};
 use crate::robot::Robot;
 use crate::scene::{Plane3, Scene3};
 use crate::stance::StanceError;

@@ -48,7 +48,7 @@
 //!
 //! ```
 //! use leech::body3::{Body3, Hold3};
-//! use leech::body3::rotation::rot_z;
+//! use leech::geom3::rot_z;
 //! use leech::prelude::*;
 //! let robot = Robot::builtin();
 //! let body = Body3::from_robot(&robot, [0.25, 0.28, 0.22]).unwrap();
@@ -71,8 +71,8 @@
 
 //! # Layout
 //!
-//! [`rotation`] (`Exp`, `Log`, `Jr^-1`, the local derivatives of linear and
-//! relative terms), [`tube3`] (one tube's links), [`body3`] (the body, its
+//! The rotations it is written in (`Exp`, `Log`, `Jr^-1`, the local derivatives of linear and
+//! relative terms) are [`crate::geom3`], in the numbers layer; [`tube3`] (one tube's links), [`body3`] (the body, its
 //! Lagrangian's derivatives), [`solve`] (Newton, continuation), [`planar`]
 //! (the comparison with the planar model), [`hold3`] (holds: the rear
 //! cup, the front cup, both cups, a free front joint; each cup's reaction
@@ -89,7 +89,6 @@ pub mod contact3;
 pub mod hold3;
 pub mod place3;
 pub mod planar;
-pub mod rotation;
 pub mod solve;
 pub mod tube3;
 

@@ -24,7 +24,7 @@
 
 use super::body3::{triangle, Body3};
 use super::hold3::Hold3;
-use super::rotation::{apply, axpy, column, exp, mul, rot_z, Mat3, Vec3};
+use crate::geom3::{apply, axpy, column, exp, mul, rot_z, Mat3, Vec3};
 use crate::robot::Robot;
 use crate::scene::{Scene3, ON_SURFACE_M};
 
@@ -103,7 +103,7 @@ pub fn first_inside(scene: &Scene3, points: &[HoldPoint]) -> Option<HoldPoint> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::body3::rotation::{dot, scale};
+    use crate::geom3::{dot, scale};
     use crate::scene::Solid3;
 
     /// `v` scaled to unit length (a direction for checks).

@@ -9,10 +9,10 @@
 //! what that changes, point by point (m) and link frame by link frame (rad).
 
 use super::body3::{angle_between, Body3};
-use super::rotation::{axpy, dot, rot_z, scale, Vec3};
 use super::solve::Equilibrium3;
 use crate::body::Body;
 use crate::geom::Vec2;
+use crate::geom3::{axpy, dot, rot_z, scale, Vec3};
 use crate::statics::{Equilibrium, SolveError, Solver};
 
 /// How far the 3D body is from the planar model of the same robot.

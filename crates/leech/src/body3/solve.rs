@@ -31,7 +31,7 @@
 use super::body3::{distance, retract, within, Body3, Eval3, Frames, Param, PLATE_ROWS};
 use super::contact3::{Contact3, ContactEval, ContactRow3, HeldAt};
 use super::hold3::{FrontHold, FrontTarget, Hanging, FRONT_ROWS};
-use super::rotation::{apply, axpy, column, cross, dot};
+use crate::geom3::{apply, axpy, column, cross, dot};
 use crate::linalg::{BorderedLdl, MAX_BORDER};
 use crate::scene::Scene3;
 use crate::stance::start_compliance;
@@ -669,7 +669,7 @@ impl Body3 {
         work.evaluate(self, &state.frames, &state.lambda, param);
         let tiny = solver.options.tuning.tiny_pivot * self.moment_scale();
         let stable = work.factor(0.0, tiny).0;
-        let q = state.frames.0.iter().flat_map(super::rotation::log).collect();
+        let q = state.frames.0.iter().flat_map(crate::geom3::log).collect();
         let front_hold = param.front.map(|_| std::array::from_fn(|r| state.lambda[PLATE_ROWS + r]));
         let contacts = (work.contacts.iter().zip(&state.lambda[PLATE_ROWS + work.front_rows..]))
             .map(|(row, f)| Contact3 {

@@ -17,8 +17,8 @@
 //! `kt_1 = 0`. Gravity acts on link `j` through its lever
 //! `W_j = l_j (sum_{i >= j} m_i + P)` (kg m), `P` the tip mass.
 
-use super::rotation::Vec3;
 use crate::chain::Chain;
+use crate::geom3::Vec3;
 
 /// One tube of the 3D body (all SI).
 #[derive(Clone, Debug, PartialEq)]

@@ -26,8 +26,8 @@ use serde::Deserialize;
 
 use super::file::parse_bounded;
 use super::{Scene, Scene3, Solid3, MAX_COORDINATE_M};
-use crate::body3::rotation::{exp, Vec3};
 use crate::error::{within, InputError};
+use crate::geom3::{exp, Vec3};
 
 /// Largest rotation of a box (deg).
 const MAX_ROTATION_DEG: f64 = 360.0;
@@ -189,7 +189,7 @@ fn start(raw: &RawStart, source: &str) -> Result<Start3, InputError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::body3::rotation::apply;
+    use crate::geom3::apply;
 
     const TEXT: &str = r#"
 name = "corner"

@@ -38,8 +38,8 @@
 //! the point, so that its second derivatives stay within each link (docs/model3d.md section 12).
 
 use super::{Scene, Solid, MAX_COORDINATE_M, MAX_SOLIDS, UNIT_TOLERANCE};
-use crate::body3::rotation::{apply, apply_t, axpy, dot, Mat3, Vec3};
 use crate::error::{InputError, Num};
+use crate::geom3::{apply, apply_t, axpy, dot, Mat3, Vec3};
 
 /// A solid of a 3D scene (module doc).
 #[derive(Clone, Debug, PartialEq)]
@@ -246,7 +246,7 @@ impl Scene3 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::body3::rotation::{exp, rot_z, scale};
+    use crate::geom3::{exp, rot_z, scale};
 
     /// `s` times axis `a` of `frame` (a column).
     fn column(frame: &Mat3, a: usize, s: f64) -> Vec3 {

@@ -70,9 +70,9 @@ use serde::Deserialize;
 
 use super::machine::Phase;
 use super::plan::Status;
-use crate::body3::rotation::{axpy, column, cross, dot, exp, mul, scale, Mat3, Vec3};
 use crate::body3::{Body3, Held3, Hold3};
 use crate::error::{within, InputError};
+use crate::geom3::{axpy, column, cross, dot, exp, mul, scale, Mat3, Vec3};
 use crate::robot::Robot;
 use crate::scene::file::parse_bounded;
 use crate::scene::MAX_COORDINATE_M;

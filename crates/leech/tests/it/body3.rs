@@ -3,8 +3,8 @@
 //! from the planar model where `b != c`.
 
 use leech::body3::planar::{compare, planar_difference};
-use leech::body3::rotation::rot_z;
 use leech::body3::Body3;
+use leech::geom3::rot_z;
 use leech::prelude::*;
 use leech::statics::Stage;
 
@@ -175,8 +175,8 @@ fn swapping_the_side_tubes_mirrors_the_body() {
 }
 
 mod derivatives {
-    use leech::body3::rotation::{exp, mul, Mat3};
     use leech::body3::{Body3, Derivatives, Frames, Hanging, PLATE_ROWS};
+    use leech::geom3::{exp, mul, Mat3};
     use leech::prelude::*;
     use proptest::prelude::*;
 

@@ -3,9 +3,9 @@
 //! general tri-tube form, its inverse, and the 3D body without gravity.
 
 use leech::body3::constant_curvature3::ConstantCurvature3;
-use leech::body3::rotation::{apply, log, mul, mul_tn, rot_z, transpose, Mat3, Vec3};
 use leech::body3::Body3;
 use leech::constant_curvature::{Arc, TriTube};
+use leech::geom3::{apply, log, mul, mul_tn, rot_z, transpose, Mat3, Vec3};
 use leech::prelude::*;
 use proptest::prelude::*;
 

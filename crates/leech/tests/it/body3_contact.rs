@@ -2,8 +2,8 @@
 //! stance on a floor reproduced in the plane, and a turning body resting on
 //! a floor checked by balance and complementarity.
 
-use leech::body3::rotation::{axpy, cross, dot, scale, Vec3};
 use leech::body3::{Body3, Held3, Hold3};
+use leech::geom3::{axpy, cross, dot, scale, Vec3};
 use leech::prelude::*;
 use leech::scene::{Scene3, Solid3};
 use leech::stance::{self, Hold, Pose};
@@ -251,7 +251,7 @@ fn the_front_hold_on_a_floor_is_the_planar_stance() {
     let pose = Pose::from_deg([0.5, height], 0.0);
     let planar = stance::solve_in(&robot, [l1, l23], Hold::Front(pose), &planar_floor, &solver).unwrap();
     let body = Body3::from_robot(&robot, [l1, l23, l23]).unwrap();
-    let hold = Hold3::Front { tip_m: [0.5, height, 0.0], plate: leech::body3::rotation::rot_z(0.0) };
+    let hold = Hold3::Front { tip_m: [0.5, height, 0.0], plate: leech::geom3::rot_z(0.0) };
     let held = body.solve_held_among(&robot, hold, &floor, &solver).unwrap();
     check(&robot, &held, &floor);
     let eq = &held.equilibrium;
@@ -318,7 +318,7 @@ fn a_turning_body_rests_on_a_box_on_the_floor() {
     let block = Solid3::Box {
         centre_m: [0.3, y - 0.045, 0.0],
         half_extents_m: [0.12, 0.05, 0.3],
-        frame: leech::body3::rotation::exp([0.0, 0.2, 0.0]),
+        frame: leech::geom3::exp([0.0, 0.2, 0.0]),
     };
     let scene = Scene3::new("floor and block", vec![floor.solids[0].clone(), block]).unwrap();
     let held = body.solve_held_among(&robot, Hold3::Rear, &scene, &Solver::default()).unwrap();

@@ -2,8 +2,8 @@
 //! balance, against the planar stance where the body is planar, and the 3D
 //! cup verdict.
 
-use leech::body3::rotation::{axpy, cross, dot, exp, mul, rot_z, scale};
 use leech::body3::{verdict3, Body3, Held3, Hold3};
+use leech::geom3::{axpy, cross, dot, exp, mul, rot_z, scale};
 use leech::prelude::*;
 use leech::stance::{Hold, Pose};
 
@@ -139,7 +139,7 @@ proptest::proptest! {
         let robot = Robot::builtin();
         let body = Body3::from_robot(&robot, [l1, l2, l3]).unwrap();
         let norm = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt().max(1e-3);
-        let plate = leech::body3::rotation::exp(scale(turn / norm, [axis[0], axis[1], axis[2]]));
+        let plate = leech::geom3::exp(scale(turn / norm, [axis[0], axis[1], axis[2]]));
         let tip = [0.3, -0.1, 0.2];
         let held = body.solve_held(&robot, Hold3::Front { tip_m: tip, plate }, &Solver::default()).unwrap();
         let eq = &held.equilibrium;

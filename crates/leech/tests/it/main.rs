@@ -10,6 +10,7 @@ mod calibration;
 mod climb;
 mod constant_curvature;
 mod contact_census;
+mod contact_references;
 mod continuum;
 mod cup;
 mod derivatives;

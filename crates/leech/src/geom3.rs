@@ -1,6 +1,8 @@
-//! Rotations: `Exp`, `Log`, the inverse right Jacobian and the local
+//! 3D vectors and rotations, in the numbers layer beside [`crate::geom`]:
+//! `Exp`, `Log`, the inverse right Jacobian and the local
 //! (right-trivialized) derivatives of the two kinds of term the 3D body is
-//! made of (docs/model3d.md sections 3 and 4).
+//! made of (docs/model3d.md sections 3 and 4), for the body, its scenes and
+//! its pictures alike.
 //!
 //! A rotation `R` is perturbed on the right, `R Exp(delta)`, with `delta` a
 //! rotation vector in the body's own frame (rad). Every function of rotations
