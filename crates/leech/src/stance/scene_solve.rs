@@ -233,7 +233,11 @@ fn settle_rounds<S: Touching>(
             let carried: Vec<_> = missing.filter_map(|p| p.row_in(system)).collect();
             rows.extend(carried);
         }
-        if solved {
+        // How far the last solve moved the body from a clear start: guards
+        // are kept only where it moved farther than the margin (else every
+        // point stayed within its rows' reach, and extra rows only cost).
+        let moved = from.as_ref().map(|(start, ..)| displacement(&settled.system, &start.q, &settled.equilibrium.q));
+        if solved && moved.is_some_and(|d| d > options.margin) {
             guard(&settled, &mut rows, options);
         }
         let deep = penetration(&settled.system, &settled.equilibrium.q, scene, radius);
@@ -251,8 +255,7 @@ fn settle_rounds<S: Touching>(
             // from: back to its clear start, with a row for every feature
             // within the distance the points moved, so that the blocking
             // rows stop it this time (the rows only grow: no cycle).
-            let moved = displacement(&settled.system, &start.q, &settled.equilibrium.q);
-            let wide = ContactOptions { margin: options.margin + moved, ..*options };
+            let wide = ContactOptions { margin: options.margin + moved.unwrap_or(0.0), ..*options };
             detect(&settled.system, &start.q, scene, radius, &wide, &mut rows);
             for row in start_rows {
                 if !rows.iter().any(|r| same_row(r, &row)) {
