@@ -580,7 +580,7 @@ class Problem:
 
     # -- SLSQP -----------------------------------------------------------------------------------
 
-    def slsqp(self, q0):
+    def slsqp(self, q0, maxiter=2000):
         cons = [dict(type="eq", fun=lambda q: np.array([r.value for r in self.eq(q)]),
                      jac=lambda q: np.array([r.grad for r in self.eq(q)]))]
         if self.contacts:
@@ -588,7 +588,7 @@ class Problem:
                              jac=lambda q: np.array([r.grad for r in self.ineq(q)])))
         res = optimize.minimize(lambda q: self.body.energy(q, self.g)[0], q0,
                                 jac=lambda q: self.body.energy(q, self.g)[1], method="SLSQP",
-                                constraints=cons, options=dict(ftol=1e-16, maxiter=2000))
+                                constraints=cons, options=dict(ftol=1e-16, maxiter=maxiter))
         m = np.asarray(res.multipliers)  # SciPy's SLSQP: grad f = J^T multipliers, our convention
         ne = self.n_eq()
         return res.x, m[:ne], m[ne:], res

@@ -29,15 +29,15 @@ fn fixture() -> Value {
     serde_json::from_str(&text).expect("fixture is JSON")
 }
 
-fn num(v: &Value) -> f64 {
+pub(crate) fn num(v: &Value) -> f64 {
     v.as_f64().unwrap_or_else(|| panic!("not a number: {v}"))
 }
 
-fn numbers(v: &Value) -> Vec<f64> {
+pub(crate) fn numbers(v: &Value) -> Vec<f64> {
     v.as_array().unwrap_or_else(|| panic!("not a list: {v}")).iter().map(num).collect()
 }
 
-fn pair(v: &Value) -> [f64; 2] {
+pub(crate) fn pair(v: &Value) -> [f64; 2] {
     let x = numbers(v);
     assert_eq!(x.len(), 2, "{v}");
     [x[0], x[1]]
@@ -47,7 +47,7 @@ fn pose(v: &Value) -> Option<Pose> {
     (!v.is_null()).then(|| Pose { point_m: pair(&v["point_m"]), angle_rad: num(&v["angle_rad"]) })
 }
 
-fn hold(case: &Value) -> Hold {
+pub(crate) fn hold(case: &Value) -> Hold {
     match (pose(&case["rear"]), pose(&case["front"])) {
         (Some(rear), None) => Hold::Rear(rear),
         (None, Some(front)) => Hold::Front(front),
@@ -56,7 +56,7 @@ fn hold(case: &Value) -> Hold {
     }
 }
 
-fn discretization(case: &Value) -> Discretization {
+pub(crate) fn discretization(case: &Value) -> Discretization {
     match case["discretization"].as_str() {
         Some("paper") => Discretization::Paper,
         Some("midpoint") => Discretization::Midpoint,
@@ -120,9 +120,9 @@ fn solve_tube(case: &Value) -> Result<TubeHeld, StanceError> {
 /// The comparison of one case: what differs beyond its tolerance (one line each), and the
 /// largest difference of each kind.
 #[derive(Default)]
-struct Comparison {
-    failures: Vec<String>,
-    largest: BTreeMap<&'static str, f64>,
+pub(crate) struct Comparison {
+    pub(crate) failures: Vec<String>,
+    pub(crate) largest: BTreeMap<&'static str, f64>,
 }
 
 impl Comparison {
@@ -151,7 +151,7 @@ impl Comparison {
 }
 
 /// Everything that differs beyond its tolerance, one line each (empty: leech matches).
-fn differences(case: &Value, held: &Held) -> Comparison {
+pub(crate) fn differences(case: &Value, held: &Held) -> Comparison {
     let mut out = Comparison::default();
     let q = &held.equilibrium.q;
     let na = held.body.chain_a().len();
@@ -305,7 +305,7 @@ fn outcome(case: &Value) -> Result<(), String> {
 }
 
 /// Force and moment balance of leech's reactions and contact forces against the weight.
-fn balance(held: &Held) -> Result<(), String> {
+pub(crate) fn balance(held: &Held) -> Result<(), String> {
     let w = held.weight_n;
     let stance::Reaction { force_n: force, moment_nm: moment } = held.support();
     let gravity = held.centre_of_mass[0] * w;
