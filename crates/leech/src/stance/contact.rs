@@ -189,11 +189,23 @@ pub struct ContactOptions {
     pub max_rounds: usize,
     /// Largest penetration accepted (m).
     pub penetration_tolerance: f64,
+    /// Whether a free cup's face gets every row a node would: a row per
+    /// nearby face at each rim (both faces of an inside corner) and one
+    /// where a convex corner touches the face between its rims. Off, each
+    /// rim takes the closest surface alone (the plain pass of the staged
+    /// solve, which keeps every earlier answer; see `scene_solve`).
+    pub whole_faces: bool,
+    /// Whether a staged settle that the plain active set cannot finish is
+    /// tried again with blocking rows (see `scene_solve`). A feeding step
+    /// that is not its last chance leaves it off: halving it keeps the
+    /// branch a continuous feed follows, the fallback only where nothing
+    /// else settles.
+    pub fallback: bool,
 }
 
 impl Default for ContactOptions {
     fn default() -> Self {
-        ContactOptions { margin: 0.005, max_rounds: 30, penetration_tolerance: 1e-9 }
+        ContactOptions { margin: 0.005, max_rounds: 30, penetration_tolerance: 1e-9, whole_faces: true, fallback: true }
     }
 }
 
@@ -246,6 +258,9 @@ pub fn detect<S: Touching>(
     for (cup, rims) in body.free_cup_rims(q) {
         for (rim, p) in rims.iter().enumerate() {
             scene.features_near(*p, options.margin, &mut near);
+            if !options.whole_faces {
+                near.clear();
+            }
             for candidate in &near {
                 let n = candidate.normal;
                 out.push(ContactRow {
@@ -265,7 +280,7 @@ pub fn detect<S: Touching>(
             }
         }
         // A face resting on a nosing touches it between its rims.
-        for corner in &corners {
+        for corner in corners.iter().filter(|_| options.whole_faces) {
             let (distance, s, n) = Scene::segment_corner_distance(rims[0], rims[1], corner);
             if distance <= options.margin && s > 1e-9 && s < 1.0 - 1e-9 {
                 out.push(ContactRow { chain: cup, link: 0, fraction: s, normal: n, offset: dot(n, corner.point) });

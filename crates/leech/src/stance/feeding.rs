@@ -17,6 +17,12 @@ pub const FEED_STEP_M: f64 = 0.05;
 /// Shortest feeding step (m): below it a step that still fails is reported.
 pub const MIN_FEED_STEP_M: f64 = 1e-4;
 
+/// Feeding steps at most this long (m) that the plain active set cannot
+/// settle are tried again with blocking rows (`scene_solve`'s fallback):
+/// longer ones are halved first, which keeps the branch a continuous feed
+/// follows where it exists.
+pub const FALLBACK_STEP_M: f64 = 0.005;
+
 /// Most Newton iterations a feeding step may take on one working set (and
 /// four times as many in all, contacts joining and leaving), before
 /// it counts as too long a step (and is halved). Counting the active-set
@@ -91,8 +97,15 @@ impl<F: Fed> Feeding<'_, F> {
             let accepted = {
                 let before = self.fed.system(&shape);
                 let solver = if last_chance { self.solver } else { &brief };
-                let outcome =
-                    scene_solve::loaded(self.fed.system(&next), carried, &pushing, self.scene, self.radius, solver);
+                let outcome = scene_solve::loaded(
+                    self.fed.system(&next),
+                    carried,
+                    &pushing,
+                    self.scene,
+                    self.radius,
+                    solver,
+                    step <= FALLBACK_STEP_M,
+                );
                 match outcome {
                     Ok(settled) => {
                         let end = (&settled.system, &settled.equilibrium.q[..]);

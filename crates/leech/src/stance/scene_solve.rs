@@ -148,9 +148,10 @@ pub(super) fn loaded<S: Touching>(
     scene: &Scene,
     radius: f64,
     solver: &Solver,
+    fallback: bool,
 ) -> Result<Settled<S>, StanceError> {
     let settled = Settled { equilibrium: start(&system, q), system };
-    settle(settled, pushing, 1.0, scene, radius, &ContactOptions::default(), solver)
+    settle(settled, pushing, 1.0, scene, radius, &ContactOptions { fallback, ..ContactOptions::default() }, solver)
 }
 
 /// An equilibrium record for the start of a staged solve.
@@ -187,7 +188,7 @@ fn settle<S: Touching>(
     options: &ContactOptions,
     solver: &Solver,
 ) -> Result<Settled<S>, StanceError> {
-    if solver.options.tuning.block_at_rows {
+    if solver.options.tuning.block_at_rows || !options.fallback {
         return settle_rounds(settled, pushing, t, scene, radius, options, solver);
     }
     let again = Settled { system: settled.system.clone(), equilibrium: settled.equilibrium.clone() };
@@ -214,6 +215,10 @@ fn settle_rounds<S: Touching>(
     solver: &Solver,
 ) -> Result<Settled<S>, StanceError> {
     let stage = settled.system.stage();
+    // The plain pass is the staged solve as it was: the cups' faces by
+    // their closest surfaces, no guards, no restarts.
+    let thorough = solver.options.tuning.block_at_rows;
+    let options = &ContactOptions { whole_faces: thorough, ..*options };
     let mut rows = Vec::new();
     let mut iterations = settled.equilibrium.iterations;
     let mut events = std::mem::take(&mut settled.equilibrium.events);
@@ -237,7 +242,7 @@ fn settle_rounds<S: Touching>(
         // are kept only where it moved farther than the margin (else every
         // point stayed within its rows' reach, and extra rows only cost).
         let moved = from.as_ref().map(|(start, ..)| displacement(&settled.system, &start.q, &settled.equilibrium.q));
-        if solved && moved.is_some_and(|d| d > options.margin) {
+        if thorough && solved && moved.is_some_and(|d| d > options.margin) {
             guard(&settled, &mut rows, options);
         }
         let deep = penetration(&settled.system, &settled.equilibrium.q, scene, radius);
@@ -249,7 +254,9 @@ fn settle_rounds<S: Touching>(
         if solved {
             pushing = settled.pushing();
         }
-        if let Some((start, start_pushing, start_rows)) = from.take().filter(|_| deep > options.penetration_tolerance) {
+        if let Some((start, start_pushing, start_rows)) =
+            from.take().filter(|_| thorough && deep > options.penetration_tolerance)
+        {
             // The solve went through a surface it had no row for (a point
             // moved farther than the margin). Its end is no state to go on
             // from: back to its clear start, with a row for every feature

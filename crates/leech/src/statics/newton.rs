@@ -185,7 +185,7 @@ impl Solver {
         // one line) leave a zero pivot that no shift of H removes: the
         // inequality rows are then regularized in the matrix alone.
         let inequality = |r: usize| it.active[r] && ws.rows[r].kind == RowKind::Inequality;
-        if first == Inertia::Singular && (0..ws.rows.len()).any(inequality) {
+        if tuning.block_at_rows && first == Inertia::Singular && (0..ws.rows.len()).any(inequality) {
             ws.dual = tuning.dual_regularization / k;
             first = ws.factor_kkt(0.0, &it.active, tiny);
         }
@@ -597,7 +597,8 @@ impl Solver {
         // are off (rows that just joined with none), the step that corrects
         // them barely moves the point: a falling residual at no cost in
         // merit is then no saddle being approached, and is taken.
-        let dual_only = sup_norm(&ws.step) <= tuning.reuse_factors_step
+        let dual_only = tuning.block_at_rows
+            && sup_norm(&ws.step) <= tuning.reuse_factors_step
             && phi <= phi0 + rounding
             && r_trial <= (1.0 - tuning.residual_decrease) * r0;
         if phi.is_finite() && (armijo || decrease || blocked || dual_only) {
