@@ -71,7 +71,7 @@ mod scene_solve;
 pub mod tube;
 
 pub use contact::{detect, penetration, swept_clear, ContactOptions, ContactRow, Touching, FRONT_CUP, REAR_CUP};
-pub use feeding::{FEED_STEP_M, MIN_FEED_STEP_M};
+pub use feeding::{FALLBACK_STEP_M, FEED_STEP_M, MIN_FEED_STEP_M};
 pub use floating::{Approach, CupFaces, FloatingBody, FREE, HOLD_ROWS};
 pub use hold::{start_compliance, Hold, Pose, START_SOFTNESS};
 pub use tube::{tube_in, Tube, TubeHeld, TUBE_FEED_START_M};
