@@ -1064,6 +1064,22 @@ def segments_cross(p1, p2, p3, p4):
     return d(p3, p4, p1) * d(p3, p4, p2) < 0 and d(p1, p2, p3) * d(p1, p2, p4) < 0
 
 
+def state_fields(body, q, lam):
+    """The equilibrium's shape, pose, weld multipliers and weight, as the fixtures store them."""
+    ip = body.ip
+    return dict(
+        angles_a_rad=q[body.idx(0)].tolist(),
+        angles_b_rad=q[body.idx(1)].tolist(),
+        unit_point_m=q[ip:ip + 2].tolist(),
+        unit_angle_rad=float(q[ip + 2]),
+        endpoint_m=body.endpoint(q).tolist(),
+        plate_angle_rad=float(q[body.last(0)]),
+        weld_multipliers=lam[:3].tolist(),
+        weight_n=body.weight(),
+        centre_of_mass_m=body.centre_of_mass(q).tolist(),
+    )
+
+
 def record(case, robot, body, scene, contacts, prob, sol, front, info):
     q, lam, mu, active = sol
     ip = body.ip
@@ -1080,15 +1096,7 @@ def record(case, robot, body, scene, contacts, prob, sol, front, info):
         rear=None if case.get("rear") is None else dict(point_m=list(case["rear"][:2]), angle_rad=case["rear"][2]),
         front=None if front is None else dict(point_m=[float(front[0]), float(front[1])], angle_rad=float(front[2])),
         scene_toml=case.get("scene"),
-        angles_a_rad=q[body.idx(0)].tolist(),
-        angles_b_rad=q[body.idx(1)].tolist(),
-        unit_point_m=p0.tolist(),
-        unit_angle_rad=float(phi0),
-        endpoint_m=body.endpoint(q).tolist(),
-        plate_angle_rad=float(q[body.last(0)]),
-        weld_multipliers=lam[:3].tolist(),
-        weight_n=W,
-        centre_of_mass_m=body.centre_of_mass(q).tolist(),
+        **state_fields(body, q, lam),
     )
     k = 3
     out["rear_reaction"] = None

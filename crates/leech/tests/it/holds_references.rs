@@ -345,13 +345,11 @@ fn check_reference(case: &Value) {
     }
 }
 
-#[test]
-fn holds_and_contacts_match_the_scipy_references() {
-    let doc = fixture();
-    // The fixture was made for the built-in robot (but for its cup offsets: `robot`).
+/// Asserts that the fixture's `robot` record holds the built-in robot's
+/// tube and body parameters, and the `extra` keys with their values.
+pub(crate) fn same_builtin_body(r: &Value, extra: &[(&str, f64)]) {
     let builtin = Robot::builtin();
-    let r = &doc["robot"];
-    for (key, ours) in [
+    let body = [
         ("l", builtin.tube.element_length_m),
         ("m", builtin.tube.element_mass_kg),
         ("k", builtin.tube.joint_stiffness_nm_per_rad),
@@ -361,9 +359,17 @@ fn holds_and_contacts_match_the_scipy_references() {
         ("ms", builtin.body.payload_kg),
         ("g", builtin.world.gravity_m_per_s2),
         ("Md", builtin.driving_unit.mass_kg),
-    ] {
-        assert_eq!(num(&r[key]), ours, "built-in robot's {key} changed: regenerate the fixture");
+    ];
+    for (key, ours) in body.iter().chain(extra) {
+        assert_eq!(num(&r[key]), *ours, "built-in robot's {key} changed: regenerate the fixture");
     }
+}
+
+#[test]
+fn holds_and_contacts_match_the_scipy_references() {
+    let doc = fixture();
+    // The fixture was made for the built-in robot (but for its cup offsets: `robot`).
+    same_builtin_body(&doc["robot"], &[]);
     let cases = doc["cases"].as_array().unwrap();
     assert!(cases.len() >= 8, "at least eight cases");
     assert!(cases.iter().filter(|c| !c["scene_toml"].is_null()).count() >= 4, "contact cases");
