@@ -257,9 +257,9 @@ pub fn detect<S: Touching>(
     // depth as well.
     for (cup, rims) in body.free_cup_rims(q) {
         for (rim, p) in rims.iter().enumerate() {
-            scene.features_near(*p, options.margin, &mut near);
-            if !options.whole_faces {
-                near.clear();
+            near.clear();
+            if options.whole_faces {
+                scene.features_near(*p, options.margin, &mut near);
             }
             for candidate in &near {
                 let n = candidate.normal;

@@ -242,7 +242,7 @@ fn settle_rounds<S: Touching>(
         // are kept only where it moved farther than the margin (else every
         // point stayed within its rows' reach, and extra rows only cost).
         let moved = from.as_ref().map(|(start, ..)| displacement(&settled.system, &start.q, &settled.equilibrium.q));
-        if thorough && solved && moved.is_some_and(|d| d > options.margin) {
+        if solved && moved.is_some_and(|d| d > options.margin) {
             guard(&settled, &mut rows, options);
         }
         let deep = penetration(&settled.system, &settled.equilibrium.q, scene, radius);
@@ -254,9 +254,7 @@ fn settle_rounds<S: Touching>(
         if solved {
             pushing = settled.pushing();
         }
-        if let Some((start, start_pushing, start_rows)) =
-            from.take().filter(|_| thorough && deep > options.penetration_tolerance)
-        {
+        if let Some((start, start_pushing, start_rows)) = from.take().filter(|_| deep > options.penetration_tolerance) {
             // The solve went through a surface it had no row for (a point
             // moved farther than the margin). Its end is no state to go on
             // from: back to its clear start, with a row for every feature
@@ -271,7 +269,9 @@ fn settle_rounds<S: Touching>(
             }
             settled.equilibrium = Equilibrium { iterations: settled.equilibrium.iterations, ..start };
             pushing = start_pushing;
-        } else if deep <= options.penetration_tolerance {
+        } else if thorough && deep <= options.penetration_tolerance {
+            // Only the blocking pass goes back to a start: the plain one
+            // keeps no copy of it.
             from = Some((settled.equilibrium.clone(), pushing.clone(), rows.clone()));
         }
         let system = settled.system.with_contacts(rows.clone());
