@@ -90,6 +90,15 @@ pub const UNIT_TOLERANCE: f64 = 1e-9;
 /// surface, so not exposed (see [`Scene::convex_corners`]).
 pub const ON_SURFACE_M: f64 = 1e-9;
 
+/// How far (m) a face resting on a surface or a corner may go past it in a
+/// step and still count as touching, not crossing
+/// ([`Scene::face_sweep_clear`]). A face turning on a nosing meets it in a
+/// row that Newton's steps follow only to first order: a step leaves the
+/// face up to the square of its turn (times the face's size) past the
+/// corner, which the next step takes back. A micrometre is far below any
+/// solid's thickness, so no face passes through a solid within it.
+pub const FACE_SWEEP_SLACK_M: f64 = 1e-6;
+
 /// A validated scene: a union of rigid solids (m).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {

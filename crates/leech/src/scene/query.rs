@@ -6,7 +6,7 @@
 
 use std::f64::consts::PI;
 
-use super::{Feature, Scene, Solid, ON_SURFACE_M};
+use super::{Feature, Scene, Solid, FACE_SWEEP_SLACK_M, ON_SURFACE_M};
 use crate::geom::{add_scaled, angle_difference, cross, dot, norm, sub, unit, Vec2};
 
 /// A surface feature near a point, as [`Scene::features_near`] reports it.
@@ -368,10 +368,10 @@ impl Scene {
     /// stays out of the polygons: no rim's path crosses an edge and no
     /// exposed convex corner lies inside the area the face sweeps (the two
     /// triangles of the quadrilateral `was[0], was[1], now[1], now[0]`), each
-    /// by more than [`ON_SURFACE_M`] (a face sliding on a surface or over a
-    /// corner it rests on touches, it does not cross).
+    /// by more than [`FACE_SWEEP_SLACK_M`] (a face sliding on a surface or
+    /// turning on a corner it rests on touches, it does not cross).
     pub fn face_sweep_clear(&self, was: [Vec2; 2], now: [Vec2; 2], corners: &[Corner]) -> bool {
-        let tol = ON_SURFACE_M;
+        let tol = FACE_SWEEP_SLACK_M;
         let paths_clear = self.solids.iter().all(|solid| match solid {
             Solid::Polygon { points_m } => (0..points_m.len()).all(|e| {
                 let (a, b) = (points_m[e], next(points_m, e));

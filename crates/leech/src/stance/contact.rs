@@ -282,11 +282,37 @@ pub fn detect<S: Touching>(
         // A face resting on a nosing touches it between its rims.
         for corner in corners.iter().filter(|_| options.whole_faces) {
             let (distance, s, n) = Scene::segment_corner_distance(rims[0], rims[1], corner);
+            let n = face_corner_normal(rims, corner).unwrap_or(n);
             if distance <= options.margin && s > 1e-9 && s < 1.0 - 1e-9 {
                 out.push(ContactRow { chain: cup, link: 0, fraction: s, normal: n, offset: dot(n, corner.point) });
             }
         }
     }
+}
+
+/// The normal of a row where `corner` touches the face between `rims`: the
+/// face's own normal, pointing out of the solid, where the solid's wedge at
+/// the corner lies on one side of the face's line (the face rests on the
+/// corner, or is a hair past it). The face touches with no clearance, so the
+/// direction from the corner to the face's closest point is rounding at
+/// the fixed point: it turned by 1e-4 from one refresh to the next (each
+/// refresh a new row, the settle never done), and a hair past the corner it
+/// pointed into the solid (a row holding the face on the wrong side).
+/// `None` where the face's line cuts the wedge: the face is through the
+/// corner, and only the geometry says which way is out.
+fn face_corner_normal(rims: [Vec2; 2], corner: &crate::scene::Corner) -> Option<Vec2> {
+    let along = sub(rims[1], rims[0]);
+    let length = norm(along);
+    if length == 0.0 {
+        return None;
+    }
+    let normal = [-along[1] / length, along[0] / length];
+    // The wedge's directions are within half its angle of the inward
+    // bisector: all on one side of the line when the face's normal is
+    // within 90 degrees less that half angle of the bisector, either way.
+    let cosine = dot(normal, corner.bisector);
+    let one_side = cosine.abs() >= (0.5 * corner.interior_angle_rad).sin();
+    one_side.then(|| if cosine > 0.0 { normal } else { [-normal[0], -normal[1]] })
 }
 
 /// The deepest penetration (m, positive inside the clearance) of any node

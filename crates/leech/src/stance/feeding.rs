@@ -7,7 +7,7 @@ use super::scene_solve;
 use super::StanceError;
 use crate::error::InputError;
 use crate::scene::Scene;
-use crate::statics::{Equilibrium, SolveError, Solver, StopReason};
+use crate::statics::{Equilibrium, SolveError, Solver};
 
 /// Longest feeding step between contact refreshes (m): five of the
 /// built-in robot's elements, short enough for Newton to stay on the
@@ -80,6 +80,9 @@ impl<F: Fed> Feeding<'_, F> {
         let span = self.fed.span();
         let (mut done, mut step) = (0.0, FEED_STEP_M);
         let mut pushing = Vec::new();
+        // What the solves met on the way (a snap in the middle of the feed
+        // is the feed's too, as a continuation path reports its folds).
+        let mut events = Vec::new();
         // A step that needs many iterations is too long: stop it early and
         // halve it rather than finish it (the last chance runs to the end).
         let mut brief = self.solver.clone();
@@ -99,13 +102,30 @@ impl<F: Fed> Feeding<'_, F> {
                 let solver = if last_chance { self.solver } else { &brief };
                 let outcome = scene_solve::loaded(
                     self.fed.system(&next),
-                    carried,
+                    carried.clone(),
                     &pushing,
                     self.scene,
                     self.radius,
                     solver,
                     step <= FALLBACK_STEP_M,
                 );
+                // Where even the shortest step does not settle, the body
+                // is followed down in short legs (`scene_solve::descended`).
+                let descend = |carried| {
+                    let snapped = scene_solve::descended(
+                        self.fed.system(&next),
+                        carried,
+                        &pushing,
+                        self.scene,
+                        self.radius,
+                        self.solver,
+                    )?;
+                    Ok::<_, StanceError>(Some((
+                        snapped.pushing(),
+                        snapped.system.contacts().to_vec(),
+                        snapped.equilibrium,
+                    )))
+                };
                 match outcome {
                     Ok(settled) => {
                         let end = (&settled.system, &settled.equilibrium.q[..]);
@@ -113,27 +133,39 @@ impl<F: Fed> Feeding<'_, F> {
                         let eq = &settled.equilibrium;
                         if clear && (last_chance || eq.stable) {
                             Some((settled.pushing(), settled.system.contacts().to_vec(), settled.equilibrium))
-                        } else if last_chance {
-                            // Even the shortest step passes through a solid:
-                            // a jump no feeding step can resolve.
-                            return Err(SolveError::NotConverged {
-                                stage: settled.system.stage(),
-                                iterations: eq.iterations,
-                                residual: eq.residual,
-                                reason: StopReason::SweptThroughSolid,
-                            }
-                            .into());
+                        } else if last_chance && !clear {
+                            // Even the shortest step jumps through a solid:
+                            // the branch ended (a fold), and the settle leapt
+                            // to a distant equilibrium on a straight line. The
+                            // body snaps: follow it down through free space.
+                            descend(carried)?
                         } else {
                             None
                         }
                     }
-                    Err(e) if last_chance => return Err(e),
+                    // A deadline that ran out stops the feed.
+                    Err(e @ StanceError::Solve(SolveError::Stopped { .. })) => return Err(e),
+                    Err(e) if last_chance => {
+                        // The shortest step does not settle (its contacts
+                        // cycle): a descent in short legs may, where the
+                        // settle's long steps overshoot. If it does not
+                        // either, the settle's reason is the one to report.
+                        descend(carried).map_err(|d| {
+                            if matches!(d, StanceError::Solve(SolveError::Stopped { .. })) {
+                                d
+                            } else {
+                                e
+                            }
+                        })?
+                    }
                     Err(_) => None,
                 }
             };
             match accepted {
-                Some((now_pushing, contacts, equilibrium)) => {
+                Some((now_pushing, contacts, mut equilibrium)) => {
+                    events.append(&mut equilibrium.events);
                     if next_fraction >= 1.0 {
+                        equilibrium.events = events;
                         return Ok(FedEnd { shape: next, equilibrium, contacts });
                     }
                     if equilibrium.iterations <= EASY_ITERATIONS {

@@ -2,12 +2,12 @@
 //! scene's solids: the load (or the front hold's approach) applied in
 //! stages, the contact rows refreshed at each until they settle.
 
-use super::contact::{detect, displacement, on_cup, penetration, ContactOptions, ContactRow, Touching};
+use super::contact::{self, detect, displacement, on_cup, penetration, ContactOptions, ContactRow, Touching};
 use super::floating::FloatingBody;
 use super::{ContactForce, Held, StanceError};
 use crate::geom::dot;
 use crate::scene::Scene;
-use crate::statics::{Equilibrium, Iterate, Scratch, SolveError, Solver, StopReason};
+use crate::statics::{Equilibrium, Event, Iterate, Scratch, SolveError, Solver, StopReason};
 
 /// Stages the front hold's approach is applied in.
 pub const APPROACH_STAGES: usize = 16;
@@ -230,13 +230,7 @@ fn settle_rounds<S: Touching>(
     for _ in 0..options.max_rounds {
         detect(&settled.system, &settled.equilibrium.q, scene, radius, options, &mut rows);
         if !solved {
-            // A feeding step moves the material near the tip by the length
-            // fed: a contact that pushed may be out of the detection's reach
-            // at the start. Its row (frozen where it touched) keeps it.
-            let system = &settled.system;
-            let missing = pushing.iter().filter(|p| !rows.iter().any(|r| p.matches(system, r)));
-            let carried: Vec<_> = missing.filter_map(|p| p.row_in(system)).collect();
-            rows.extend(carried);
+            carry(&settled.system, &pushing, &mut rows);
         }
         // How far the last solve moved the body from a clear start: guards
         // are kept only where it moved farther than the margin (else every
@@ -293,6 +287,128 @@ fn settle_rounds<S: Touching>(
         reason: StopReason::ActiveSetCycling,
     }
     .into())
+}
+
+/// Adds to the fresh `rows` the rows of the contacts that pushed before
+/// (`pushing`) and were not detected again. A feeding step moves the
+/// material near the tip by the length fed: a contact that pushed may be out
+/// of the detection's reach at the start. Its row (frozen where it touched)
+/// keeps it.
+fn carry<S: Touching>(system: &S, pushing: &[Pushing], rows: &mut Vec<ContactRow>) {
+    let missing = pushing.iter().filter(|p| !rows.iter().any(|r| p.matches(system, r)));
+    let carried: Vec<_> = missing.filter_map(|p| p.row_in(system)).collect();
+    rows.extend(carried);
+}
+
+/// Longest angle step (rad, sup norm) of a descent ([`descended`]): a
+/// link of the built-in robot's 10 mm moves its tip by at most 0.1 mm, and
+/// the body's far end by a few millimetres, within the rows' reach.
+pub const DESCENT_STEP_RAD: f64 = 0.01;
+
+/// Newton iterations of a descent between two contact refreshes.
+const DESCENT_ITERATIONS: usize = 3;
+
+/// Rounds of a descent before it counts as lost: at [`DESCENT_STEP_RAD`] a
+/// few radians of motion, far more than any snap of a held body.
+const DESCENT_ROUNDS: usize = 2000;
+
+/// Steps shorter than this (rad) that still pass through a solid end the descent.
+const SHORTEST_DESCENT_STEP_RAD: f64 = 1e-6;
+
+/// Settles `system` (without contacts) at full load from `q`, where the
+/// shape it comes from (`q` carried over) is past a fold: no equilibrium
+/// lies near it, and a settle jumps to a distant one on a straight path that
+/// may pass through a solid. The descent follows a path instead, as damped
+/// dynamics would: rounds of [`DESCENT_ITERATIONS`] Newton iterations with
+/// blocking rows, every step within [`DESCENT_STEP_RAD`], the contact rows
+/// detected afresh between rounds, each round's motion checked for sweeping
+/// through a solid ([`contact::swept_clear`]; a round that does is taken again
+/// with half the step). It ends where a round converges with its rows
+/// settled, a stable equilibrium reached through free space, reported as an
+/// [`Event::Snap`] at `t = 1` with the largest angle change.
+///
+/// [`contact::swept_clear`]: super::contact::swept_clear
+pub(super) fn descended<S: Touching>(
+    system: S,
+    q: Vec<f64>,
+    pushing: &[Pushing],
+    scene: &Scene,
+    radius: f64,
+    solver: &Solver,
+) -> Result<Settled<S>, StanceError> {
+    let options = ContactOptions::default();
+    let stage = system.stage();
+    let start_q = q.clone();
+    let mut current = Settled { equilibrium: start(&system, q), system };
+    let mut pushing = pushing.to_vec();
+    let mut rows = Vec::new();
+    let mut descent = solver.clone();
+    descent.options.tuning.block_at_rows = true;
+    descent.options.max_minimization_iterations = DESCENT_ITERATIONS;
+    let mut step = DESCENT_STEP_RAD;
+    let (mut iterations, mut converged) = (0, false);
+    for _ in 0..DESCENT_ROUNDS {
+        detect(&current.system, &current.equilibrium.q, scene, radius, &options, &mut rows);
+        carry(&current.system, &pushing, &mut rows);
+        if converged && still_settled(&current, &rows, &options) {
+            current.equilibrium.iterations = iterations;
+            let jump_rad = sup_distance(&start_q, &current.equilibrium.q);
+            current.equilibrium.events.push(Event::Snap { stage, at: 1.0, jump_rad });
+            return Ok(current);
+        }
+        descent.options.trust_radius = step;
+        // A copy: a leg that sweeps through a solid is taken again from here.
+        let system = current.system.clone().with_contacts(rows.clone());
+        let mut it = warm_iterate(&system, &current.equilibrium, &pushing);
+        let (residual, verdict) = Scratch::with_spare(&system, |ws| descent.descend(&system, &mut it, 1.0, stage, ws))?;
+        iterations += it.iterations;
+        let clear = contact::swept_clear((&current.system, &current.equilibrium.q[..]), (&system, &it.q[..]), scene)
+            && penetration(&system, &it.q, scene, radius) <= options.penetration_tolerance;
+        if !clear {
+            // Too long a leg: the rows met on the way were not there.
+            step *= 0.5;
+            if step < SHORTEST_DESCENT_STEP_RAD {
+                break;
+            }
+            continue;
+        }
+        if verdict == Some(false) {
+            // A saddle the descent stopped on: no way down that keeps the
+            // path in free space is known.
+            return Err(
+                SolveError::NotConverged { stage, iterations, residual, reason: StopReason::StillUnstable }.into()
+            );
+        }
+        step = (2.0 * step).min(DESCENT_STEP_RAD);
+        converged = verdict == Some(true);
+        let events = std::mem::take(&mut current.equilibrium.events);
+        let mut equilibrium = if converged {
+            // Its energy and the verdict as every settle's.
+            Scratch::with_spare(&system, |ws| descent.finish(&system, it, residual, ws))
+        } else {
+            let multipliers = it.lambda;
+            Equilibrium {
+                q: it.q,
+                multipliers,
+                energy: f64::NAN,
+                residual,
+                stable: false,
+                iterations,
+                steps: 0,
+                events: Vec::new(),
+            }
+        };
+        (equilibrium.iterations, equilibrium.events) = (iterations, events);
+        current = Settled { system, equilibrium };
+        pushing = current.pushing();
+    }
+    let residual = current.equilibrium.residual;
+    Err(SolveError::NotConverged { stage, iterations, residual, reason: StopReason::SweptThroughSolid }.into())
+}
+
+/// The largest coordinate change between `a` and `b` (rad or m).
+fn sup_distance(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).fold(0.0f64, |m, (x, y)| m.max((x - y).abs()))
 }
 
 /// A start from `previous` for `system`'s rows: the rows before the

@@ -133,6 +133,30 @@ impl Solver {
         Ok(residual)
     }
 
+    /// At most [`SolverOptions::max_minimization_iterations`] Newton
+    /// iterations from `it` at parameter `t`, with no escape from an
+    /// unstable point: one leg of a descent that its caller cuts into legs
+    /// (to refresh what the rows are between them). Returns the scaled
+    /// residual and, where Newton converged, whether the point is stable;
+    /// `None` where the leg's iterations ran out (`it` holds the last
+    /// accepted point).
+    pub fn descend<S: StaticSystem + ?Sized>(
+        &self,
+        sys: &S,
+        it: &mut Iterate,
+        t: f64,
+        stage: Stage,
+        ws: &mut Scratch,
+    ) -> Result<(f64, Option<bool>), SolveError> {
+        assert!(ws.fits(sys), "scratch sized for another system");
+        let out = self.newton(sys, it, t, self.free_budget(), ws);
+        match out.result {
+            Ok(stable) => Ok((out.residual, Some(stable))),
+            Err(StopReason::IterationLimit) if it.iterations < self.options.max_iterations => Ok((out.residual, None)),
+            Err(reason) => Err(self.fail(stage, it, out.residual, reason)),
+        }
+    }
+
     /// Packs a finished iterate as an [`Equilibrium`] at `t = 1`. The last
     /// converged Newton run already knows energy and stability when it ended
     /// there; otherwise `sys` is evaluated and factored once.

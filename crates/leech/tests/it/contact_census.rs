@@ -51,25 +51,43 @@ fn bodies_fed_into_a_wall_ahead_settle() {
     assert!(wrong.is_empty(), "{}", wrong.join("\n"));
 }
 
-/// Steps ahead (60 and 30 mm): what solves is an equilibrium among the
-/// solids, what fails says why (a solver's reason, never a wrong shape).
+/// Steps ahead (60 and 30 mm): every ninth case of each grid solves (7 of
+/// the 60 mm grid's 136 and 52 of the 30 mm grid's failed before the
+/// descent through a fold), and each is an equilibrium among the solids.
 #[test]
-fn bodies_fed_against_a_step_settle_or_say_why() {
+fn bodies_fed_against_a_step_settle() {
     let (robot, solver) = (Robot::builtin(), Solver::default());
     let mut wrong = Vec::new();
-    let mut solved = 0;
     for scene in [census::step_ahead(0.06), census::step_ahead(0.03)] {
         for lengths in census::lengths().into_iter().step_by(9) {
             match census::solve(&robot, &scene, lengths, FreeCups::Rest, &solver) {
-                Ok(held) => {
-                    solved += 1;
-                    wrong.extend(check(&robot, &scene, lengths, &held).err());
-                }
-                Err(leech::stance::StanceError::Solve(e)) => assert!(!e.to_string().is_empty()),
-                Err(e) => wrong.push(format!("{} at {lengths:?}: not a solve's failure: {e}", scene.name)),
+                Ok(held) => wrong.extend(check(&robot, &scene, lengths, &held).err()),
+                Err(e) => wrong.push(format!("{} at {lengths:?}: {e}", scene.name)),
             }
         }
     }
-    assert!(solved > 0, "no step case solved");
     assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+}
+
+/// Before a 30 mm step at 0.160/0.162 m the tubes' tips push on the nosing
+/// and the free front cup hangs in front of the riser; fed 0.1 mm further,
+/// no equilibrium is left near (a fold): the tips slip onto the top. A
+/// settle from there leapt to the cup lying on the top, its lower rim's
+/// straight path through the block. The descent follows the body down
+/// instead: the cup swings into the riser and rests against it, and the
+/// feed reports the snap.
+#[test]
+fn a_body_that_snaps_over_a_nosing_is_followed_down_to_the_riser() {
+    let (robot, solver, scene) = (Robot::builtin(), Solver::default(), census::step_ahead(0.03));
+    let lengths = [0.160, 0.162];
+    let held = census::solve(&robot, &scene, lengths, FreeCups::Rest, &solver).unwrap();
+    check(&robot, &scene, lengths, &held).unwrap();
+    let snapped = held.equilibrium.events.iter().any(|e| matches!(e, leech::statics::Event::Snap { .. }));
+    assert!(snapped, "no snap reported: {:?}", held.equilibrium.events);
+    let riser = held.contacts.iter().find(|c| c.chain == "front_cup" && c.normal == [-1.0, 0.0]);
+    let riser = riser.unwrap_or_else(|| panic!("the front cup does not rest on the riser: {:?}", held.contacts));
+    assert!((riser.point_m[0] - census::AHEAD_M).abs() < 1e-9 && riser.point_m[1] < 0.03, "{riser:?}");
+    let on_top =
+        held.contacts.iter().any(|c| c.chain == "b" && c.normal == [0.0, 1.0] && c.point_m[0] > census::AHEAD_M);
+    assert!(on_top, "tube B's tip is not on the step's top: {:?}", held.contacts);
 }
