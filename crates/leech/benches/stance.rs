@@ -1,5 +1,6 @@
 //! Benchmarks of the body in a situation (divan): held by a cup on a floor
-//! with its contacts, both cups holding, and the growth with links.
+//! with its contacts (a soft body lying on many, against the same body with
+//! no scene), both cups holding, and the growth with links.
 //! `cargo bench -p leech --bench stance`.
 
 use leech::prelude::*;
@@ -36,6 +37,16 @@ fn floor_lying_cold_30_28(bencher: divan::Bencher) {
     let held = stance::solve_in(&robot, [0.30, 0.28], hold, &floor, &solver).unwrap();
     assert!(held.contacts.len() >= 20, "{} contacts", held.contacts.len());
     bencher.bench_local(|| stance::solve_in(&robot, [0.30, 0.28], hold, &floor, &solver).unwrap());
+}
+
+/// The body of [`floor_lying_cold_30_28`] with the same hold and no scene
+/// (it hangs through where the floor would be), solved cold: what the
+/// lying body's solve is measured against.
+#[divan::bench]
+fn lying_no_scene_30_28(bencher: divan::Bencher) {
+    let robot = Robot::builtin().with_shape_parameter(100.0).unwrap();
+    let (hold, solver) = (on_floor(&robot), Solver::default());
+    bencher.bench_local(|| stance::solve(&robot, [0.30, 0.28], hold, &solver).unwrap());
 }
 
 /// The same on a floor with tubes cut into `links` elements each (0.30 m).

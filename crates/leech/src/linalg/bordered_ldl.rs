@@ -252,11 +252,21 @@ fn factor_schur(schur: &mut [f64], k: usize, (pivots, scale): (&mut [Pivot], &mu
 /// `S(i, j) -= sum_u v_u[j] w_u[i]` on the lower triangle (`S` by columns),
 /// for a group of `R` unknowns with border rows `w_u` and `v_u = (D^-1 W)_u`:
 /// taking several unknowns per sweep over `S` divides its memory traffic.
+///
+/// The border's rows are mostly zero on a chain (a contact on one chain,
+/// a hold's rows on the driving unit's pose alone), and `W = L^-1 B` keeps
+/// those zeros: the rows of `S` past the group's last nonzero border row,
+/// and its columns where every `v_u` is zero, receive exact zeros and are
+/// left out (the sums that remain are the same, in the same order).
 #[inline(always)]
 pub(super) fn subtract_outer<const R: usize>(s: &mut [f64], k: usize, w: [&[f64]; R], v: &[[f64; MAX_BORDER]; R]) {
-    for j in 0..k {
+    let top = (0..k).rev().find(|&i| w.iter().any(|row| row[i] != 0.0)).map_or(0, |i| i + 1);
+    for j in 0..top {
         let coefficients: [f64; R] = std::array::from_fn(|u| v[u][j]);
-        let target = &mut s[j * k + j..j * k + k];
+        if coefficients.iter().all(|c| *c == 0.0) {
+            continue;
+        }
+        let target = &mut s[j * k + j..j * k + top];
         for (offset, x) in target.iter_mut().enumerate() {
             let i = j + offset;
             let mut sum = 0.0;

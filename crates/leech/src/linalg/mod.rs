@@ -75,7 +75,12 @@
 //! zeros (the recurrence only carries entries forward), and the 3 x 3 block
 //! path computes `W` and `W^T D^-1 W` only on the rows present at each
 //! block, `O(sum_j m_j^2)` with `m_j` the rows present at block `j` instead
-//! of `O(n k^2)`, in kernels of a width fixed at compile time.
+//! of `O(n k^2)`, in kernels of a width fixed at compile time. The scalar
+//! path for `k > 3` finds such zeros itself: its update of `S` by a group of
+//! unknowns stops at the group's last nonzero border row and skips the
+//! columns whose coefficients are all zero (a contact row on the other
+//! chain, a hold's rows on the pose alone), which leaves every remaining sum
+//! as it was, term for term.
 
 //!
 //! ## Quasiseparable matrices

@@ -172,9 +172,18 @@ impl Solver {
     }
 
     /// Factors the Lagrangian Hessian of `ws.current` with multipliers
-    /// `lambda`, adding the smallest shift (from a geometric sequence) that
-    /// makes the reduced Hessian positive definite. Returns the unshifted
-    /// inertia and the shift used.
+    /// `lambda`, adding the smallest shift of the sequence
+    /// `first_shift k growth^i` (`i < max_shift_tries`) that makes the
+    /// reduced Hessian positive definite. Returns the unshifted inertia and
+    /// the shift used (infinite when none does).
+    ///
+    /// The search starts where the last one of this Newton run ended
+    /// (`ws.shift_index`) and walks down while the next smaller
+    /// shift still gives a minimum (the reduced Hessian grows with the
+    /// shift, so that is the smallest), else up: the shift needed changes
+    /// little from one iteration to the next, and a search from the
+    /// sequence's start cost as many factorizations as the shift's place in
+    /// it (six a call on the soft body lying on a floor).
     pub(super) fn factor(&self, k: f64, it: &Iterate, ws: &mut Scratch) -> (Inertia, f64) {
         let tuning = &self.options.tuning;
         Self::lagrangian(ws, &it.lambda);
@@ -192,14 +201,35 @@ impl Solver {
         if first == Inertia::Minimum {
             return (first, 0.0);
         }
-        let mut shift = tuning.first_shift * k;
-        for _ in 0..tuning.max_shift_tries {
-            if ws.factor_kkt(shift, &it.active, tiny) == Inertia::Minimum {
-                return (first, shift);
-            }
-            shift *= tuning.shift_growth;
+        if tuning.max_shift_tries == 0 {
+            return (first, f64::INFINITY);
         }
-        (first, f64::INFINITY)
+        // Powers of the growth: exact for the default (8), as the repeated
+        // product the search once took.
+        let shift = |i: usize| tuning.first_shift * k * tuning.shift_growth.powi(i as i32);
+        let minimum = |i: usize, ws: &mut Scratch| ws.factor_kkt(shift(i), &it.active, tiny) == Inertia::Minimum;
+        let mut i = ws.shift_index.min(tuning.max_shift_tries - 1);
+        if minimum(i, ws) {
+            while i > 0 && minimum(i - 1, ws) {
+                i -= 1;
+            }
+            // Again after a walk down that ended on a shift too small.
+            if i > 0 {
+                minimum(i, ws);
+            }
+        } else {
+            loop {
+                i += 1;
+                if i == tuning.max_shift_tries {
+                    return (first, f64::INFINITY);
+                }
+                if minimum(i, ws) {
+                    break;
+                }
+            }
+        }
+        ws.shift_index = i;
+        (first, shift(i))
     }
 
     /// The Lagrangian Hessian `hess V - sum_r lambda_r hess C_r` of
@@ -234,6 +264,8 @@ impl Solver {
     ) -> Newton {
         it.fit_rows(&ws.rows);
         it.verdict = None;
+        // Each run searches its shifts afresh: its answer depends on its start alone.
+        ws.shift_index = 0;
         let inequalities = ws.rows.iter().filter(|r| r.kind == RowKind::Inequality).count();
         let mut changes = 0;
         loop {
@@ -647,4 +679,49 @@ pub(super) struct Damping {
     rho: f64,
     restoring: f64,
     first_trial: bool,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::robot::Robot;
+    use crate::statics::{Constraints, Potential};
+
+    /// Wherever the shift search starts, it finds the smallest shift of the
+    /// sequence that gives a minimum, and leaves that shift's factors.
+    #[test]
+    fn shift_search_finds_the_smallest_shift_from_any_start() {
+        // A soft body standing straight up under full gravity: a saddle.
+        let robot = Robot::builtin().with_shape_parameter(100.0).unwrap().with_base_angle(90.0).unwrap();
+        let body = robot.body(0.30, 0.28).unwrap();
+        let solver = Solver::default();
+        let mut ws = Scratch::for_system(&body);
+        let mut it = Iterate::new(vec![std::f64::consts::FRAC_PI_2; body.dim()]);
+        it.fit_rows(&ws.rows);
+        it.active = vec![true; body.rows()];
+        body.evaluate(&it.q, 1.0, &mut ws.current);
+        let k = body.moment_scale();
+        let tiny = solver.options.tuning.tiny_pivot * k;
+        let (n, m) = (body.dim(), body.rows());
+        let (r, c) = ((0..n).map(|i| 1.0 + i as f64).collect::<Vec<_>>(), vec![1e-3; m]);
+        let solved = |ws: &mut Scratch| {
+            let (mut x, mut y) = (vec![0.0; n], vec![0.0; m]);
+            ws.kkt.solve(&r, &c, &mut x, &mut y);
+            x
+        };
+        let mut found = Vec::new();
+        for start in [0, 3, 8, 20, 39, 100] {
+            ws.shift_index = start;
+            let (inertia, shift) = solver.factor(k, &it, &mut ws);
+            assert_eq!(inertia, Inertia::Indefinite);
+            // The factors left are the shift's.
+            let left = solved(&mut ws);
+            assert_eq!(ws.factor_kkt(shift, &it.active, tiny), Inertia::Minimum);
+            assert_eq!(left, solved(&mut ws), "start {start}");
+            found.push(shift);
+        }
+        assert!(found.iter().all(|s| *s == found[0]), "{found:?}");
+        let smaller = found[0] / solver.options.tuning.shift_growth;
+        assert!(found[0] > 0.0 && ws.factor_kkt(smaller, &it.active, tiny) != Inertia::Minimum);
+    }
 }

@@ -220,6 +220,10 @@ pub struct Scratch {
     /// over the moment scale. It enters the step's matrix, not the residual,
     /// so a converged point is exact.
     pub(super) dual: f64,
+    /// Where in the sequence `first_shift k growth^i` the last
+    /// inertia-correcting shift of the current Newton run was: the next
+    /// search starts there (see `Solver::factor`).
+    pub(super) shift_index: usize,
 }
 
 impl Scratch {
@@ -251,6 +255,7 @@ impl Scratch {
             lambda_trial: Vec::new(),
             rhs: Vec::new(),
             dual: 0.0,
+            shift_index: 0,
         };
         ws.size_buffers(system);
         ws
