@@ -1,4 +1,7 @@
-//! Errors for bad input: each names the field, the value and what is allowed.
+//! Errors for bad input: each names the field, the value and what is allowed;
+//! and a situation's failure (bad input, or a solve's).
+
+use crate::statics::SolveError;
 
 /// User input that cannot describe a robot or a solve.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -333,4 +336,27 @@ fn house(message: &str) -> String {
         .map(|(i, piece)| if i % 2 == 1 { clip(piece, EXCERPT_CHARS) } else { piece.into() })
         .collect::<Vec<_>>()
         .join("`")
+}
+
+/// Why a situation (a body held by its cups, among solids; [`crate::stance`],
+/// [`crate::body3`]) could not be solved.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum StanceError {
+    /// Bad input.
+    #[error(transparent)]
+    Input(#[from] InputError),
+    /// A solve that did not converge.
+    #[error(transparent)]
+    Solve(#[from] SolveError),
+    /// Both holds, the front one farther from the driving unit than chain A
+    /// reaches: the solve failed, as it must (no stretched body).
+    #[error("front hold out of reach: {distance_m:.4} m from the driving unit, chain A (tube 1) reaches at most {reach_m:.4} m ({source})")]
+    OutOfReach {
+        /// Distance from chain A's clamp to the front hold's point (m).
+        distance_m: f64,
+        /// Chain A's tube length (m).
+        reach_m: f64,
+        /// How the solve failed.
+        source: SolveError,
+    },
 }

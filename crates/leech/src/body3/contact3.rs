@@ -102,10 +102,10 @@ use super::body3::{Body3, Eval3, Frames, Param, PLATE_ROWS};
 use super::hold3::{FrontHold, Held3, Hold3, FRONT_ROWS};
 use super::solve::Equilibrium3;
 use crate::error::InputError;
+use crate::error::StanceError;
 use crate::geom3::{apply, apply_t, axpy, dot, linear_terms, scale, scale_mat, Mat3, Vec3};
 use crate::robot::Robot;
 use crate::scene::{Plane3, Scene3};
-use crate::stance::StanceError;
 use crate::statics::Solver;
 
 /// A contact row: the tip of link `link` of tube `tube` (0, 1, 2) against

@@ -173,6 +173,7 @@ use super::contact3::{row_sink, ContactEval, ContactRow3};
 use super::place3::{first_inside, front_cup_centre, front_tip, hold_points};
 use super::solve::Equilibrium3;
 use crate::cup::{Cup, CupVerdict};
+use crate::error::StanceError;
 use crate::error::{InputError, Num};
 use crate::geom3::{
     apply, axpy, column, cross, dot, exp, hat, jr_inv, linear_terms, log, mul, mul_tn, pair_terms, scale, scale_mat,
@@ -180,7 +181,6 @@ use crate::geom3::{
 };
 use crate::robot::Robot;
 use crate::scene::{Plane3, Scene3};
-use crate::stance::StanceError;
 use crate::statics::Solver;
 
 const E_X: Vec3 = [1.0, 0.0, 0.0];

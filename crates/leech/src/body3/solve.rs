@@ -31,10 +31,10 @@
 use super::body3::{distance, retract, within, Body3, Eval3, Frames, Param, PLATE_ROWS};
 use super::contact3::{Contact3, ContactEval, ContactRow3, HeldAt};
 use super::hold3::{FrontHold, FrontTarget, Hanging, FRONT_ROWS};
+use crate::cantilever::start_compliance;
 use crate::geom3::{apply, axpy, column, cross, dot};
 use crate::linalg::{BorderedLdl, MAX_BORDER};
 use crate::scene::Scene3;
-use crate::stance::start_compliance;
 use crate::statics::{BranchRule, Equilibrium, Event, Side, SolveError, Solver, Stage, StopReason, Tuning};
 
 /// Unstable landings left in one settle before it gives up.

@@ -2,22 +2,6 @@
 
 use crate::geom::Vec2;
 
-/// The both cups' path starts with the front hold's rows this compliant,
-/// relative to tube 1 (chain A) as a cantilever ([`start_compliance`]):
-/// stiff enough that a straight body buckles under the tip rows' force well
-/// before the target has moved far, soft enough that the rows' Jacobian
-/// along a straight tube (zero along it) leaves the KKT matrix regular.
-pub const START_SOFTNESS: f64 = 1e-3;
-
-/// The front hold's compliance at the start of the both cups' path: a tube
-/// of `length` (m) and bending stiffness `bending` (N m^2: a joint's
-/// stiffness times the element length) as a cantilever, `L^3 / EI` (m/N)
-/// for the tip's position and `L / EI` (rad/(N m)) for the plate's angle,
-/// times [`START_SOFTNESS`].
-pub fn start_compliance(length: f64, bending: f64) -> [f64; 2] {
-    [START_SOFTNESS * length.powi(3) / bending, START_SOFTNESS * length / bending]
-}
-
 /// A pose in the plane: a point (m) and a direction (rad, counter-clockwise from +x).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Pose {

@@ -70,10 +70,12 @@ mod points;
 mod scene_solve;
 pub mod tube;
 
+pub use crate::cantilever::{start_compliance, START_SOFTNESS};
+pub use crate::error::StanceError;
 pub use contact::{detect, penetration, swept_clear, ContactOptions, ContactRow, Touching, FRONT_CUP, REAR_CUP};
 pub use feeding::{FALLBACK_STEP_M, FEED_STEP_M, MIN_FEED_STEP_M};
 pub use floating::{Approach, CupFaces, FloatingBody, FREE, HOLD_ROWS};
-pub use hold::{start_compliance, Hold, Pose, START_SOFTNESS};
+pub use hold::{Hold, Pose};
 pub use tube::{tube_in, Tube, TubeHeld, TUBE_FEED_START_M};
 
 use crate::body::{Body, WELD_ROWS};
@@ -139,28 +141,6 @@ pub struct ContactForce {
     pub normal: Vec2,
     /// The normal force (N), along `normal`.
     pub force_n: f64,
-}
-
-/// Why a situation could not be solved.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum StanceError {
-    /// Bad input.
-    #[error(transparent)]
-    Input(#[from] InputError),
-    /// A solve that did not converge.
-    #[error(transparent)]
-    Solve(#[from] SolveError),
-    /// Both holds, the front one farther from the driving unit than chain A
-    /// reaches: the solve failed, as it must (no stretched body).
-    #[error("front hold out of reach: {distance_m:.4} m from the driving unit, chain A (tube 1) reaches at most {reach_m:.4} m ({source})")]
-    OutOfReach {
-        /// Distance from chain A's clamp to the front hold's point (m).
-        distance_m: f64,
-        /// Chain A's tube length (m).
-        reach_m: f64,
-        /// How the solve failed.
-        source: SolveError,
-    },
 }
 
 /// Solves the body of `robot` at tube lengths `[LA, LB]` (m) held by `hold`.
