@@ -99,8 +99,8 @@
 //! cup's, off the whole body's weight and moment ([`super::hold3`]).
 
 use super::body3::{Body3, Eval3, Frames, Param, PLATE_ROWS};
+use super::equilibrium3::Equilibrium3;
 use super::hold3::{FrontHold, Held3, Hold3, FRONT_ROWS};
-use super::solve::Equilibrium3;
 use crate::error::InputError;
 use crate::error::StanceError;
 use crate::geom3::{apply, apply_t, axpy, dot, linear_terms, scale, scale_mat, Mat3, Vec3};

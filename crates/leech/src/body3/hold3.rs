@@ -170,8 +170,8 @@
 
 use super::body3::{is_rotation, Body3, Derivatives, Eval3, Frames, Param, PLATE_ROWS};
 use super::contact3::{row_sink, ContactEval, ContactRow3};
+use super::equilibrium3::Equilibrium3;
 use super::place3::{first_inside, front_cup_centre, front_tip, hold_points};
-use super::solve::Equilibrium3;
 use crate::cup::{Cup, CupVerdict};
 use crate::error::StanceError;
 use crate::error::{InputError, Num};

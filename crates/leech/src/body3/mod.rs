@@ -73,7 +73,7 @@
 //!
 //! The rotations it is written in (`Exp`, `Log`, `Jr^-1`, the local derivatives of linear and
 //! relative terms) are [`crate::geom3`], in the numbers layer; [`tube3`] (one tube's links), [`body3`] (the body, its
-//! Lagrangian's derivatives), [`solve`] (Newton, continuation), [`planar`]
+//! Lagrangian's derivatives), [`equilibrium3`] (the solved body: frames, summary, contacts), [`solve`] (Newton, continuation), [`planar`]
 //! (the comparison with the planar model), [`hold3`] (holds: the rear
 //! cup, the front cup, both cups, a free front joint; each cup's reaction
 //! and verdict), [`place3`] (placing the body for a hold: the plate's frame
@@ -86,6 +86,7 @@
 pub mod body3;
 pub mod constant_curvature3;
 pub mod contact3;
+pub mod equilibrium3;
 pub mod hold3;
 pub mod place3;
 pub mod planar;
@@ -95,6 +96,6 @@ pub mod tube3;
 pub use body3::{Body3, Derivatives, Frames, PLATE_ROWS};
 pub use constant_curvature3::ConstantCurvature3;
 pub use contact3::{Contact3, ContactRow3};
+pub use equilibrium3::Equilibrium3;
 pub use hold3::{verdict3, CupState3, Hanging, Held3, Hold3, Wrench, FRONT_ROWS};
-pub use solve::Equilibrium3;
 pub use tube3::Tube3;

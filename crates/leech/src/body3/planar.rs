@@ -9,7 +9,7 @@
 //! what that changes, point by point (m) and link frame by link frame (rad).
 
 use super::body3::{angle_between, Body3};
-use super::solve::Equilibrium3;
+use super::equilibrium3::Equilibrium3;
 use crate::body::Body;
 use crate::geom::Vec2;
 use crate::geom3::{axpy, dot, rot_z, scale, Vec3};
