@@ -55,7 +55,7 @@ use crate::budget::Deadline;
 use crate::constant_curvature::PlanarBody;
 use crate::error::{positive, InputError, JobError};
 use crate::robot::{Robot, MAX_LINKS};
-use crate::statics::{Scratch, Solver, SolverOptions};
+use crate::statics::{Potential, Scratch, Solver, SolverOptions};
 
 /// Most points of one sweep over all models and shape parameters: two full
 /// grids of 2001 lengths (about 2.3 GB of points).
@@ -306,23 +306,30 @@ pub fn sweep(robot: &Robot, options: &SweepOptions, progress: &(dyn Fn(usize) + 
     let finished = || options.deadline.guard(done.load(Ordering::Relaxed), work, "solves (path and fresh check)");
     let mut points = Vec::new();
     let mut summaries = Vec::new();
+    let mut two_chain = if options.models.contains(&Model::TwoChain) {
+        let robots = pis
+            .iter()
+            .map(|pi| match pi {
+                Some(p) => robot.with_shape_parameter(*p),
+                None => Ok(robot.clone()),
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut walked: Vec<Vec<Point>> =
+            robots.par_iter().map(|tuned| walk(tuned, &values, options.left_longer, &solver, &tick)).collect();
+        finished()?;
+        check_fresh(&robots, &mut walked, &solver, &tick);
+        finished()?;
+        robots.iter().map(|r| Some(r.shape_parameter())).zip(walked).collect()
+    } else {
+        Vec::new()
+    };
     for model in &options.models {
         match model {
             Model::TwoChain => {
-                for pi in &pis {
-                    let tuned = match pi {
-                        Some(p) => robot.with_shape_parameter(*p)?,
-                        None => robot.clone(),
-                    };
-                    let pi_value = Some(tuned.shape_parameter());
-                    let pts = two_chain_points(&tuned, &values, options.left_longer, &solver, &tick)
-                        .into_iter()
-                        .map(|mut p| {
-                            p.shape_parameter = pi_value;
-                            p
-                        })
-                        .collect::<Vec<_>>();
-                    finished()?;
+                for (pi_value, mut pts) in two_chain.drain(..) {
+                    for p in &mut pts {
+                        p.shape_parameter = pi_value;
+                    }
                     summaries.push(summarize(Model::TwoChain, pi_value, &pts, &values, options.left_longer));
                     points.extend(pts);
                 }
@@ -463,53 +470,76 @@ pub(crate) fn solve_body(
     }
 }
 
-fn two_chain_points(
-    robot: &Robot,
-    values: &[f64],
-    left_longer: bool,
-    solver: &Solver,
-    progress: &(dyn Fn(usize) + Sync),
-) -> Vec<Point> {
-    let mut points = walk(robot, values, left_longer, solver, progress);
-    check_fresh(robot, &mut points, solver, progress);
-    points
-}
-
-/// Fills in `fresh_difference_m` of the warm-started points: each solved
-/// fresh, all in parallel; one progress unit per point (checked or not).
-fn check_fresh(robot: &Robot, points: &mut [Point], solver: &Solver, progress: &(dyn Fn(usize) + Sync)) {
-    points.par_iter_mut().for_each_init(
+/// Fills in `fresh_difference_m` of the warm-started points of every shape
+/// parameter (`points[k]` walked with `robots[k]`, which differ only in the
+/// joint stiffness): at each grid point the tubes are fed at `g = 0` once,
+/// with `robots[0]`, and that fed state, carried over to each stiffness
+/// ([`crate::body::Fed::for_stiffness`]), is loaded with each robot's gravity (see the
+/// module doc). Grid points in parallel; one progress unit per point
+/// (checked or not).
+fn check_fresh(robots: &[Robot], points: &mut [Vec<Point>], solver: &Solver, progress: &(dyn Fn(usize) + Sync)) {
+    let (models, per) = (points.len(), points.first().map_or(0, Vec::len));
+    let mut fresh = vec![f64::NAN; models * per];
+    fresh.par_chunks_mut(models).enumerate().for_each_init(
         || None,
-        |ws, p| {
+        |ws, (g, out)| {
             if solver.options.deadline.expired() {
                 return;
             }
-            if p.failure.is_none() && p.fresh_difference_m.is_nan() {
-                p.fresh_difference_m = fresh_difference(robot, p, solver, ws);
+            let unchecked = |k: usize| points[k][g].failure.is_none() && points[k][g].fresh_difference_m.is_nan();
+            if (0..models).any(unchecked) {
+                fresh_differences(robots, points, g, &unchecked, solver, ws, out);
             }
-            progress(1);
+            progress(models);
         },
     );
-}
-
-/// The distance (m) from a point's endpoint to a fresh solve's (see the module doc).
-fn fresh_difference(robot: &Robot, p: &Point, solver: &Solver, ws: &mut Option<Scratch>) -> f64 {
-    let Ok(body) = robot.body(p.lengths_m[0], p.lengths_m[1]) else { return f64::INFINITY };
-    let scratch = match ws {
-        Some(w) if w.fits(&body) => w,
-        _ => ws.insert(Scratch::for_system(&body)),
-    };
-    match body.solve_in(solver, scratch) {
-        Ok(eq) => {
-            let e = body.endpoint(&eq.q);
-            let d = (e[0] - p.endpoint_m[0]).hypot(e[1] - p.endpoint_m[1]);
-            if d <= FRESH_TOLERANCE_M {
-                0.0
-            } else {
-                d
+    for (k, pts) in points.iter_mut().enumerate() {
+        for (g, p) in pts.iter_mut().enumerate() {
+            if p.fresh_difference_m.is_nan() && p.failure.is_none() {
+                p.fresh_difference_m = fresh[g * models + k];
             }
         }
-        Err(_) => f64::INFINITY,
+    }
+}
+
+/// The distances (m) from grid point `g`'s endpoints to a fresh solve's
+/// (see the module doc), into `out[k]` for each robot `k` it is `unchecked` for.
+fn fresh_differences(
+    robots: &[Robot],
+    points: &[Vec<Point>],
+    g: usize,
+    unchecked: &dyn Fn(usize) -> bool,
+    solver: &Solver,
+    ws: &mut Option<Scratch>,
+    out: &mut [f64],
+) {
+    let [la, lb] = points[0][g].lengths_m;
+    let Ok(first) = robots[0].body(la, lb) else { return out.fill(f64::INFINITY) };
+    let scratch = match ws {
+        Some(w) if w.fits(&first) => w,
+        _ => ws.insert(Scratch::for_system(&first)),
+    };
+    let fed = first.feed_in(solver, scratch);
+    for (k, robot) in robots.iter().enumerate().filter(|(k, _)| unchecked(*k)) {
+        let fresh = match (&fed, robot.body(la, lb)) {
+            (Ok(fed), Ok(body)) => body
+                .load_in(solver, fed.for_stiffness(body.moment_scale()), scratch)
+                .ok()
+                .map(|eq| body.endpoint(&eq.q)),
+            _ => None,
+        };
+        let p = &points[k][g].endpoint_m;
+        out[k] = match fresh {
+            Some(e) => {
+                let d = (e[0] - p[0]).hypot(e[1] - p[1]);
+                if d <= FRESH_TOLERANCE_M {
+                    0.0
+                } else {
+                    d
+                }
+            }
+            None => f64::INFINITY,
+        };
     }
 }
 
