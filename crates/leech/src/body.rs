@@ -32,7 +32,10 @@
 //! unique (straight for `b = c`, an S for `b != c`), and follows the family as
 //! the longer tube is fed to its length; then it raises gravity from 0 to `g`
 //! (load continuation). Folds and bifurcations on both paths are reported as
-//! [`Event`](crate::statics::Event)s.
+//! [`Event`](crate::statics::Event)s. The two stages are also callable one
+//! by one ([`Body::feed_in`], [`Body::load_in`]): the fed state does not
+//! depend on the joint stiffness but through its multipliers ([`Fed`]), so
+//! a sweep over shape parameters feeds each pair of lengths once.
 
 use crate::chain::{Block, Chain};
 use crate::geom::right_normal;

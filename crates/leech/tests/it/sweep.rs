@@ -166,3 +166,21 @@ fn a_spent_deadline_stops_the_sweep_and_too_many_points_are_refused() {
     let e = sweep(&Robot::builtin(), &huge, &|_| {}).unwrap_err();
     assert!(e.to_string().contains(&leech::sweep::MAX_POINTS.to_string()), "{e}");
 }
+
+/// The two-chain points of all shape parameters are solved together; a
+/// model listed twice still gets its points and summaries twice, in order.
+#[test]
+fn a_model_listed_twice_is_reported_twice() {
+    let mut o = options(vec![Model::TwoChain, Model::ConstantCurvature, Model::TwoChain], true);
+    o.grid = Grid::new(0.05, 0.30, 0.05).unwrap();
+    o.shape_parameters = vec![300.0, 3000.0];
+    let result = sweep(&Robot::builtin(), &o, &|_| {}).unwrap();
+    let models: Vec<(Model, Option<i64>)> =
+        result.summaries.iter().map(|s| (s.model, s.shape_parameter.map(|p| p.round() as i64))).collect();
+    let (two, cc) = (Model::TwoChain, Model::ConstantCurvature);
+    assert_eq!(models, [(two, Some(300)), (two, Some(3000)), (cc, None), (two, Some(300)), (two, Some(3000))]);
+    let per = result.summaries[0].points;
+    assert_eq!(result.points.len(), 5 * per);
+    assert_eq!(result.points[..2 * per], result.points[3 * per..]);
+    assert_eq!(result.summaries[..2], result.summaries[3..]);
+}
