@@ -32,7 +32,10 @@
 //! unique (straight for `b = c`, an S for `b != c`), and follows the family as
 //! the longer tube is fed to its length; then it raises gravity from 0 to `g`
 //! (load continuation). Folds and bifurcations on both paths are reported as
-//! [`Event`](crate::statics::Event)s.
+//! [`Event`](crate::statics::Event)s. The two stages are also callable one
+//! by one ([`Body::feed_in`], [`Body::load_in`]): the fed state does not
+//! depend on the joint stiffness but through its multipliers ([`Fed`]), so
+//! a sweep over shape parameters feeds each pair of lengths once.
 
 use crate::chain::{Block, Chain};
 use crate::geom::right_normal;
@@ -229,14 +232,32 @@ impl Body {
 
     /// [`Body::solve`] with caller-provided scratch space.
     pub fn solve_in(&self, solver: &Solver, ws: &mut Scratch) -> Result<Equilibrium, SolveError> {
+        let fed = self.feed_in(solver, ws)?;
+        self.load_in(solver, fed, ws)
+    }
+
+    /// The first stage of [`Body::solve_in`]: the tubes fed from equal
+    /// lengths at `g = 0`. No gravity acts, so the potential is the springs'
+    /// alone and scales with the joint stiffness `k`: the same shape is the
+    /// fed state of every body that differs only in `k`
+    /// ([`Fed::for_stiffness`]).
+    pub fn feed_in(&self, solver: &Solver, ws: &mut Scratch) -> Result<Fed, SolveError> {
         let mut state = Iterate::new(self.straight());
         let (la, lb) = (self.a.tube_length(), self.b.tube_length());
         let feed = Feeding::new(self, la, lb);
-        let mut residual = if la == lb {
+        let residual = if la == lb {
             solver.minimize(&feed, &mut state, 1.0, Stage::Feed, ws)?
         } else {
             solver.continuation(&feed, &mut state, 0.0, Stage::Feed, ws)?
         };
+        Ok(Fed { state, residual, moment_scale: self.moment_scale })
+    }
+
+    /// The second stage of [`Body::solve_in`]: gravity raised from 0 to `g`
+    /// from the fed state (of this body, or of one differing only in `k`,
+    /// carried over by [`Fed::for_stiffness`]).
+    pub fn load_in(&self, solver: &Solver, fed: Fed, ws: &mut Scratch) -> Result<Equilibrium, SolveError> {
+        let Fed { mut state, mut residual, .. } = fed;
         if self.gravity != 0.0 {
             residual = solver.continuation(self, &mut state, 0.0, Stage::Load, ws)?;
         }
@@ -344,6 +365,30 @@ impl Path for Body {
     }
     fn discrete_stiffness(&self) -> f64 {
         self.a.discrete_stiffness(self.gravity).max(self.b.discrete_stiffness(self.gravity))
+    }
+}
+
+/// A body's fed state at `g = 0` ([`Body::feed_in`]), before gravity.
+#[derive(Clone, Debug)]
+pub struct Fed {
+    state: Iterate,
+    residual: f64,
+    /// The largest joint stiffness (N m/rad) of the body that was fed.
+    moment_scale: f64,
+}
+
+impl Fed {
+    /// The fed state of a body differing from the fed one only in its joint
+    /// stiffnesses, all in one ratio (the same robot at another shape
+    /// parameter), whose largest is `moment_scale` (N m/rad). At `g = 0` the
+    /// potential is `k V(q)` and the weld's multipliers are forces, so the
+    /// same `q` is the equilibrium with the multipliers scaled by the ratio
+    /// of the stiffnesses; the scaled residual does not change. Only the
+    /// rounding differs from feeding that body itself (about 1e-15 rad).
+    pub fn for_stiffness(&self, moment_scale: f64) -> Fed {
+        let mut state = self.state.clone();
+        state.scale_potential(moment_scale / self.moment_scale);
+        Fed { state, residual: self.residual, moment_scale }
     }
 }
 

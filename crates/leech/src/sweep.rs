@@ -23,8 +23,24 @@
 //! (m) between its endpoint and the fresh solve's, 0 where they agree to
 //! [`FRESH_TOLERANCE_M`], infinite where the fresh solve fails, NaN for a
 //! failed point. Points solved cold (the corner, cold retries) are fresh by
-//! construction; the others are solved fresh again after the walk, all in
-//! parallel (a cold solve of the built-in robot costs about five warm steps).
+//! construction; the others are solved fresh again after the walks of every
+//! shape parameter, grid points in parallel.
+//!
+//! A fresh solve has two stages ([`Body::feed_in`], [`Body::load_in`]): the
+//! tubes fed from equal lengths at `g = 0`, then gravity raised from 0 to
+//! `g`. The shape parameters of one sweep differ only in the joint
+//! stiffness `k` (`Pi = k / (m g l)`), and at `g = 0` the potential is
+//! `k V(q)`: the fed shape is the same for every `k`, the weld's multipliers
+//! (forces) proportional to it. So each grid point is fed once, with the
+//! first shape parameter's robot, and that state, its multipliers scaled by
+//! the ratio of the stiffnesses ([`crate::body::Fed::for_stiffness`]), is
+//! loaded by each robot. The load stage then takes the same Newton iterations
+//! and steps as the robot's own default solve; only the rounding of the fed
+//! state differs (about 1e-15 rad, so endpoints agree to about 1e-14 m: on
+//! the paper's Fig. 12 grid every flag and count is the same as feeding each
+//! robot itself, and `fresh_difference_m` moves by at most 3.4e-15 m). The
+//! feed costs the same at every Pi; the load stage grows as Pi falls (on the
+//! 5 mm grid, one core: feed 60 ms, load 13 ms at Pi 10000, 307 ms at Pi 300).
 //!
 //! # Time and size
 //!
@@ -55,7 +71,7 @@ use crate::budget::Deadline;
 use crate::constant_curvature::PlanarBody;
 use crate::error::{positive, InputError, JobError};
 use crate::robot::{Robot, MAX_LINKS};
-use crate::statics::{Scratch, Solver, SolverOptions};
+use crate::statics::{Potential, Scratch, Solver, SolverOptions};
 
 /// Most points of one sweep over all models and shape parameters: two full
 /// grids of 2001 lengths (about 2.3 GB of points).
@@ -306,23 +322,38 @@ pub fn sweep(robot: &Robot, options: &SweepOptions, progress: &(dyn Fn(usize) + 
     let finished = || options.deadline.guard(done.load(Ordering::Relaxed), work, "solves (path and fresh check)");
     let mut points = Vec::new();
     let mut summaries = Vec::new();
+    // Every shape parameter's walk, then their fresh checks together (they
+    // share the feed, see the module doc).
+    let uses = options.models.iter().filter(|m| **m == Model::TwoChain).count();
+    let mut two_chain = if uses > 0 {
+        let robots = pis
+            .iter()
+            .map(|pi| match pi {
+                Some(p) => robot.with_shape_parameter(*p),
+                None => Ok(robot.clone()),
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let mut walked: Vec<Vec<Point>> =
+            robots.par_iter().map(|tuned| walk(tuned, &values, options.left_longer, &solver, &tick)).collect();
+        finished()?;
+        check_fresh(&robots, &mut walked, &solver, &tick);
+        finished()?;
+        for (tuned, pts) in robots.iter().zip(&mut walked) {
+            pts.iter_mut().for_each(|p| p.shape_parameter = Some(tuned.shape_parameter()));
+        }
+        walked
+    } else {
+        Vec::new()
+    };
+    let mut used = 0;
     for model in &options.models {
         match model {
             Model::TwoChain => {
-                for pi in &pis {
-                    let tuned = match pi {
-                        Some(p) => robot.with_shape_parameter(*p)?,
-                        None => robot.clone(),
-                    };
-                    let pi_value = Some(tuned.shape_parameter());
-                    let pts = two_chain_points(&tuned, &values, options.left_longer, &solver, &tick)
-                        .into_iter()
-                        .map(|mut p| {
-                            p.shape_parameter = pi_value;
-                            p
-                        })
-                        .collect::<Vec<_>>();
-                    finished()?;
+                used += 1;
+                // The last listing takes the points; a model listed twice is reported twice.
+                let blocks = if used == uses { std::mem::take(&mut two_chain) } else { two_chain.clone() };
+                for pts in blocks {
+                    let pi_value = pts.first().and_then(|p| p.shape_parameter);
                     summaries.push(summarize(Model::TwoChain, pi_value, &pts, &values, options.left_longer));
                     points.extend(pts);
                 }
@@ -463,53 +494,76 @@ pub(crate) fn solve_body(
     }
 }
 
-fn two_chain_points(
-    robot: &Robot,
-    values: &[f64],
-    left_longer: bool,
-    solver: &Solver,
-    progress: &(dyn Fn(usize) + Sync),
-) -> Vec<Point> {
-    let mut points = walk(robot, values, left_longer, solver, progress);
-    check_fresh(robot, &mut points, solver, progress);
-    points
-}
-
-/// Fills in `fresh_difference_m` of the warm-started points: each solved
-/// fresh, all in parallel; one progress unit per point (checked or not).
-fn check_fresh(robot: &Robot, points: &mut [Point], solver: &Solver, progress: &(dyn Fn(usize) + Sync)) {
-    points.par_iter_mut().for_each_init(
+/// Fills in `fresh_difference_m` of the warm-started points of every shape
+/// parameter (`points[k]` walked with `robots[k]`, which differ only in the
+/// joint stiffness): at each grid point the tubes are fed at `g = 0` once,
+/// with `robots[0]`, and that fed state, carried over to each stiffness
+/// ([`crate::body::Fed::for_stiffness`]), is loaded with each robot's gravity (see the
+/// module doc). Grid points in parallel; one progress unit per point
+/// (checked or not).
+fn check_fresh(robots: &[Robot], points: &mut [Vec<Point>], solver: &Solver, progress: &(dyn Fn(usize) + Sync)) {
+    let (models, per) = (points.len(), points.first().map_or(0, Vec::len));
+    let mut fresh = vec![f64::NAN; models * per];
+    fresh.par_chunks_mut(models).enumerate().for_each_init(
         || None,
-        |ws, p| {
+        |ws, (g, out)| {
             if solver.options.deadline.expired() {
                 return;
             }
-            if p.failure.is_none() && p.fresh_difference_m.is_nan() {
-                p.fresh_difference_m = fresh_difference(robot, p, solver, ws);
+            let unchecked = |k: usize| points[k][g].failure.is_none() && points[k][g].fresh_difference_m.is_nan();
+            if (0..models).any(unchecked) {
+                fresh_differences(robots, points, g, &unchecked, solver, ws, out);
             }
-            progress(1);
+            progress(models);
         },
     );
-}
-
-/// The distance (m) from a point's endpoint to a fresh solve's (see the module doc).
-fn fresh_difference(robot: &Robot, p: &Point, solver: &Solver, ws: &mut Option<Scratch>) -> f64 {
-    let Ok(body) = robot.body(p.lengths_m[0], p.lengths_m[1]) else { return f64::INFINITY };
-    let scratch = match ws {
-        Some(w) if w.fits(&body) => w,
-        _ => ws.insert(Scratch::for_system(&body)),
-    };
-    match body.solve_in(solver, scratch) {
-        Ok(eq) => {
-            let e = body.endpoint(&eq.q);
-            let d = (e[0] - p.endpoint_m[0]).hypot(e[1] - p.endpoint_m[1]);
-            if d <= FRESH_TOLERANCE_M {
-                0.0
-            } else {
-                d
+    for (k, pts) in points.iter_mut().enumerate() {
+        for (g, p) in pts.iter_mut().enumerate() {
+            if p.fresh_difference_m.is_nan() && p.failure.is_none() {
+                p.fresh_difference_m = fresh[g * models + k];
             }
         }
-        Err(_) => f64::INFINITY,
+    }
+}
+
+/// The distances (m) from grid point `g`'s endpoints to a fresh solve's
+/// (see the module doc), into `out[k]` for each robot `k` it is `unchecked` for.
+fn fresh_differences(
+    robots: &[Robot],
+    points: &[Vec<Point>],
+    g: usize,
+    unchecked: &dyn Fn(usize) -> bool,
+    solver: &Solver,
+    ws: &mut Option<Scratch>,
+    out: &mut [f64],
+) {
+    let [la, lb] = points[0][g].lengths_m;
+    let Ok(first) = robots[0].body(la, lb) else { return out.fill(f64::INFINITY) };
+    let scratch = match ws {
+        Some(w) if w.fits(&first) => w,
+        _ => ws.insert(Scratch::for_system(&first)),
+    };
+    let fed = first.feed_in(solver, scratch);
+    for (k, robot) in robots.iter().enumerate().filter(|(k, _)| unchecked(*k)) {
+        let fresh = match (&fed, robot.body(la, lb)) {
+            (Ok(fed), Ok(body)) => body
+                .load_in(solver, fed.for_stiffness(body.moment_scale()), scratch)
+                .ok()
+                .map(|eq| body.endpoint(&eq.q)),
+            _ => None,
+        };
+        let p = &points[k][g].endpoint_m;
+        out[k] = match fresh {
+            Some(e) => {
+                let d = (e[0] - p[0]).hypot(e[1] - p[1]);
+                if d <= FRESH_TOLERANCE_M {
+                    0.0
+                } else {
+                    d
+                }
+            }
+            None => f64::INFINITY,
+        };
     }
 }
 

@@ -54,6 +54,18 @@ impl Iterate {
         self.q.iter().fold(0u64, |h, x| h.rotate_left(7) ^ x.to_bits())
     }
 
+    /// The same point for the potential and rows' forces times `factor`
+    /// (a body whose stiffnesses are all `factor` times larger, at no load):
+    /// the multipliers and a known energy scale, the stability does not.
+    pub fn scale_potential(&mut self, factor: f64) {
+        for l in &mut self.lambda {
+            *l *= factor;
+        }
+        if let Some(v) = &mut self.verdict {
+            v.energy *= factor;
+        }
+    }
+
     /// Sizes the multipliers and the active set for `rows` (kept if sized).
     pub(super) fn fit_rows(&mut self, rows: &[Row]) {
         if self.lambda.len() != rows.len() {

@@ -65,6 +65,30 @@ fn refitted_scratch_solves_as_fresh_scratch() {
     assert_eq!(fresh.iterations, refitted.iterations);
 }
 
+/// The tubes fed at `g = 0` for one stiffness are the fed state of every
+/// other (the potential scales with `k`): loaded from it, a stiffer or softer
+/// robot takes the same iterations and steps as its own default solve and
+/// lands on its shape to rounding.
+#[test]
+fn a_fed_state_carries_over_to_another_stiffness() {
+    let solver = Solver::default();
+    let soft = Robot::builtin().with_shape_parameter(300.0).unwrap();
+    for pi in [10.0, 1000.0, 10000.0] {
+        let robot = Robot::builtin().with_shape_parameter(pi).unwrap();
+        for (la, lb) in [(0.30, 0.20), (0.12, 0.25), (0.2, 0.2)] {
+            let (from, body) = (soft.body(la, lb).unwrap(), robot.body(la, lb).unwrap());
+            let mut ws = Scratch::for_system(&body);
+            let fed = from.feed_in(&solver, &mut ws).unwrap();
+            let carried = body.load_in(&solver, fed.for_stiffness(body.moment_scale()), &mut ws).unwrap();
+            let own = body.solve_in(&solver, &mut ws).unwrap();
+            assert_eq!((carried.iterations, carried.steps), (own.iterations, own.steps), "Pi {pi} at {la}, {lb}");
+            assert_eq!(carried.stable, own.stable);
+            let worst = carried.q.iter().zip(&own.q).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            assert!(worst < 1e-12, "Pi {pi} at {la}, {lb}: {worst:e} rad");
+        }
+    }
+}
+
 #[test]
 fn bad_warm_start_is_rejected() {
     let body = Robot::builtin().body(0.1, 0.1).unwrap();

@@ -117,33 +117,41 @@ fn bad_grids_are_rejected() {
     assert!(sweep(&robot, &o, &|_| {}).is_err(), "shorter than one element");
 }
 
-/// Every point of a soft robot's sweep (where the path and fresh solves
-/// differ) either agrees with a fresh solve to 1e-6 m or says by how much it
-/// does not.
+/// Every point of a sweep over several shape parameters (soft ones among
+/// them, where the path and fresh solves differ) either agrees with a fresh
+/// solve of its own robot to 1e-6 m or says by how much it does not, to
+/// rounding: the sweep feeds the tubes once for all shape parameters.
 #[test]
 fn every_point_reports_its_difference_from_a_fresh_solve() {
-    let robot = Robot::builtin().with_shape_parameter(10.0).unwrap();
     let mut options = options(vec![Model::TwoChain], false);
     options.grid = Grid::new(0.05, 0.30, 0.05).unwrap();
-    let result = sweep(&robot, &options, &|_| {}).unwrap();
-    let mut differing = 0;
-    for p in result.points.iter().filter(|p| p.failure.is_none()) {
-        let body = robot.body(p.lengths_m[0], p.lengths_m[1]).unwrap();
-        let Ok(eq) = body.solve(&Solver::default()) else {
-            assert!(p.fresh_difference_m.is_infinite(), "{p:?}");
-            continue;
-        };
-        let e = body.endpoint(&eq.q);
-        let d = (e[0] - p.endpoint_m[0]).hypot(e[1] - p.endpoint_m[1]);
-        if d <= 1e-6 {
-            assert_eq!(p.fresh_difference_m, 0.0, "{p:?}");
-        } else {
-            assert!((p.fresh_difference_m - d).abs() < 1e-9, "{p:?}: {d}");
-            differing += 1;
+    options.shape_parameters = vec![10.0, 300.0, 3000.0];
+    let result = sweep(&Robot::builtin(), &options, &|_| {}).unwrap();
+    for summary in &result.summaries {
+        let pi = summary.shape_parameter.unwrap();
+        let robot = Robot::builtin().with_shape_parameter(pi).unwrap();
+        let mut differing = 0;
+        let points = result.points.iter().filter(|p| p.shape_parameter == Some(pi) && p.failure.is_none());
+        for p in points {
+            let body = robot.body(p.lengths_m[0], p.lengths_m[1]).unwrap();
+            let Ok(eq) = body.solve(&Solver::default()) else {
+                assert!(p.fresh_difference_m.is_infinite(), "{p:?}");
+                continue;
+            };
+            let e = body.endpoint(&eq.q);
+            let d = (e[0] - p.endpoint_m[0]).hypot(e[1] - p.endpoint_m[1]);
+            if d <= 1e-6 {
+                assert_eq!(p.fresh_difference_m, 0.0, "{p:?}");
+            } else {
+                assert!((p.fresh_difference_m - d).abs() < 1e-12, "{p:?}: {d}");
+                differing += 1;
+            }
+        }
+        assert_eq!(summary.differ_from_fresh, differing, "Pi {pi}");
+        if pi == 10.0 {
+            assert!(differing > 0, "the soft robot's path and fresh solves differ somewhere on this grid");
         }
     }
-    assert!(differing > 0, "the soft robot's path and fresh solves differ somewhere on this grid");
-    assert_eq!(result.summaries[0].differ_from_fresh, differing);
 }
 
 #[test]
@@ -157,4 +165,22 @@ fn a_spent_deadline_stops_the_sweep_and_too_many_points_are_refused() {
     huge.shape_parameters = vec![100.0; 3];
     let e = sweep(&Robot::builtin(), &huge, &|_| {}).unwrap_err();
     assert!(e.to_string().contains(&leech::sweep::MAX_POINTS.to_string()), "{e}");
+}
+
+/// The two-chain points of all shape parameters are solved together; a
+/// model listed twice still gets its points and summaries twice, in order.
+#[test]
+fn a_model_listed_twice_is_reported_twice() {
+    let mut o = options(vec![Model::TwoChain, Model::ConstantCurvature, Model::TwoChain], true);
+    o.grid = Grid::new(0.05, 0.30, 0.05).unwrap();
+    o.shape_parameters = vec![300.0, 3000.0];
+    let result = sweep(&Robot::builtin(), &o, &|_| {}).unwrap();
+    let models: Vec<(Model, Option<i64>)> =
+        result.summaries.iter().map(|s| (s.model, s.shape_parameter.map(|p| p.round() as i64))).collect();
+    let (two, cc) = (Model::TwoChain, Model::ConstantCurvature);
+    assert_eq!(models, [(two, Some(300)), (two, Some(3000)), (cc, None), (two, Some(300)), (two, Some(3000))]);
+    let per = result.summaries[0].points;
+    assert_eq!(result.points.len(), 5 * per);
+    assert_eq!(result.points[..2 * per], result.points[3 * per..]);
+    assert_eq!(result.summaries[..2], result.summaries[3..]);
 }
