@@ -376,6 +376,16 @@ pub fn tangent_hessian(r: &Mat3, w: Vec3) -> Mat3 {
     [[0.0, 0.5 * wl[1], 0.5 * wl[2]], [0.5 * wl[1], -wl[0], 0.0], [0.5 * wl[2], 0.0, -wl[0]]]
 }
 
+/// Whether `r` is a rotation: orthonormal to 1e-9, determinant +1 to 1e-9.
+pub fn is_rotation(r: &Mat3) -> bool {
+    let gram = mul_tn(r, r);
+    let det = dot(r[0], cross(r[1], r[2]));
+    let off = (0..3)
+        .flat_map(|a| (0..3).map(move |b| (a, b)))
+        .fold(0.0f64, |m, (a, b)| m.max((gram[a][b] - if a == b { 1.0 } else { 0.0 }).abs()));
+    off <= 1e-9 && (det - 1.0).abs() <= 1e-9
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -20,8 +20,8 @@ use super::tube3::Tube3;
 use crate::chain::{Chain, Discretization};
 use crate::error::InputError;
 use crate::geom3::{
-    add_scaled, apply, axpy, cross, linear_terms, mul_tn, pair_terms, rot_z, scale, tangent_hessian, transpose, Mat3,
-    Vec3,
+    add_scaled, apply, axpy, cross, is_rotation, linear_terms, mul_tn, pair_terms, rot_z, scale, tangent_hessian,
+    transpose, Mat3, Vec3,
 };
 use crate::robot::Robot;
 
@@ -58,11 +58,11 @@ impl Frames {
 pub(crate) struct Param {
     pub load: f64,
     pub scale: [f64; 3],
-    /// Hanging from the front cup: gravity as [`super::hold3`] writes it
+    /// Hanging from the front cup: gravity as [`super::held3`] writes it
     /// (turning with the plate), in place of the fixed unit's.
     pub hang: Option<super::hold3::Hanging>,
     /// Both cups holding: the front hold's target (tube 1's tip and the
-    /// plate's frame), whose six rows follow the weld's 12 ([`super::hold3`]).
+    /// plate's frame), whose six rows follow the weld's 12 ([`super::held3`]).
     pub front: Option<super::hold3::FrontTarget>,
 }
 
@@ -182,7 +182,7 @@ impl Body3 {
     /// coordinates reach each chain's last block only (tube 1's last joint,
     /// the weld's rotation rows) and so do a side tube's rotation rows. A
     /// body `hanging` from the front cup couples the plate with every link
-    /// (gravity turns with the plate: [`super::hold3`]), so there the
+    /// (gravity turns with the plate: [`super::held3`]), so there the
     /// plate's coordinates reach every block.
     /// A contact row reaches one link only, but is declared on every block
     /// (the pattern is made once per active set, not per link). The
@@ -609,16 +609,6 @@ impl Eval3 {
             *o = row.iter().zip(lambda).fold(*g, |acc, (j, l)| acc - j * l);
         }
     }
-}
-
-/// Whether `r` is a rotation: orthonormal to 1e-9, determinant +1 to 1e-9.
-pub(crate) fn is_rotation(r: &Mat3) -> bool {
-    let gram = mul_tn(r, r);
-    let det = crate::geom3::dot(r[0], cross(r[1], r[2]));
-    let off = (0..3)
-        .flat_map(|a| (0..3).map(move |b| (a, b)))
-        .fold(0.0f64, |m, (a, b)| m.max((gram[a][b] - if a == b { 1.0 } else { 0.0 }).abs()));
-    off <= 1e-9 && (det - 1.0).abs() <= 1e-9
 }
 
 /// `R Exp(v)`, the retraction of a local step `v` (rad).

@@ -50,7 +50,7 @@
 //! # Under the front hold
 //!
 //! Held at the front, the solver keeps the driving unit fixed and turns the
-//! world with the plate ([`super::hold3`]): a picture's point `x'` is at
+//! world with the plate ([`super::held3`]): a picture's point `x'` is at
 //! `x = G (x' - x'_tip) + P_f`, `G = R_f R'_P^T`, with `R'_P` unknown. So
 //! the solids move with the plate, and the gap of the same tip is
 //!
@@ -63,7 +63,7 @@
 //!
 //! (the tip `x'_tip` is tube 1's: every link of tube 1 beyond the point
 //! enters, and for a point on tube 2 or 3 all of them). It is the hanging
-//! gravity's form (`V_g / g`, [`super::hold3`] module doc) with `u = nu`,
+//! gravity's form (`V_g / g`, [`super::held3`] module doc) with `u = nu`,
 //! and `Body3::plate_bilinear` gives both. With `s = R'_P nu`,
 //! `w_k = R'_k^T s` and `W = R'_P^T (K + sum_k c_k R'_k e_x)`:
 //!
@@ -96,15 +96,14 @@
 //! On a free front joint each turn of the swing is settled so from the last
 //! turn's shape and rows (a warm start at full gravity). The rear cup's
 //! reaction takes the contact forces off the tubes' root forces; the front
-//! cup's, off the whole body's weight and moment ([`super::hold3`]).
+//! cup's, off the whole body's weight and moment ([`super::held3`]).
 
 use super::body3::{Body3, Eval3, Frames, Param, PLATE_ROWS};
 use super::equilibrium3::Equilibrium3;
-use super::hold3::{FrontHold, Held3, Hold3, FRONT_ROWS};
+use super::hold3::{FrontHold, FRONT_ROWS};
 use crate::error::InputError;
 use crate::error::StanceError;
 use crate::geom3::{apply, apply_t, axpy, dot, linear_terms, scale, scale_mat, Mat3, Vec3};
-use crate::robot::Robot;
 use crate::scene::{Plane3, Scene3};
 use crate::statics::Solver;
 
@@ -147,7 +146,7 @@ pub(crate) enum HeldAt<'a> {
 
 /// The run-time rows' values and Jacobian at one point, beside an
 /// [`Eval3`]: the front hold's six when both cups hold
-/// ([`super::hold3`]), then the contact rows.
+/// ([`super::held3`]), then the contact rows.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct ContactEval {
     /// Values (m, or rad for the front hold's rotation rows), one per row:
@@ -268,23 +267,6 @@ impl Body3 {
         Ok(self.solve_among_on(solver, scene, clearance, None)?)
     }
 
-    /// The body of `robot` held by `hold` among `scene`'s solids, with the
-    /// holding cup's reaction (the contacts' forces taken off it) and
-    /// verdict: the rear hold, the front hold (the scene turning with the
-    /// plate in the solver's picture, module doc) and the free front joint
-    /// (each turn of the swing solved among the solids). The tubes keep
-    /// their radius from the solids. Bad input is refused as
-    /// [`Body3::solve_held`] refuses it.
-    pub fn solve_held_among(
-        &self,
-        robot: &Robot,
-        hold: Hold3,
-        scene: &Scene3,
-        solver: &Solver,
-    ) -> Result<Held3, StanceError> {
-        self.held_among(robot, hold, solver, Some((scene, 0.5 * robot.tube.outer_diameter_m)))
-    }
-
     /// The tip of link `link` of tube `tube` (m).
     pub fn link_tip(&self, frames: &Frames, tube: usize, link: usize) -> Vec3 {
         let t = self.tube(tube);
@@ -321,7 +303,7 @@ impl Body3 {
     /// [`Body3::contact_terms`] of any row `n . p` (m) on the tip `p` of
     /// link `link` of tube `tube`, `n` a fixed unit vector, its multiplier
     /// `force` (N): a contact's row, or one of the front hold's tip rows
-    /// ([`super::hold3`]).
+    /// ([`super::held3`]).
     pub(crate) fn point_terms(
         &self,
         frames: &Frames,

@@ -26,7 +26,7 @@ pub struct Equilibrium3 {
     /// With both cups holding, the front hold's 6 multipliers (they follow
     /// the weld's 12 in `multipliers`): the force on tube 1's tip (N, world
     /// axes), then the plate's rotation rows' (N m, in the plate's chart;
-    /// [`super::hold3`]).
+    /// [`super::held3`]).
     pub front_hold: Option<[f64; FRONT_ROWS]>,
 }
 

@@ -44,7 +44,7 @@
 //! plate) or by the front cup on a free joint about its face's normal (the
 //! swing of the sideways maneuver), and gives each holding cup's reaction
 //! as a 6-vector (force and moment about the cup's centre, world frame) and
-//! its verdict ([`hold3`]):
+//! its verdict ([`held3`]):
 //!
 //! ```
 //! use leech::body3::{Body3, Hold3};
@@ -71,22 +71,28 @@
 
 //! # Layout
 //!
-//! The rotations it is written in (`Exp`, `Log`, `Jr^-1`, the local derivatives of linear and
-//! relative terms) are [`crate::geom3`], in the numbers layer; [`tube3`] (one tube's links), [`body3`] (the body, its
-//! Lagrangian's derivatives), [`equilibrium3`] (the solved body: frames, summary, contacts), [`solve`] (Newton, continuation), [`planar`]
-//! (the comparison with the planar model), [`hold3`] (holds: the rear
-//! cup, the front cup, both cups, a free front joint; each cup's reaction
-//! and verdict), [`place3`] (placing the body for a hold: the plate's frame
-//! from angles, the cups, the points a scene must leave free), [`contact3`]
-//! (contacts with scene solids),
-//! [`constant_curvature3`] (the tri-tube constant-curvature model in the
-//! same conventions, and its difference from the body).
+//! The rotations it is written in (`Exp`, `Log`, `Jr^-1`, the local
+//! derivatives of linear and relative terms, whether a matrix is a rotation)
+//! are [`crate::geom3`], in the numbers layer. The files, each importing
+//! only the ones before it: [`tube3`] (one tube's links); [`hold3`] (what
+//! holds: `Hold3`, and what a hold puts on the evaluation: gravity turning
+//! with the plate, the front target); [`body3`] (the body, its Lagrangian's
+//! derivatives); [`contact3`] (contact rows with scene solids);
+//! [`equilibrium3`] (the solved body: frames, summary, contacts);
+//! [`solve`] (Newton, continuation); [`place3`] (placing the body for a
+//! hold: the plate's frame from angles, the cups, the points a scene must
+//! leave free); [`held3`] (the body held: the holds' equations and solves,
+//! among solids too, each cup's reaction and verdict); [`planar`] (the
+//! comparison with the planar model); [`constant_curvature3`] (the
+//! tri-tube constant-curvature model in the same conventions, and its
+//! difference from the body).
 
 #[allow(clippy::module_inception)]
 pub mod body3;
 pub mod constant_curvature3;
 pub mod contact3;
 pub mod equilibrium3;
+pub mod held3;
 pub mod hold3;
 pub mod place3;
 pub mod planar;
@@ -97,5 +103,6 @@ pub use body3::{Body3, Derivatives, Frames, PLATE_ROWS};
 pub use constant_curvature3::ConstantCurvature3;
 pub use contact3::{Contact3, ContactRow3};
 pub use equilibrium3::Equilibrium3;
-pub use hold3::{verdict3, CupState3, Hanging, Held3, Hold3, Wrench, FRONT_ROWS};
+pub use held3::{verdict3, CupState3, Held3, Wrench};
+pub use hold3::{Hanging, Hold3, FRONT_ROWS};
 pub use tube3::Tube3;

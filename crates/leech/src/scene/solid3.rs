@@ -134,7 +134,7 @@ impl Solid3 {
                         allowed: format!("three lengths above 0 and at most {MAX_COORDINATE_M} m"),
                     });
                 }
-                if !crate::body3::body3::is_rotation(frame) {
+                if !crate::geom3::is_rotation(frame) {
                     return Err(InputError::Invalid {
                         field: format!("{field}.frame"),
                         value: format!("{frame:?}"),
