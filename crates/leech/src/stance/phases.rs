@@ -75,13 +75,13 @@ pub fn solve_after(
         (Hold::Both { rear, front }, next)
             if same_lengths && (next == Hold::Rear(rear) || next == Hold::Front(front)) =>
         {
-            released(robot, from, next, scene, solver, cups)
+            handed_over(robot, from, next, false, (scene, solver, cups))
         }
         (Hold::Rear(rear), Hold::Both { rear: r, .. }) if same_lengths && r == rear => {
             front_attached(robot, &from.body, &from.equilibrium.q, hold, scene, solver, cups)
         }
         (Hold::Front(front), Hold::Both { front: f, .. }) if same_lengths && f == front => {
-            rear_attached(robot, from, hold, scene, solver, cups)
+            handed_over(robot, from, hold, true, (scene, solver, cups))
         }
         (was, next) => Err(InputError::Invalid {
             field: "hold".into(),
@@ -133,39 +133,20 @@ fn moved(
     Ok(fed_end(robot, end, from.hold, cups))
 }
 
-/// The both-held `from` released to `hold` (module doc).
-fn released(
+/// The hand-over from `from` to `hold` (module doc): `from` both-held and
+/// released to `hold`, or, when `attach`, `from` front-held and the rear cup
+/// attached too, as `hold` says (a release backwards, the rear rows
+/// stiffened from none to rigid).
+fn handed_over(
     robot: &Robot,
     from: &Held,
     hold: Hold,
-    scene: &Scene,
-    solver: &Solver,
-    cups: FreeCups,
+    attach: bool,
+    (scene, solver, cups): (&Scene, &Solver, FreeCups),
 ) -> Result<Held, StanceError> {
     let radius = 0.5 * robot.tube.outer_diameter_m;
-    let fed = Handover { robot, body: &from.body, both: from.hold, single: hold, attach: false, cups };
-    let start = fed.shape_at(0.0)?;
-    let end = Feeding { fed, scene, radius, solver }.run_from(
-        start,
-        from.equilibrium.q.clone(),
-        resting(robot, from, cups),
-    )?;
-    let end = FedEnd { shape: end.shape.body, equilibrium: end.equilibrium, contacts: end.contacts };
-    Ok(fed_end(robot, end, hold, cups))
-}
-
-/// The front-held `from` with the rear cup attached too, as `hold` says
-/// (module doc): a release backwards, the rear rows stiffened from none to rigid.
-fn rear_attached(
-    robot: &Robot,
-    from: &Held,
-    hold: Hold,
-    scene: &Scene,
-    solver: &Solver,
-    cups: FreeCups,
-) -> Result<Held, StanceError> {
-    let radius = 0.5 * robot.tube.outer_diameter_m;
-    let fed = Handover { robot, body: &from.body, both: hold, single: from.hold, attach: true, cups };
+    let (both, single) = if attach { (hold, from.hold) } else { (from.hold, hold) };
+    let fed = Handover { robot, body: &from.body, both, single, attach, cups };
     let start = fed.shape_at(0.0)?;
     let end = Feeding { fed, scene, radius, solver }.run_from(
         start,

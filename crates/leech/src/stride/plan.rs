@@ -26,6 +26,12 @@
 //!    lengths among the solids.
 //! 6. **attach_rear**, **release_front**: as 3 and 4 with the cups swapped.
 //!
+//! Every phase after the start continues from the equilibrium the one
+//! before left ([`stance::solve_after`]): a push or a pull feeds the tubes
+//! from where they are (through the samples on the way), an attach starts
+//! from the free state and a release from the both-held one; only the start
+//! is fed from the shortest length.
+//!
 //! A stride is rejected when a solve fails or snaps (`snap`), the tubes
 //! penetrate a solid (`collision`), no touchdown exists (`reach`) or a cup
 //! would hold below its minimum safety factor (`cup force`).
@@ -202,7 +208,8 @@ pub struct Rejection {
     /// What happened, with the numbers.
     pub detail: String,
     /// Where it happened when a solve found it: the tube lengths and holds
-    /// of the failing state (`leech shape` reproduces it).
+    /// of the failing state (`leech shape` solves it cold, fed from the
+    /// shortest length, where the planner continued from the phase before).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub at: Option<Box<Failed>>,
 }
@@ -228,8 +235,8 @@ impl Failed {
     }
 }
 
-/// One phase's end in a plan: the equilibrium reached and everything needed
-/// to reproduce it with `leech shape`.
+/// One phase's end in a plan: the equilibrium reached, continued from the
+/// step before ([`stance::solve_after`]), with its lengths and holds.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Step {
     /// The phase that ended here.
