@@ -369,6 +369,10 @@ pub fn solve_in(
 }
 
 /// [`solve_in`], with the free cups' faces touching the solids as `cups` says.
+///
+/// This is the cold start: where the robot is in an equilibrium already, a
+/// phase (a move of the tubes, a release, an attach) continues from it with
+/// [`solve_after`] instead.
 pub fn solve_among(
     robot: &Robot,
     lengths: [f64; 2],
