@@ -13,9 +13,13 @@
 //!   its end; while no cup holds, the body keeps its last holds (it lies
 //!   where it was). Before any cup holds, the rear hold is the starting
 //!   foothold's.
-//! * **Equilibrium.** The body among the scene's solids,
-//!   [`stance::solve_among`] with [`FreeCups::Rest`] (a free cup's face
-//!   rests on what it meets), at the lengths and under the holds.
+//! * **Equilibrium.** The body among the scene's solids with
+//!   [`FreeCups::Rest`] (a free cup's face rests on what it meets), at the
+//!   lengths and under the holds, continued from the equilibrium it was in
+//!   ([`stance::solve_after`]: the tubes fed from where they were, a cup
+//!   released from the both-held state, attached from the free one); fed
+//!   from the shortest length ([`stance::solve_among`]) where there is none
+//!   yet, or where the lengths and the holds changed at once (no single phase).
 //! * **Seal.** A holding cup stays sealed. A free cup is sealed when its
 //!   face lies flush on a surface within the robot file's
 //!   `cup.attach_distance_tolerance_m` and `cup.attach_angle_tolerance_deg`
@@ -208,8 +212,17 @@ impl Inner {
                 return result.clone();
             }
         }
-        let result =
-            stance::solve_among(&self.robot, self.lengths, self.hold, &self.scene, &self.solver, FreeCups::Rest);
+        let (robot, scene, solver) = (&self.robot, &self.scene, &self.solver);
+        let cold = || stance::solve_among(robot, self.lengths, self.hold, scene, solver, FreeCups::Rest);
+        let result = match &self.solved {
+            Some((_, _, Ok(before))) => {
+                match stance::solve_after(robot, before, self.lengths, self.hold, scene, solver, FreeCups::Rest) {
+                    Err(StanceError::Input(_)) => cold(),
+                    continued => continued,
+                }
+            }
+            _ => cold(),
+        };
         self.solved = Some((self.lengths, self.hold, result.clone()));
         result
     }

@@ -3,7 +3,7 @@
 //! clamped tube ([`Fed`]).
 
 use super::contact::{self, ContactRow, Touching};
-use super::scene_solve;
+use super::scene_solve::{self, Pushing};
 use super::StanceError;
 use crate::error::InputError;
 use crate::scene::Scene;
@@ -76,10 +76,20 @@ pub(super) struct FedEnd<S> {
 impl<F: Fed> Feeding<'_, F> {
     /// Feeds from the equilibrium `q` of `shape` (at the start) to the end;
     /// the last step settles the contacts there, so the end needs no other solve.
-    pub fn run(&self, mut shape: F::Shape, mut q: Vec<f64>) -> Result<FedEnd<F::Shape>, StanceError> {
+    pub fn run(&self, shape: F::Shape, q: Vec<f64>) -> Result<FedEnd<F::Shape>, StanceError> {
+        self.run_from(shape, q, Vec::new())
+    }
+
+    /// [`Feeding::run`] from an equilibrium resting on the contacts
+    /// `pushing` (a phase continuing from where the body is).
+    pub fn run_from(
+        &self,
+        mut shape: F::Shape,
+        mut q: Vec<f64>,
+        mut pushing: Vec<Pushing>,
+    ) -> Result<FedEnd<F::Shape>, StanceError> {
         let span = self.fed.span();
         let (mut done, mut step) = (0.0, FEED_STEP_M);
-        let mut pushing = Vec::new();
         // What the solves met on the way (a snap in the middle of the feed
         // is the feed's too, as a continuation path reports its folds).
         let mut events = Vec::new();

@@ -27,6 +27,12 @@ pub enum Approach {
     /// [`FloatingBody::front_compliance`] (`t = 0`) to zero (`t = 1`), the
     /// target the hold's, under full gravity.
     Stiffen,
+    /// The rear cup releasing, under full gravity: its hold's rows
+    /// compliant, this many times chain A's compliance as a cantilever
+    /// ([`FloatingBody::cantilever_compliance`]); nothing moves with `t`.
+    ReleaseRear(f64),
+    /// The front cup releasing, its rows compliant as [`Approach::ReleaseRear`]'s.
+    ReleaseFront(f64),
 }
 
 impl Approach {
@@ -35,7 +41,7 @@ impl Approach {
     pub fn then(self) -> Option<Approach> {
         match self {
             Approach::Front(_) => Some(Approach::Stiffen),
-            Approach::Load | Approach::Stiffen => None,
+            _ => None,
         }
     }
 }
@@ -286,8 +292,8 @@ impl<'a> FloatingBody<'a> {
     fn front_target(&self, t: f64) -> Option<Pose> {
         let front = self.hold.front()?;
         Some(match self.approach {
-            Approach::Load | Approach::Stiffen => front,
             Approach::Front(from) => from.lerp(&front, t),
+            _ => front,
         })
     }
 
@@ -303,21 +309,40 @@ impl<'a> FloatingBody<'a> {
         start_compliance(chain.tube_length(), chain.nominal_stiffness() * chain.element_length())
     }
 
+    /// Chain A as a cantilever, `L^3 / EI` (m/N) and `L / EI` (rad/(N m)):
+    /// the scale of a releasing hold's compliance.
+    pub fn cantilever_compliance(&self) -> [f64; 2] {
+        let chain = self.body.chain_a();
+        let (length, bending) = (chain.tube_length(), chain.nominal_stiffness() * chain.element_length());
+        [length.powi(3) / bending, length / bending]
+    }
+
+    /// The compliance of the rows of a releasing hold (rear when `rear`), zero for the others.
+    fn release_softness(&self, rear: bool) -> [f64; HOLD_ROWS] {
+        let softness = match (self.approach, rear) {
+            (Approach::ReleaseRear(s), true) | (Approach::ReleaseFront(s), false) => s,
+            _ => return [0.0; HOLD_ROWS],
+        };
+        let [tip, angle] = self.cantilever_compliance();
+        [softness * tip, softness * tip, softness * angle]
+    }
+
     /// The front hold's three rows' compliance at `t` and its rate along `t`.
     fn front_softness(&self, t: f64) -> ([f64; HOLD_ROWS], [f64; HOLD_ROWS]) {
         let [tip, angle] = self.front_compliance();
         let soft = [tip, tip, angle];
         match self.approach {
-            Approach::Load => ([0.0; HOLD_ROWS], [0.0; HOLD_ROWS]),
+            Approach::Load | Approach::ReleaseRear(_) => ([0.0; HOLD_ROWS], [0.0; HOLD_ROWS]),
             Approach::Front(_) => (soft, [0.0; HOLD_ROWS]),
             Approach::Stiffen => (soft.map(|c| (1.0 - t) * c), soft.map(|c| -c)),
+            Approach::ReleaseFront(_) => (self.release_softness(false), [0.0; HOLD_ROWS]),
         }
     }
 
     fn load(&self, t: f64) -> f64 {
         match self.approach {
             Approach::Load => t,
-            Approach::Front(_) | Approach::Stiffen => 1.0,
+            _ => 1.0,
         }
     }
 
@@ -436,6 +461,7 @@ impl Constraints for FloatingBody<'_> {
                 ev.constraints[row + i] = q[n + i] - target[i];
                 ev.jacobian[(n + i) * m + row + i] = 1.0;
             }
+            ev.compliance[row..row + HOLD_ROWS].copy_from_slice(&self.release_softness(true));
         }
         if let (Some(row), Some(pose)) = (front, self.front_target(t)) {
             self.front_rows(q, row, pose, &oa, ev);
@@ -570,7 +596,8 @@ impl Touching for FloatingBody<'_> {
     /// its rows) under full gravity, a warm start's continuation.
     fn stage(&self) -> Stage {
         match self.approach {
-            Approach::Load => Stage::Load,
+            // A release is stepped as a feed is, at full load.
+            Approach::Load | Approach::ReleaseRear(_) | Approach::ReleaseFront(_) => Stage::Load,
             Approach::Front(_) | Approach::Stiffen => Stage::WarmStart,
         }
     }
@@ -613,6 +640,8 @@ impl Path for FloatingBody<'_> {
                 let (_, Some(row)) = self.hold_rows() else { return };
                 out.compliance[row..row + HOLD_ROWS].copy_from_slice(&self.front_softness(t).1);
             }
+            // A release is stepped by its rows' compliance, not along `t`.
+            Approach::ReleaseRear(_) | Approach::ReleaseFront(_) => {}
         }
     }
 }

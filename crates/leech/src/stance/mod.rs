@@ -66,6 +66,7 @@ mod contact;
 mod feeding;
 mod floating;
 mod hold;
+mod phases;
 mod points;
 mod scene_solve;
 pub mod tube;
@@ -76,6 +77,7 @@ pub use contact::{detect, penetration, swept_clear, ContactOptions, ContactRow, 
 pub use feeding::{FALLBACK_STEP_M, FEED_STEP_M, MIN_FEED_STEP_M};
 pub use floating::{Approach, CupFaces, FloatingBody, FREE, HOLD_ROWS};
 pub use hold::{Hold, Pose};
+pub use phases::{solve_after, RELEASE_SPAN_M};
 pub use tube::{tube_in, Tube, TubeHeld, TUBE_FEED_START_M};
 
 use crate::body::{Body, WELD_ROWS};
@@ -119,6 +121,10 @@ pub struct Held {
     pub centre_of_mass: Vec2,
     /// The contacts that push (normal force above zero).
     pub contacts: Vec<ContactForce>,
+    /// The contact rows the equilibrium was solved with (the system's last
+    /// rows, in the order of the multipliers): what a phase that continues
+    /// from it starts resting on ([`solve_after`]).
+    pub contact_rows: Vec<ContactRow>,
 }
 
 /// A surface pushing on a tube, or on the face of a cup that does not hold.
@@ -343,6 +349,10 @@ pub fn solve_in(
 }
 
 /// [`solve_in`], with the free cups' faces touching the solids as `cups` says.
+///
+/// This is the cold start: where the robot is in an equilibrium already, a
+/// phase (a move of the tubes, a release, an attach) continues from it with
+/// [`solve_after`] instead.
 pub fn solve_among(
     robot: &Robot,
     lengths: [f64; 2],
@@ -351,7 +361,6 @@ pub fn solve_among(
     solver: &Solver,
     cups: FreeCups,
 ) -> Result<Held, StanceError> {
-    let (b, unit_mass) = (robot.body.base_spacing_m, robot.driving_unit.mass_kg);
     let radius = 0.5 * robot.tube.outer_diameter_m;
     let first = match hold {
         Hold::Both { rear, .. } => Hold::Rear(rear),
@@ -361,19 +370,46 @@ pub fn solve_among(
     let start = solve(robot, [short; 2], first, solver)?;
     let fed = BodyFeed { robot, hold: first, from: [short; 2], to: lengths, cups };
     let end = Feeding { fed, scene, radius, solver }.run(start.body, start.equilibrium.q)?;
-    let body = end.shape;
+    let Hold::Both { .. } = hold else { return Ok(fed_end(robot, end, first, cups)) };
+    front_attached(robot, &end.shape, &end.equilibrium.q, hold, scene, solver, cups)
+}
+
+/// The held body where a feed (or a release) ended, `hold` holding it.
+fn fed_end(robot: &Robot, end: feeding::FedEnd<Body>, hold: Hold, cups: FreeCups) -> Held {
+    let (b, unit_mass) = (robot.body.base_spacing_m, robot.driving_unit.mass_kg);
     let floating =
-        cups.on(robot, FloatingBody::new(&body, b, unit_mass, first, Approach::Load)).with_contacts(end.contacts);
-    let settled = scene_solve::Settled { system: floating, equilibrium: end.equilibrium };
-    let Hold::Both { rear, front } = hold else { return Ok(Held::settled(settled)) };
-    let from = Pose {
-        point_m: settled.system.endpoint(&settled.equilibrium.q),
-        angle_rad: body.endpoint_angle(&settled.equilibrium.q),
+        cups.on(robot, FloatingBody::new(&end.shape, b, unit_mass, hold, Approach::Load)).with_contacts(end.contacts);
+    Held::settled(scene_solve::Settled { system: floating, equilibrium: end.equilibrium })
+}
+
+/// The rear-held equilibrium `q` of `body` among `scene`'s solids with the
+/// front cup attached too, as `hold` (both cups) says: the front hold's
+/// target moved from where the endpoint is to the hold's, in stages.
+fn front_attached(
+    robot: &Robot,
+    body: &Body,
+    q: &[f64],
+    hold: Hold,
+    scene: &Scene,
+    solver: &Solver,
+    cups: FreeCups,
+) -> Result<Held, StanceError> {
+    let (b, unit_mass) = (robot.body.base_spacing_m, robot.driving_unit.mass_kg);
+    let radius = 0.5 * robot.tube.outer_diameter_m;
+    let (Some(rear), Some(front)) = (hold.rear(), hold.front()) else {
+        return Err(InputError::Invalid {
+            field: "hold".into(),
+            value: hold.name().into(),
+            allowed: "both cups holding, to attach the front cup".into(),
+        }
+        .into());
     };
-    let both = cups.on(robot, FloatingBody::new(&body, b, unit_mass, hold, Approach::Front(from)));
-    match scene_solve::approached(both, settled.equilibrium.q, scene, radius, solver) {
+    let at = FloatingBody::new(body, b, unit_mass, Hold::Rear(rear), Approach::Load).endpoint(q);
+    let from = Pose { point_m: at, angle_rad: body.endpoint_angle(q) };
+    let both = cups.on(robot, FloatingBody::new(body, b, unit_mass, hold, Approach::Front(from)));
+    match scene_solve::approached(both, q.to_vec(), scene, radius, solver) {
         Ok(approached) => Ok(Held::settled(approached)),
-        Err(e) => Err(beyond_reach(e, &body, rear, front)),
+        Err(e) => Err(beyond_reach(e, body, rear, front)),
     }
 }
 
@@ -472,6 +508,11 @@ fn placed(body: &Body, q: &[f64], pose: Pose) -> Vec<f64> {
 }
 
 impl Held {
+    /// The tube lengths (LA, LB) (m).
+    pub fn lengths(&self) -> [f64; 2] {
+        [self.body.chain_a().tube_length(), self.body.chain_b().tube_length()]
+    }
+
     /// The tightest bend of the tubes (m), the clamp along the driving
     /// unit's direction ([`Chain::min_bend_radius`](crate::chain::Chain::min_bend_radius)).
     pub fn min_bend_radius(&self) -> f64 {
@@ -498,6 +539,7 @@ impl Held {
         });
         Held {
             contacts,
+            contact_rows: floating.contacts().to_vec(),
             hold,
             body: floating.body().clone(),
             unit: floating.unit_pose(&equilibrium.q),

@@ -26,6 +26,12 @@
 //!    lengths among the solids.
 //! 6. **attach_rear**, **release_front**: as 3 and 4 with the cups swapped.
 //!
+//! Every phase after the start continues from the equilibrium the one
+//! before left ([`stance::solve_after`]): a push or a pull feeds the tubes
+//! from where they are (through the samples on the way), an attach starts
+//! from the free state and a release from the both-held one; only the start
+//! is fed from the shortest length.
+//!
 //! A stride is rejected when a solve fails or snaps (`snap`), the tubes
 //! penetrate a solid (`collision`), no touchdown exists (`reach`) or a cup
 //! would hold below its minimum safety factor (`cup force`).
@@ -202,7 +208,8 @@ pub struct Rejection {
     /// What happened, with the numbers.
     pub detail: String,
     /// Where it happened when a solve found it: the tube lengths and holds
-    /// of the failing state (`leech shape` reproduces it).
+    /// of the failing state (`leech shape` solves it cold, fed from the
+    /// shortest length, where the planner continued from the phase before).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub at: Option<Box<Failed>>,
 }
@@ -228,8 +235,8 @@ impl Failed {
     }
 }
 
-/// One phase's end in a plan: the equilibrium reached and everything needed
-/// to reproduce it with `leech shape`.
+/// One phase's end in a plan: the equilibrium reached, continued from the
+/// step before ([`stance::solve_after`]), with its lengths and holds.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Step {
     /// The phase that ended here.
@@ -391,7 +398,7 @@ impl Planner<'_> {
     fn search(&mut self, start: Foothold, progress: &mut dyn FnMut(Progress)) -> Result<Plan, InputError> {
         let short = self.robot.limits.tube_length_min_m;
         let unit = rear_pose(self.robot, start);
-        let first = match self.step(Phase::Start, 0, [short; 2], Hold::Rear(unit)) {
+        let first = match self.step(Phase::Start, 0, [short; 2], Hold::Rear(unit), None) {
             Ok(step) => step,
             Err(reason) => return Ok(self.impossible(reason, Vec::new(), 0)),
         };
@@ -544,7 +551,8 @@ impl Planner<'_> {
         let rear = stance.unit;
         let mut steps = Vec::new();
         let result = (|| {
-            let push = self.touch_down(Phase::Push, stride, [stance.lengths, lengths], Hold::Rear(rear), Cup::Front)?;
+            let now = &stance.steps.last().expect("a stance has its steps").held;
+            let push = self.touch_down(Phase::Push, stride, now, lengths, Hold::Rear(rear), Cup::Front)?;
             // The cup seals where the face came to rest (its lip takes up what
             // is left of the tolerances), pressed on by the preload.
             let front_pose = pressed(
@@ -552,9 +560,11 @@ impl Planner<'_> {
                 Pose { point_m: push.held.endpoint_m, angle_rad: push.held.plate_angle() },
                 front.direction_rad,
             );
-            steps.push(push);
             let both = Hold::Both { rear, front: front_pose };
-            steps.extend(self.hand_over(&mut machine, stride, lengths, Cup::Front, both, Hold::Front(front_pose))?);
+            let [attach, released] =
+                self.hand_over(&mut machine, stride, &push.held, lengths, Cup::Front, both, Hold::Front(front_pose))?;
+            let released_rear = released.held.clone();
+            steps.extend([push, attach, released]);
             let mut pulls = self.touchdowns(Hold::Front(front_pose), Cup::Rear).map_err(input_rejection)?;
             let goal = self.goal.point_m;
             // A pull that lands the rear cup no nearer the goal is no stride.
@@ -592,12 +602,25 @@ impl Planner<'_> {
                 }
                 let Some((pulled, new_rear)) = queue.pop_front() else { break };
                 let attempt = (|| {
-                    let pull =
-                        self.touch_down(Phase::Pull, stride, [lengths, pulled], Hold::Front(front_pose), Cup::Rear)?;
+                    let pull = self.touch_down(
+                        Phase::Pull,
+                        stride,
+                        &released_rear,
+                        pulled,
+                        Hold::Front(front_pose),
+                        Cup::Rear,
+                    )?;
                     let unit = pressed(robot, pull.held.unit, new_rear.direction_rad);
                     let both = Hold::Both { rear: unit, front: front_pose };
-                    let [attach, settled] =
-                        self.hand_over(&mut machine.clone(), stride, pulled, Cup::Rear, both, Hold::Rear(unit))?;
+                    let [attach, settled] = self.hand_over(
+                        &mut machine.clone(),
+                        stride,
+                        &pull.held,
+                        pulled,
+                        Cup::Rear,
+                        both,
+                        Hold::Rear(unit),
+                    )?;
                     Ok((new_rear, unit, [pull, attach, settled]))
                 })();
                 match attempt {
@@ -634,31 +657,37 @@ impl Planner<'_> {
     }
 
     /// The phase that brings `moving` down at `to` (lengths, m) among the
-    /// solids: its face must lie flush there too.
+    /// solids, the tubes fed from where they are in `from`: its face must
+    /// lie flush there too.
     fn touch_down(
         &mut self,
         phase: Phase,
         stride: usize,
-        [from, to]: [[f64; 2]; 2],
+        from: &Held,
+        to: [f64; 2],
         hold: Hold,
         moving: Cup,
     ) -> Result<Step, Rejection> {
-        let on_the_way = self.on_the_way(phase, from, to, hold)?;
-        let mut step = self.step(phase, stride, to, hold)?;
+        let (on_the_way, last) = self.on_the_way(phase, from, to, hold)?;
+        let mut step = self.step(phase, stride, to, hold, Some(&last))?;
         step.path_safety_factor = Some(on_the_way);
         self.flush_after(&step, moving)?;
         Ok(step)
     }
 
-    /// The tubes moving from `from` to `to` (m, both arriving together) with
-    /// `hold`: at samples [`PATH_STEP_M`] apart between the ends, the body
-    /// among the solids must not snap, penetrate or bend too tightly and the
-    /// holding cup must keep its minimum safety factor; its smallest safety
-    /// factor on the way (infinite without samples).
-    fn on_the_way(&mut self, phase: Phase, from: [f64; 2], to: [f64; 2], hold: Hold) -> Result<f64, Rejection> {
+    /// The tubes moving from where they are in `now` to `to` (m, both
+    /// arriving together) with `hold`, each sample fed from the last: at
+    /// samples [`PATH_STEP_M`] apart between the ends, the body among the
+    /// solids must not snap, penetrate or bend too tightly and the holding
+    /// cup must keep its minimum safety factor; its smallest safety factor on
+    /// the way (infinite without samples) and the last sample's state (`now`
+    /// without samples).
+    fn on_the_way(&mut self, phase: Phase, now: &Held, to: [f64; 2], hold: Hold) -> Result<(f64, Held), Rejection> {
+        let from = now.lengths();
         let travel = (to[0] - from[0]).abs().max((to[1] - from[1]).abs());
         let samples = (travel / PATH_STEP_M).ceil() as usize;
         let mut smallest = f64::INFINITY;
+        let mut last = now.clone();
         for k in 1..samples {
             if self.out_of_time() {
                 return Err(Rejection {
@@ -670,13 +699,14 @@ impl Planner<'_> {
             }
             let t = k as f64 / samples as f64;
             let at = [from[0] + t * (to[0] - from[0]), from[1] + t * (to[1] - from[1])];
-            let step = self.step(phase, 0, at, hold).map_err(|mut r| {
+            let step = self.step(phase, 0, at, hold, Some(&last)).map_err(|mut r| {
                 r.detail = format!("on the way from {:.4}/{:.4} m: {}", from[0], from[1], r.detail);
                 r
             })?;
             smallest = smallest.min(step.safety_factor());
+            last = step.held;
         }
-        Ok(smallest)
+        Ok((smallest, last))
     }
 
     /// Touchdowns ordered by their foothold's distance to the goal, nearest first.
@@ -685,14 +715,17 @@ impl Planner<'_> {
         touchdowns.sort_by(|a, b| norm(sub(a.1.centre_m, goal)).total_cmp(&norm(sub(b.1.centre_m, goal))));
     }
 
-    /// `attaching` attaches (the phase's end with both holds, `both`), then
-    /// the other cup releases (the end with `attaching`'s hold alone,
-    /// `alone`): each behind the interlock, the release judged on the
-    /// attached cup's safety factor after it.
+    /// `attaching` attaches (the phase's end with both holds, `both`, from
+    /// the state `from`), then the other cup releases (the end with
+    /// `attaching`'s hold alone, `alone`, from the both-held state): each
+    /// behind the interlock, the release judged on the attached cup's safety
+    /// factor after it.
+    #[allow(clippy::too_many_arguments)]
     fn hand_over(
         &mut self,
         machine: &mut StrideMachine,
         stride: usize,
+        from: &Held,
         lengths: [f64; 2],
         attaching: Cup,
         both: Hold,
@@ -703,8 +736,8 @@ impl Planner<'_> {
             Cup::Rear => (Phase::AttachRear, Phase::ReleaseFront),
         };
         self.guard(machine, attach, Command::Attach { cup: attaching, flush: true })?;
-        let attached = self.step(attach, stride, lengths, both)?;
-        let released = self.step(release, stride, lengths, alone)?;
+        let attached = self.step(attach, stride, lengths, both, Some(from))?;
+        let released = self.step(release, stride, lengths, alone, Some(&attached.held))?;
         let factor = match attaching {
             Cup::Front => released.front_safety_factor,
             Cup::Rear => released.rear_safety_factor,
@@ -727,35 +760,55 @@ impl Planner<'_> {
         })
     }
 
-    /// The phase's end among the scene's solids, with the holding cups'
-    /// safety factors; a failure, a snap or a penetration as a rejection.
-    fn step(&mut self, phase: Phase, stride: usize, lengths: [f64; 2], hold: Hold) -> Result<Step, Rejection> {
-        self.judged_step(phase, stride, lengths, hold).map_err(|mut r| {
+    /// The phase's end among the scene's solids, continued from the state
+    /// `from` the robot is in ([`stance::solve_after`]; cold without one),
+    /// with the holding cups' safety factors; a failure, a snap or a
+    /// penetration as a rejection.
+    fn step(
+        &mut self,
+        phase: Phase,
+        stride: usize,
+        lengths: [f64; 2],
+        hold: Hold,
+        from: Option<&Held>,
+    ) -> Result<Step, Rejection> {
+        self.judged_step(phase, stride, lengths, hold, from).map_err(|mut r| {
             r.at.get_or_insert_with(|| Box::new(Failed::new(lengths, hold)));
             r
         })
     }
 
     /// [`Self::step`] without the rejection's state.
-    fn judged_step(&mut self, phase: Phase, stride: usize, lengths: [f64; 2], hold: Hold) -> Result<Step, Rejection> {
+    fn judged_step(
+        &mut self,
+        phase: Phase,
+        stride: usize,
+        lengths: [f64; 2],
+        hold: Hold,
+        from: Option<&Held>,
+    ) -> Result<Step, Rejection> {
         self.solves += 1;
-        let held = stance::solve_among(self.robot, lengths, hold, self.scene, &self.options.solver, FreeCups::Rest)
-            .map_err(|e| {
-                let blocking = match &e {
-                    StanceError::Solve(s) if s.to_string().contains("through a solid") => Blocking::Collision,
-                    // Both cups held farther apart than the tubes reach
-                    // (a preload pressing a straight body's cup further).
-                    StanceError::OutOfReach { .. } => Blocking::Reach,
-                    StanceError::Input(_) => Blocking::Collision,
-                    _ => Blocking::Snap,
-                };
-                Rejection {
-                    blocking,
-                    phase,
-                    detail: format!("{} at lengths {:.4}/{:.4} m: {e}", hold.name(), lengths[0], lengths[1]),
-                    at: None,
-                }
-            })?;
+        let (robot, scene, solver) = (self.robot, self.scene, &self.options.solver);
+        let held = match from {
+            Some(from) => stance::solve_after(robot, from, lengths, hold, scene, solver, FreeCups::Rest),
+            None => stance::solve_among(robot, lengths, hold, scene, solver, FreeCups::Rest),
+        }
+        .map_err(|e| {
+            let blocking = match &e {
+                StanceError::Solve(s) if s.to_string().contains("through a solid") => Blocking::Collision,
+                // Both cups held farther apart than the tubes reach
+                // (a preload pressing a straight body's cup further).
+                StanceError::OutOfReach { .. } => Blocking::Reach,
+                StanceError::Input(_) => Blocking::Collision,
+                _ => Blocking::Snap,
+            };
+            Rejection {
+                blocking,
+                phase,
+                detail: format!("{} at lengths {:.4}/{:.4} m: {e}", hold.name(), lengths[0], lengths[1]),
+                at: None,
+            }
+        })?;
         let (rear, front) = held.cups(self.robot).map_err(|e| Rejection {
             blocking: Blocking::CupForce,
             phase,

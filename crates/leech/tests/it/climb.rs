@@ -9,7 +9,7 @@ use leech::stride::plan::cup_face;
 use leech::stride::{self, Command, Cup, Evidence, Foothold, Goal, Phase, PlanOptions, Status, StrideMachine};
 
 /// Replays every step of `plan`: the same equilibrium from the step's own
-/// inputs, the interlock fed the phases with their evidence, every holding
+/// inputs and the state the step before left, the interlock fed the phases with their evidence, every holding
 /// cup at its minimum safety factor, nothing in a solid, the tubes within
 /// their range, and the goal reached.
 fn replay(robot: &Robot, scene: &Scene, plan: &stride::Plan, goal: Goal) {
@@ -29,7 +29,15 @@ fn replay(robot: &Robot, scene: &Scene, plan: &stride::Plan, goal: Goal) {
     };
     let mut previous: Option<Held> = None;
     for step in &plan.steps {
-        let again = stance::solve_among(robot, step.lengths_m, step.held.hold, scene, &solver, FreeCups::Rest).unwrap();
+        // Each phase continues from where the last one left the robot (the
+        // start alone is solved cold), as the robot moves.
+        let again = match &previous {
+            Some(before) => {
+                stance::solve_after(robot, before, step.lengths_m, step.held.hold, scene, &solver, FreeCups::Rest)
+            }
+            None => stance::solve_among(robot, step.lengths_m, step.held.hold, scene, &solver, FreeCups::Rest),
+        }
+        .unwrap_or_else(|e| panic!("{:?}: {e}", step.phase));
         for (a, b) in again.equilibrium.q.iter().zip(&step.held.equilibrium.q) {
             assert!((a - b).abs() < 1e-9, "{:?}: q differs by {}", step.phase, (a - b).abs());
         }

@@ -19,6 +19,7 @@ mod holds_references;
 mod inverse_statics;
 mod limits;
 mod linalg;
+mod phases;
 mod references;
 mod robot_file;
 mod scene;
