@@ -347,6 +347,8 @@ pub(super) fn descended<S: Touching>(
     descent.options.max_minimization_iterations = DESCENT_ITERATIONS;
     let mut step = DESCENT_STEP_RAD;
     let (mut iterations, mut converged) = (0, false);
+    // Why the last leg that had to be shortened failed.
+    let mut why = StopReason::SweptThroughSolid;
     for _ in 0..DESCENT_ROUNDS {
         detect(&current.system, &current.equilibrium.q, scene, radius, &options, &mut rows);
         carry(&current.system, &pushing, &mut rows);
@@ -360,12 +362,29 @@ pub(super) fn descended<S: Touching>(
         // A copy: a leg that sweeps through a solid is taken again from here.
         let system = current.system.clone().with_contacts(rows.clone());
         let mut it = warm_iterate(&system, &current.equilibrium, &pushing);
-        let (residual, verdict) = Scratch::with_spare(&system, |ws| descent.descend(&system, &mut it, 1.0, stage, ws))?;
+        let leg = Scratch::with_spare(&system, |ws| descent.descend(&system, &mut it, 1.0, stage, ws));
+        let (residual, verdict) = match leg {
+            Ok(done) => done,
+            Err(e @ SolveError::Stopped { .. }) => return Err(e.into()),
+            // No trial step accepted: a shorter leg may be.
+            Err(e) => {
+                why = match e {
+                    SolveError::NotConverged { reason, .. } => reason,
+                    _ => why,
+                };
+                (f64::INFINITY, None)
+            }
+        };
         iterations += it.iterations;
-        let clear = contact::swept_clear((&current.system, &current.equilibrium.q[..]), (&system, &it.q[..]), scene)
+        let clear = residual.is_finite()
+            && contact::swept_clear((&current.system, &current.equilibrium.q[..]), (&system, &it.q[..]), scene)
             && penetration(&system, &it.q, scene, radius) <= options.penetration_tolerance;
         if !clear {
-            // Too long a leg: the rows met on the way were not there.
+            // Too long a leg: the rows met on the way were not there, or
+            // no step within it descended.
+            if residual.is_finite() {
+                why = StopReason::SweptThroughSolid;
+            }
             step *= 0.5;
             if step < SHORTEST_DESCENT_STEP_RAD {
                 break;
@@ -403,7 +422,7 @@ pub(super) fn descended<S: Touching>(
         pushing = current.pushing();
     }
     let residual = current.equilibrium.residual;
-    Err(SolveError::NotConverged { stage, iterations, residual, reason: StopReason::SweptThroughSolid }.into())
+    Err(SolveError::NotConverged { stage, iterations, residual, reason: why }.into())
 }
 
 /// The largest coordinate change between `a` and `b` (rad or m).
