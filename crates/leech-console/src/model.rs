@@ -173,14 +173,7 @@ impl Model {
         if let (Some(d), Hold::Both { rear, front }) = (drawn.as_mut(), hold) {
             // What each release would leave: the other cup alone.
             let alone = |hold: Hold, cup: Cup| {
-                // From the both-held equilibrium, as the release goes (`stance::solve_after`).
-                let released = match &held {
-                    Some(both) if both.hold == self.body.hold() => {
-                        stance::solve_after(&self.robot, both, lengths, hold, &self.scene, &self.solver, FreeCups::Rest)
-                    }
-                    _ => solve(hold),
-                };
-                let cups = released.ok()?.cups(&self.robot).ok()?;
+                let cups = solve(hold).ok()?.cups(&self.robot).ok()?;
                 let state = match cup {
                     Cup::Rear => cups.0,
                     Cup::Front => cups.1,
