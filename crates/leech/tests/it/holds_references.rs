@@ -322,15 +322,7 @@ pub(crate) fn balance(held: &Held) -> Result<(), String> {
 /// The reference is sound: converged, stable, balanced, clear of the solids, and its two
 /// polishing methods agree.
 fn check_reference(case: &Value) {
-    let name = case["name"].as_str().unwrap();
-    let newton = &case["residuals"]["newton"];
-    for key in ["stationarity", "equality", "violation", "complementarity", "negative_force"] {
-        assert!(num(&newton[key]) < 1e-12, "{name}: reference Newton {key} {}", newton[key]);
-    }
-    assert!(case["stable"].as_bool().unwrap() && num(&case["reduced_hessian_min"]) > 0.0, "{name}");
-    for key in ["force_x_rel", "force_y_rel", "moment_rel"] {
-        assert!(num(&case["balance"][key]) < 1e-12, "{name}: reference balance {key}");
-    }
+    let name = reference_converged(case);
     if !case["penetration_m"].is_null() {
         assert!(num(&case["penetration_m"]) < 1e-12, "{name}: reference penetrates");
     }
@@ -343,6 +335,21 @@ fn check_reference(case: &Value) {
     if !case["feeding_path"].is_null() {
         assert!(num(&case["feeding_path"]["max_abs_diff_q"]) < 1e-9, "{name}: feeding path");
     }
+}
+
+/// Asserts that a reference case's Newton converged (every KKT residual
+/// below 1e-12), to a stable point that balances the weight; returns its name.
+pub(crate) fn reference_converged(case: &Value) -> &str {
+    let name = case["name"].as_str().unwrap();
+    let newton = &case["residuals"]["newton"];
+    for key in ["stationarity", "equality", "violation", "complementarity", "negative_force"] {
+        assert!(num(&newton[key]) < 1e-12, "{name}: reference Newton {key} {}", newton[key]);
+    }
+    assert!(case["stable"].as_bool().unwrap() && num(&case["reduced_hessian_min"]) > 0.0, "{name}");
+    for key in ["force_x_rel", "force_y_rel", "moment_rel"] {
+        assert!(num(&case["balance"][key]) < 1e-12, "{name}: reference balance {key}");
+    }
+    name
 }
 
 /// Asserts that the fixture's `robot` record holds the built-in robot's
