@@ -20,10 +20,11 @@ use super::tube3::Tube3;
 use crate::chain::{Chain, Discretization};
 use crate::error::InputError;
 use crate::geom3::{
-    add_scaled, apply, axpy, cross, is_rotation, linear_terms, mul_tn, pair_terms, rot_z, scale, tangent_hessian,
+    apply, axpy, cross, is_rotation, linear_terms, mul_tn, pair_terms, rot_z, scale, tangent_hessian,
     transpose, Mat3, Vec3,
 };
 use crate::robot::Robot;
+use crate::statics::Evaluation;
 
 /// Number of the plate's constraint rows: position and rotation of tubes 2 and 3.
 pub const PLATE_ROWS: usize = 12;
@@ -48,6 +49,13 @@ pub struct Frames(pub(crate) Vec<Mat3>);
 impl Frames {
     /// Every link's frame, in the body's coordinate order ([`Body3::index`]).
     pub fn as_slice(&self) -> &[Mat3] {
+        &self.0
+    }
+}
+
+impl std::ops::Deref for Frames {
+    type Target = [Mat3];
+    fn deref(&self) -> &[Mat3] {
         &self.0
     }
 }
@@ -239,17 +247,17 @@ impl Body3 {
     }
 
     /// Frame of link `j` of tube `i`.
-    pub fn frame(&self, frames: &Frames, i: usize, j: usize) -> Mat3 {
-        frames.0[self.index(i, j)]
+    pub fn frame(&self, frames: &[Mat3], i: usize, j: usize) -> Mat3 {
+        frames[self.index(i, j)]
     }
 
     /// The plate's frame: tube 1's last link (columns the plate's axes).
-    pub fn plate_frame(&self, frames: &Frames) -> Mat3 {
-        frames.0[self.links() - 1]
+    pub fn plate_frame(&self, frames: &[Mat3]) -> Mat3 {
+        frames[self.links() - 1]
     }
 
     /// Tube `i`'s centre line: its root, then every link's tip (m).
-    pub fn points(&self, frames: &Frames, i: usize) -> Vec<Vec3> {
+    pub fn points(&self, frames: &[Mat3], i: usize) -> Vec<Vec3> {
         let tube = &self.tubes[i];
         let mut p = tube.root();
         let mut out = vec![p];
@@ -262,13 +270,13 @@ impl Body3 {
     }
 
     /// The endpoint: tube 1's tip (m).
-    pub fn endpoint(&self, frames: &Frames) -> Vec3 {
+    pub fn endpoint(&self, frames: &[Mat3]) -> Vec3 {
         self.points(frames, 0).pop().unwrap_or(self.tubes[0].root())
     }
 
     /// The plate's 12 constraint values (m for positions, rad for rotations):
     /// tube 2's position and rotation rows, then tube 3's.
-    pub fn constraints(&self, frames: &Frames) -> [f64; PLATE_ROWS] {
+    pub fn constraints(&self, frames: &[Mat3]) -> [f64; PLATE_ROWS] {
         let tip = |i: usize| self.points(frames, i).pop().unwrap_or(self.tubes[i].root());
         let plate = self.plate_frame(frames);
         let mut out = [0.0; PLATE_ROWS];
@@ -298,15 +306,15 @@ impl Body3 {
     }
 
     /// Potential energy, springs and gravity (J).
-    pub fn energy(&self, frames: &Frames) -> f64 {
-        let mut ev = Eval3::new(self);
-        self.evaluate(frames, &[0.0; PLATE_ROWS], Param::FULL, &mut ev);
+    pub fn energy(&self, frames: &[Mat3]) -> f64 {
+        let mut ev = self.evaluation(PLATE_ROWS);
+        self.evaluate::<false>(frames, &[0.0; PLATE_ROWS], Param::FULL, &mut ev);
         ev.energy
     }
 
     /// The largest twist `|theta_x|` of any joint (rad): the torsion the
     /// tubes carry.
-    pub fn max_twist(&self, frames: &Frames) -> f64 {
+    pub fn max_twist(&self, frames: &[Mat3]) -> f64 {
         let mut most = 0.0f64;
         for (i, tube) in self.tubes.iter().enumerate() {
             let mut prev = self.base;
@@ -321,14 +329,14 @@ impl Body3 {
 
     /// The Lagrangian `V - lambda . C` and its local derivatives at one point,
     /// dense (for checks and small studies; the solver keeps them banded).
-    pub fn derivatives(&self, frames: &Frames, lambda: &[f64; PLATE_ROWS]) -> Derivatives {
+    pub fn derivatives(&self, frames: &[Mat3], lambda: &[f64; PLATE_ROWS]) -> Derivatives {
         self.derivatives_at(frames, lambda, Param::FULL)
     }
 
     /// [`Body3::derivatives`] at `param`.
-    pub(crate) fn derivatives_at(&self, frames: &Frames, lambda: &[f64; PLATE_ROWS], param: Param) -> Derivatives {
-        let mut ev = Eval3::new(self);
-        self.evaluate(frames, lambda, param, &mut ev);
+    pub(crate) fn derivatives_at(&self, frames: &[Mat3], lambda: &[f64; PLATE_ROWS], param: Param) -> Derivatives {
+        let mut ev = self.evaluation(PLATE_ROWS);
+        self.evaluate::<true>(frames, lambda, param, &mut ev);
         let n = 3 * self.links();
         let mut gradient = vec![0.0; n];
         ev.stationarity(lambda, &mut gradient);
@@ -344,16 +352,16 @@ impl Body3 {
             for r in 0..3 {
                 for c in 0..3 {
                     if c >= r {
-                        put(3 * u + r, 3 * u + c, ev.diag[9 * u + 3 * r + c]);
+                        put(3 * u + r, 3 * u + c, ev.hessian_diag[9 * u + 3 * r + c]);
                     }
-                    put(3 * u + r, 3 * u + 3 + c, ev.off[9 * u + 3 * r + c]);
-                    put(3 * u + r, chain + c, ev.plate_border[9 * u + 3 * r + c]);
+                    put(3 * u + r, 3 * u + 3 + c, ev.hessian_off[9 * u + 3 * r + c]);
+                    put(3 * u + r, chain + c, ev.hessian_border[9 * u + 3 * r + c]);
                 }
             }
         }
         for r in 0..3 {
             for c in r..3 {
-                put(chain + r, chain + c, ev.plate_corner[r][c]);
+                put(chain + r, chain + c, ev.hessian_corner[3 * r + c]);
             }
         }
         let multiplied: f64 = lambda.iter().zip(&ev.constraints).map(|(l, c)| l * c).sum();
@@ -361,33 +369,34 @@ impl Body3 {
             lagrangian: ev.energy - multiplied,
             gradient,
             hessian,
-            constraints: ev.constraints,
+            constraints: ev.constraints[..].try_into().expect("the weld's 12 rows"),
             jacobian: ev.jacobian,
         }
     }
 
-    /// Evaluates at `frames` with multipliers `lambda` on the path point
-    /// `param` (module doc): energy, gradient, constraints, Jacobian and the
-    /// Lagrangian Hessian `hess V - sum_r lambda_r hess C_r` into `ev`.
-    pub(crate) fn evaluate(&self, frames: &Frames, lambda: &[f64; PLATE_ROWS], param: Param, ev: &mut Eval3) {
-        self.evaluate_terms::<true>(frames, lambda, param, ev);
+    /// Storage for the body's evaluation with `rows` rows (the weld's 12
+    /// first): blocks of 3, the plate's 3 coordinates free.
+    pub(crate) fn evaluation(&self, rows: usize) -> Evaluation {
+        let mut ev = Evaluation::default();
+        ev.resize_blocks(3 * self.links(), 3, rows, 3);
+        ev
     }
 
-    /// [`Body3::evaluate`] without the Hessian (left zero): what a residual
-    /// needs, at about half the cost.
-    pub(crate) fn evaluate_residual(&self, frames: &Frames, lambda: &[f64; PLATE_ROWS], param: Param, ev: &mut Eval3) {
-        self.evaluate_terms::<false>(frames, lambda, param, ev);
-    }
-
-    fn evaluate_terms<const HESSIAN: bool>(
+    /// Evaluates at `frames` with the weld's multipliers `lambda` on the
+    /// path point `param` (module doc): energy, gradient, the weld's rows
+    /// (the first 12 of `ev`'s) and their Jacobian and, with `HESSIAN`, the
+    /// Lagrangian Hessian `hess V - sum_r lambda_r hess C_r` into `ev`
+    /// (cleared here but for its unused curvature); without it the
+    /// Hessian is left zero, at about half the cost.
+    pub(crate) fn evaluate<const HESSIAN: bool>(
         &self,
-        frames: &Frames,
+        frames: &[Mat3],
         lambda: &[f64; PLATE_ROWS],
         param: Param,
-        ev: &mut Eval3,
+        ev: &mut Evaluation,
     ) {
-        ev.clear();
-        let f = &frames.0;
+        ev.clear_multiplied();
+        let f = frames;
         // Hanging, gravity turns with the plate: added after the loop.
         let g = if param.hang.is_some() { 0.0 } else { param.load * self.gravity };
         let positions = [[lambda[0], lambda[1], lambda[2]], [lambda[6], lambda[7], lambda[8]]];
@@ -471,7 +480,7 @@ impl Body3 {
         prev_index: Option<usize>,
         r: &Mat3,
         u: usize,
-        ev: &mut Eval3,
+        ev: &mut Evaluation,
     ) {
         let terms = pair_terms(&mul_tn(prev, r), |th| [k[0] * th[0], k[1] * th[1], k[2] * th[2]], k, HESSIAN);
         let th = terms.theta;
@@ -507,63 +516,36 @@ pub struct Derivatives {
     pub jacobian: Vec<f64>,
 }
 
-/// Values and derivatives of the body at one point (see [`Body3::evaluate`]),
-/// laid out for [`crate::linalg::BorderedLdl`] with 3 x 3 blocks.
-#[derive(Clone, Debug)]
-pub(crate) struct Eval3 {
-    /// Links of all tubes, `N`; the plate is index `N - 1`.
-    links: usize,
-    pub energy: f64,
-    /// `dV/ddelta` (N m), 3 per link.
-    pub gradient: Vec<f64>,
-    /// Diagonal blocks of the chains (9 per block, row-major).
-    pub diag: Vec<f64>,
-    /// Block `u` couples chain block `u` (rows) with `u + 1` (columns).
-    pub off: Vec<f64>,
-    /// Chain unknowns against the plate's 3 coordinates (`3 (N - 1) x 3`).
-    pub plate_border: Vec<f64>,
-    /// The plate's own 3 x 3 block.
-    pub plate_corner: Mat3,
-    /// Constraint values.
-    pub constraints: [f64; PLATE_ROWS],
-    /// `dC_r/ddelta_i` at `i * 12 + r`.
-    pub jacobian: Vec<f64>,
+/// Writing the body's terms into an [`Evaluation`] of blocks of 3 (the
+/// layout of [`crate::linalg::BorderedLdl`]): link `u`'s coordinates are
+/// `3 u .. 3 u + 3`, the plate (the last link) the 3 free ones; row `r`'s
+/// Jacobian entry for coordinate `i` at `i m + r` (`m` rows).
+pub(crate) trait Terms3 {
+    /// Adds `s g` to link `u`'s gradient.
+    fn add_gradient(&mut self, u: usize, g: Vec3, s: f64);
+    /// The Jacobian of a position row block's term `R Exp(delta) a` of
+    /// frame `r` at index `u` (`side` 0: tube 2's rows, 1: tube 3's): row
+    /// `c` is `a x (R^T e_c)`.
+    fn add_position_jacobian(&mut self, r: &Mat3, u: usize, a: Vec3, side: usize);
+    /// Adds `v` to row `row`'s Jacobian at link `u`.
+    fn add_jacobian(&mut self, u: usize, row: usize, v: Vec3);
+    /// Sets row `row`'s Jacobian at link `u` to `v`.
+    fn set_jacobian(&mut self, u: usize, row: usize, v: Vec3);
+    /// Adds `h` (rows: link `a`, columns: link `b`) and, for `a != b`, its
+    /// transpose: the only pairs are a link with itself, consecutive links
+    /// of one tube, and a link with the plate.
+    fn add_hessian(&mut self, a: usize, b: usize, h: &Mat3);
+    /// `grad V - J^T lambda` over the first `lambda.len()` rows into `out` (3 per link).
+    fn stationarity(&self, lambda: &[f64], out: &mut [f64]);
 }
 
-impl Eval3 {
-    pub fn new(body: &Body3) -> Eval3 {
-        let n = body.links();
-        Eval3 {
-            links: n,
-            energy: 0.0,
-            gradient: vec![0.0; 3 * n],
-            diag: vec![0.0; 9 * (n - 1)],
-            off: vec![0.0; 9 * (n - 1)],
-            plate_border: vec![0.0; 9 * (n - 1)],
-            plate_corner: [[0.0; 3]; 3],
-            constraints: [0.0; PLATE_ROWS],
-            jacobian: vec![0.0; 3 * n * PLATE_ROWS],
-        }
-    }
-
-    fn clear(&mut self) {
-        self.energy = 0.0;
-        for v in [&mut self.gradient, &mut self.diag, &mut self.off, &mut self.plate_border, &mut self.jacobian] {
-            v.fill(0.0);
-        }
-        self.plate_corner = [[0.0; 3]; 3];
-        self.constraints = [0.0; PLATE_ROWS];
-    }
-
-    pub(crate) fn add_gradient(&mut self, u: usize, g: Vec3, s: f64) {
+impl Terms3 for Evaluation {
+    fn add_gradient(&mut self, u: usize, g: Vec3, s: f64) {
         for (x, y) in self.gradient[3 * u..3 * u + 3].iter_mut().zip(g) {
             *x += s * y;
         }
     }
 
-    /// The Jacobian of a position row block's term `R Exp(delta) a` of frame
-    /// `r` at index `u` (`side` 0: tube 2's rows, 1: tube 3's): row `c` is
-    /// `a x (R^T e_c)`.
     fn add_position_jacobian(&mut self, r: &Mat3, u: usize, a: Vec3, side: usize) {
         for c in 0..3 {
             self.add_jacobian(u, 6 * side + c, cross(a, r[c]));
@@ -571,22 +553,21 @@ impl Eval3 {
     }
 
     fn add_jacobian(&mut self, u: usize, row: usize, v: Vec3) {
+        let m = self.rows();
         for (c, x) in v.iter().enumerate() {
-            self.jacobian[(3 * u + c) * PLATE_ROWS + row] += x;
+            self.jacobian[(3 * u + c) * m + row] += x;
         }
     }
 
     fn set_jacobian(&mut self, u: usize, row: usize, v: Vec3) {
+        let m = self.rows();
         for (c, x) in v.iter().enumerate() {
-            self.jacobian[(3 * u + c) * PLATE_ROWS + row] = *x;
+            self.jacobian[(3 * u + c) * m + row] = *x;
         }
     }
 
-    /// Adds `h` (rows: link `a`, columns: link `b`) and, for `a != b`, its
-    /// transpose: the only pairs are a link with itself, consecutive links
-    /// of one tube, and a link with the plate.
-    pub(crate) fn add_hessian(&mut self, a: usize, b: usize, h: &Mat3) {
-        let plate = self.links - 1;
+    fn add_hessian(&mut self, a: usize, b: usize, h: &Mat3) {
+        let plate = self.gradient.len() / 3 - 1;
         let add = |buf: &mut [f64], offset: usize, m: &Mat3| {
             for r in 0..3 {
                 for c in 0..3 {
@@ -595,17 +576,17 @@ impl Eval3 {
             }
         };
         match (a == plate, b == plate) {
-            (true, true) => self.plate_corner = add_scaled(1.0, h, &self.plate_corner),
-            (false, false) if a == b => add(&mut self.diag, 9 * a, h),
-            (false, false) => add(&mut self.off, 9 * a, h),
-            (false, true) => add(&mut self.plate_border, 9 * a, h),
-            (true, false) => add(&mut self.plate_border, 9 * b, &transpose(h)),
+            (true, true) => add(&mut self.hessian_corner, 0, h),
+            (false, false) if a == b => add(&mut self.hessian_diag, 9 * a, h),
+            (false, false) => add(&mut self.hessian_off, 9 * a, h),
+            (false, true) => add(&mut self.hessian_border, 9 * a, h),
+            (true, false) => add(&mut self.hessian_border, 9 * b, &transpose(h)),
         }
     }
 
-    /// `grad V - J^T lambda` into `out` (3 per link).
-    pub fn stationarity(&self, lambda: &[f64; PLATE_ROWS], out: &mut [f64]) {
-        for ((o, g), row) in out.iter_mut().zip(&self.gradient).zip(self.jacobian.chunks_exact(PLATE_ROWS)) {
+    fn stationarity(&self, lambda: &[f64], out: &mut [f64]) {
+        let m = self.rows();
+        for ((o, g), row) in out.iter_mut().zip(&self.gradient).zip(self.jacobian.chunks_exact(m)) {
             *o = row.iter().zip(lambda).fold(*g, |acc, (j, l)| acc - j * l);
         }
     }
@@ -623,21 +604,21 @@ pub fn angle_between(a: &Mat3, b: &Mat3) -> f64 {
 }
 
 /// The largest [`angle_between`] over the links of two states (rad).
-pub fn distance(a: &Frames, b: &Frames) -> f64 {
-    a.0.iter().zip(&b.0).fold(0.0, |m, (x, y)| f64::max(m, angle_between(x, y)))
+pub fn distance(a: &[Mat3], b: &[Mat3]) -> f64 {
+    a.iter().zip(b).fold(0.0, |m, (x, y)| f64::max(m, angle_between(x, y)))
 }
 
 /// Whether [`distance`]`(a, b) <= limit` (rad), without a logarithm per
 /// link: the angle `theta` between two frames has
 /// `tr(A^T B) = 1 + 2 cos theta`, and `cos` falls on `[0, pi]`, so
 /// `theta <= limit < pi` exactly when `tr(A^T B) >= 1 + 2 cos(limit)`.
-pub(crate) fn within(a: &Frames, b: &Frames, limit: f64) -> bool {
+pub(crate) fn within(a: &[Mat3], b: &[Mat3], limit: f64) -> bool {
     if limit >= std::f64::consts::PI {
         return true;
     }
     let least = 1.0 + 2.0 * limit.cos();
     let trace = |x: &Mat3, y: &Mat3| (0..3).map(|r| crate::geom3::dot(x[r], y[r])).sum::<f64>();
-    a.0.iter().zip(&b.0).all(|(x, y)| trace(x, y) >= least)
+    a.iter().zip(b).all(|(x, y)| trace(x, y) >= least)
 }
 
 #[cfg(test)]
@@ -662,8 +643,8 @@ pub(crate) mod tests {
         let (frames, hang) = bent_and_hanging(&body);
         let lambda: [f64; PLATE_ROWS] = std::array::from_fn(|r| 0.3 + r as f64);
         for param in [Param::FULL, Param { hang: Some(hang), ..Param::FULL }] {
-            let mut ev = Eval3::new(&body);
-            body.evaluate(&frames, &lambda, param, &mut ev);
+            let mut ev = body.evaluation(PLATE_ROWS);
+            body.evaluate::<true>(&frames, &lambda, param, &mut ev);
             border_reaches_as_declared(&body.pattern(param.hang.is_some(), 0), &ev);
         }
     }
@@ -686,14 +667,14 @@ pub(crate) mod tests {
     }
 
     /// Every border entry `pattern` declares zero is zero in `ev`, and most are.
-    fn border_reaches_as_declared(pattern: &crate::linalg::Pattern, ev: &Eval3) {
+    fn border_reaches_as_declared(pattern: &crate::linalg::Pattern, ev: &Evaluation) {
         let (mut zeros, mut nonzeros) = (0, 0);
         for c in 0..pattern.chains() {
             let blocks = pattern.chain_blocks(c);
             for (t, u) in blocks.enumerate() {
                 for a in 0..3 {
                     let row: Vec<f64> = (0..3)
-                        .map(|p| ev.plate_border[9 * u + 3 * a + p])
+                        .map(|p| ev.hessian_border[9 * u + 3 * a + p])
                         .chain((0..PLATE_ROWS).map(|r| ev.jacobian[(3 * u + a) * PLATE_ROWS + r]))
                         .collect();
                     for (r, v) in row.iter().enumerate() {

@@ -98,14 +98,14 @@
 //! reaction takes the contact forces off the tubes' root forces; the front
 //! cup's, off the whole body's weight and moment ([`super::held3`]).
 
-use super::body3::{Body3, Eval3, Frames, Param, PLATE_ROWS};
+use super::body3::{Body3, Param, Terms3, PLATE_ROWS};
 use super::equilibrium3::Equilibrium3;
 use super::hold3::{FrontHold, FRONT_ROWS};
 use crate::error::InputError;
 use crate::error::StanceError;
 use crate::geom3::{apply, apply_t, axpy, dot, linear_terms, scale, scale_mat, Mat3, Vec3};
 use crate::scene::{Plane3, Scene3};
-use crate::statics::Solver;
+use crate::statics::{Evaluation, Solver};
 
 /// A contact row: the tip of link `link` of tube `tube` (0, 1, 2) against
 /// `plane`.
@@ -144,36 +144,19 @@ pub(crate) enum HeldAt<'a> {
     Front(&'a FrontHold),
 }
 
-/// The run-time rows' values and Jacobian at one point, beside an
-/// [`Eval3`]: the front hold's six when both cups hold
-/// ([`super::held3`]), then the contact rows.
-#[derive(Clone, Debug, Default)]
-pub(crate) struct ContactEval {
-    /// Values (m, or rad for the front hold's rotation rows), one per row:
-    /// for a contact its gap.
-    pub gaps: Vec<f64>,
-    /// `dg_r/ddelta_i` at `i * m + r` (`m` rows).
-    pub jacobian: Vec<f64>,
-    /// Each row's scale (m, or 1 for a rotation row): residuals are divided by it.
-    pub scales: Vec<f64>,
-    /// Each row's compliance `c` (its value is `g + c mu`; zero but for
-    /// the front hold's rows on the start of the both cups' path).
-    pub compliance: Vec<f64>,
-}
-
-/// Where a run-time row's terms go, row `r` of `m`: its Jacobian into
-/// `jacobian` (at `i * m + r`), with `HESSIAN` its diagonal Hessian blocks
-/// and, where the row couples a link with the plate (link `plate`; the
-/// solids turning with it under a front hold), the cross block into `ev`.
-pub(crate) fn row_sink<'a, const HESSIAN: bool>(
-    ev: &'a mut Eval3,
-    jacobian: &'a mut [f64],
-    (m, r): (usize, usize),
+/// Where a run-time row's terms go, row `r` of `ev`'s: its Jacobian
+/// (at `i m + r`), with `HESSIAN` its diagonal Hessian blocks and, where the
+/// row couples a link with the plate (link `plate`; the solids turning with
+/// it under a front hold), the cross block.
+pub(crate) fn row_sink<const HESSIAN: bool>(
+    ev: &mut Evaluation,
+    r: usize,
     plate: usize,
-) -> impl FnMut(usize, Vec3, Mat3, Option<Mat3>) + 'a {
+) -> impl FnMut(usize, Vec3, Mat3, Option<Mat3>) + '_ {
+    let m = ev.rows();
     move |u, grad, hess, cross| {
         for (c, g) in grad.iter().enumerate() {
-            jacobian[(3 * u + c) * m + r] = *g;
+            ev.jacobian[(3 * u + c) * m + r] = *g;
         }
         if HESSIAN {
             ev.add_hessian(u, u, &hess);
@@ -185,71 +168,44 @@ pub(crate) fn row_sink<'a, const HESSIAN: bool>(
 }
 
 impl Body3 {
-    /// The body's evaluation with the run-time rows: the front hold's six
-    /// when `param` holds the front too, then the contact rows `rows`. The
-    /// weld's multipliers are `lambda[..12]`, the run-time rows' (the
-    /// front hold's, then the contacts' forces) `lambda[12..]`.
-    /// Fills `ev` (with `HESSIAN`, the rows' Hessian blocks added; without
-    /// it, no Hessian at all: what a residual needs), `cev`, and the
-    /// stationarity residual `grad V - J^T lambda` into `residual`.
-    #[allow(clippy::too_many_arguments)]
-    pub(crate) fn evaluate_with<const HESSIAN: bool>(
+    /// The body's evaluation with the run-time rows after the weld's 12:
+    /// the front hold's six when `param` holds the front too, then the
+    /// contact rows `rows`, each contact's value its gap (m). The weld's
+    /// multipliers are `lambda[..12]`, the run-time rows' (the front
+    /// hold's, then the contacts' forces) `lambda[12..]`; `ev` holds
+    /// `12 + 6 + rows.len()` rows (without the front hold's six when it
+    /// does not hold). With `HESSIAN`, the rows' Hessian blocks are added to
+    /// the Lagrangian's; without it, no Hessian at all.
+    pub(crate) fn evaluate_rows<const HESSIAN: bool>(
         &self,
-        frames: &Frames,
+        frames: &[Mat3],
         lambda: &[f64],
         param: Param,
         rows: &[ContactRow3],
-        ev: &mut Eval3,
-        cev: &mut ContactEval,
-        residual: &mut [f64],
+        ev: &mut Evaluation,
     ) {
         let (weld, extra) = lambda.split_at(PLATE_ROWS);
         let weld: &[f64; PLATE_ROWS] = weld.try_into().expect("the weld's 12 multipliers come first");
-        if HESSIAN {
-            self.evaluate(frames, weld, param, ev);
-        } else {
-            self.evaluate_residual(frames, weld, param, ev);
-        }
+        self.evaluate::<HESSIAN>(frames, weld, param, ev);
         let held = if param.front.is_some() { FRONT_ROWS } else { 0 };
-        let m = held + rows.len();
-        cev.gaps.resize(m, 0.0);
-        cev.scales.resize(m, self.row_scale(0));
-        cev.compliance.resize(m, 0.0);
-        cev.compliance.fill(0.0);
-        cev.jacobian.resize(3 * self.links() * m, 0.0);
-        cev.jacobian.fill(0.0);
+        assert_eq!(ev.rows(), PLATE_ROWS + held + rows.len(), "evaluate_rows: storage for every row");
         if let Some(target) = &param.front {
-            self.add_front_rows::<HESSIAN>(frames, target, &extra[..FRONT_ROWS], ev, cev);
+            self.add_front_rows::<HESSIAN>(frames, target, &extra[..FRONT_ROWS], ev);
         }
         let plate = self.links() - 1;
         for (r, (row, mu)) in rows.iter().zip(&extra[held..]).enumerate() {
-            let r = held + r;
-            cev.scales[r] = self.row_scale(0);
-            let mut sink = row_sink::<HESSIAN>(ev, &mut cev.jacobian, (m, r), plate);
-            cev.gaps[r] = if param.hang.is_some() {
+            let r = PLATE_ROWS + held + r;
+            let sink = row_sink::<HESSIAN>(ev, r, plate);
+            let gap = if param.hang.is_some() {
                 // Under the front hold the solids turn with the plate: the
                 // gap couples the plate with every link it reaches.
                 self.front_contact_terms(frames, row, *mu, sink)
             } else {
+                let mut sink = sink;
                 self.contact_terms(frames, row, *mu, |u, grad, hess| sink(u, grad, hess, None));
                 self.contact_gap(frames, row)
             };
-        }
-        ev.stationarity(weld, residual);
-        if m > 0 {
-            for (o, j) in residual.iter_mut().zip(cev.jacobian.chunks_exact(m)) {
-                *o = j.iter().zip(extra).fold(*o, |acc, (a, f)| acc - a * f);
-            }
-        }
-    }
-
-    /// Scale of row `r` of the weld and run-time rows evaluated in `cev`
-    /// (m, or 1 for a rotation row): residuals are divided by it.
-    pub(crate) fn any_row_scale(&self, cev: &ContactEval, r: usize) -> f64 {
-        if r < PLATE_ROWS {
-            self.row_scale(r)
-        } else {
-            cev.scales[r - PLATE_ROWS]
+            ev.constraints[r] = gap;
         }
     }
 
@@ -268,7 +224,7 @@ impl Body3 {
     }
 
     /// The tip of link `link` of tube `tube` (m).
-    pub fn link_tip(&self, frames: &Frames, tube: usize, link: usize) -> Vec3 {
+    pub fn link_tip(&self, frames: &[Mat3], tube: usize, link: usize) -> Vec3 {
         let t = self.tube(tube);
         t.lengths()[..=link].iter().enumerate().fold(t.root(), |p, (k, l)| {
             let r = self.frame(frames, tube, k);
@@ -277,7 +233,7 @@ impl Body3 {
     }
 
     /// The row's gap `g` (m, module doc).
-    pub fn contact_gap(&self, frames: &Frames, row: &ContactRow3) -> f64 {
+    pub fn contact_gap(&self, frames: &[Mat3], row: &ContactRow3) -> f64 {
         row.plane.gap(self.link_tip(frames, row.tube, row.link))
     }
 
@@ -286,7 +242,7 @@ impl Body3 {
     ///
     /// # Panics
     /// If `out` does not hold 3 entries per link.
-    pub fn contact_jacobian(&self, frames: &Frames, row: &ContactRow3, out: &mut [f64]) {
+    pub fn contact_jacobian(&self, frames: &[Mat3], row: &ContactRow3, out: &mut [f64]) {
         assert_eq!(out.len(), 3 * self.links(), "contact_jacobian: one 3-vector per link");
         out.fill(0.0);
         self.contact_terms(frames, row, 0.0, |u, grad, _| out[3 * u..3 * u + 3].copy_from_slice(&grad));
@@ -296,7 +252,7 @@ impl Body3 {
     /// `u` the row's point depends on (module doc): the Jacobian's 3-vectors
     /// and the Lagrangian's diagonal Hessian blocks for the multiplier
     /// `force` (N). No allocation: the solver's evaluation calls it per row.
-    pub fn contact_terms(&self, frames: &Frames, row: &ContactRow3, force: f64, each: impl FnMut(usize, Vec3, Mat3)) {
+    pub fn contact_terms(&self, frames: &[Mat3], row: &ContactRow3, force: f64, each: impl FnMut(usize, Vec3, Mat3)) {
         self.point_terms(frames, row.tube, row.link, row.plane.normal, force, each);
     }
 
@@ -306,7 +262,7 @@ impl Body3 {
     /// ([`super::held3`]).
     pub(crate) fn point_terms(
         &self,
-        frames: &Frames,
+        frames: &[Mat3],
         tube: usize,
         link: usize,
         n: Vec3,
@@ -316,7 +272,7 @@ impl Body3 {
         let lengths = self.tube(tube).lengths();
         for (k, l) in lengths[..=link].iter().enumerate() {
             let u = self.index(tube, k);
-            let r = &frames.0[u];
+            let r = &frames[u];
             let a = [*l, 0.0, 0.0];
             let (grad, _) = linear_terms(r, n, a);
             let (_, hess) = linear_terms(r, scale(-force, n), a);
@@ -332,7 +288,7 @@ impl Body3 {
     /// plate's coordinates), none for the plate itself. No allocation.
     pub(crate) fn front_contact_terms(
         &self,
-        frames: &Frames,
+        frames: &[Mat3],
         row: &ContactRow3,
         force: f64,
         mut each: impl FnMut(usize, Vec3, Mat3, Option<Mat3>),
@@ -354,7 +310,7 @@ impl Body3 {
 
     /// The row's gap (m): in the world ([`Body3::contact_gap`]), or under
     /// the front hold (`front`) with the plane in the held plate's frame.
-    pub(crate) fn row_gap(&self, frames: &Frames, row: &ContactRow3, front: bool) -> f64 {
+    pub(crate) fn row_gap(&self, frames: &[Mat3], row: &ContactRow3, front: bool) -> f64 {
         if front {
             row.plane.gap(self.plate_local(frames, self.link_tip(frames, row.tube, row.link)))
         } else {
@@ -364,7 +320,7 @@ impl Body3 {
 
     /// A point `p` (m) of the solver's picture in the plate's frame, origin
     /// tube 1's tip: `R_P^T (p - x_tip)`.
-    fn plate_local(&self, frames: &Frames, p: Vec3) -> Vec3 {
+    fn plate_local(&self, frames: &[Mat3], p: Vec3) -> Vec3 {
         let tip = self.link_tip(frames, 0, self.tube(0).len() - 1);
         apply_t(&self.plate_frame(frames), axpy(-1.0, tip, p))
     }
@@ -375,7 +331,7 @@ impl Body3 {
     /// `clearance` (the tube's radius: the centre line keeps it).
     pub fn contact_rows(
         &self,
-        frames: &Frames,
+        frames: &[Mat3],
         scene: &Scene3,
         clearance: f64,
         margin: f64,
@@ -392,7 +348,7 @@ impl Body3 {
     /// combination of the weld's and the hold's).
     pub(crate) fn contact_rows_in(
         &self,
-        frames: &Frames,
+        frames: &[Mat3],
         scene: &Scene3,
         clearance: f64,
         margin: f64,
@@ -430,7 +386,7 @@ impl Body3 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::body3::body3::retract;
+    use crate::body3::body3::{retract, Frames};
     use crate::geom3::{column, exp};
     use crate::robot::Robot;
     use crate::scene::Solid3;

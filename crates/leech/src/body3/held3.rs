@@ -167,8 +167,8 @@
 //! lip (`|M . n| / R`: the ring's friction force carrying the moment about
 //! its axis), and the peel moment `|M - (M . n) n|` (tilting the cup). With
 //! an in-plane load the twist is zero and the verdict the planar one.
-use super::body3::{Body3, Derivatives, Eval3, Frames, Param, PLATE_ROWS};
-use super::contact3::{row_sink, ContactEval, ContactRow3};
+use super::body3::{Body3, Derivatives, Frames, Param, Terms3, PLATE_ROWS};
+use super::contact3::{row_sink, ContactRow3};
 use super::equilibrium3::Equilibrium3;
 use super::hold3::{check_hold, FrontHold, FrontTarget, Hanging, Hold3, FRONT_ROWS};
 use super::place3::{first_inside, front_cup_centre, front_tip, hold_points};
@@ -181,7 +181,7 @@ use crate::geom3::{
 };
 use crate::robot::Robot;
 use crate::scene::Scene3;
-use crate::statics::Solver;
+use crate::statics::{Evaluation, Solver};
 
 const E_X: Vec3 = [1.0, 0.0, 0.0];
 
@@ -362,7 +362,7 @@ impl Body3 {
     /// The hanging gravity of [`Hanging`] at `param` into `ev` (module doc):
     /// `g` times the bilinear term of [`Body3::plate_bilinear`] with `u` up
     /// in the held plate's frame, `K` and `c_ij` the masses' first moments.
-    pub(crate) fn add_hanging(&self, frames: &Frames, hang: &Hanging, param: Param, ev: &mut Eval3) {
+    pub(crate) fn add_hanging(&self, frames: &[Mat3], hang: &Hanging, param: Param, ev: &mut Evaluation) {
         let g = param.load * self.gravity();
         let p = self.links() - 1;
         let tubes = [0, 1, 2].map(|i| self.tube(i));
@@ -396,13 +396,13 @@ impl Body3 {
     /// block. No allocation.
     pub(crate) fn plate_bilinear(
         &self,
-        frames: &Frames,
+        frames: &[Mat3],
         up: Vec3,
         constant: Vec3,
         coefficient: impl Fn(usize, usize) -> f64,
         mut link: impl FnMut(usize, Vec3, Mat3, Mat3),
     ) -> PlateTerm {
-        let f = frames.as_slice();
+        let f = frames;
         let p = self.links() - 1;
         let plate = f[p];
         let s = apply(&plate, up);
@@ -433,7 +433,7 @@ impl Body3 {
 
     /// The Lagrangian's derivatives of the body hanging as `hang` says
     /// ([`Body3::derivatives`] with the front hold's gravity), for checks.
-    pub fn hanging_derivatives(&self, frames: &Frames, lambda: &[f64; PLATE_ROWS], hang: Hanging) -> Derivatives {
+    pub fn hanging_derivatives(&self, frames: &[Mat3], lambda: &[f64; PLATE_ROWS], hang: Hanging) -> Derivatives {
         self.derivatives_at(frames, lambda, Param { hang: Some(hang), ..Param::FULL })
     }
 
@@ -656,7 +656,7 @@ impl Body3 {
 
     /// The whole robot's mass (kg) and first moment `sum m x` (kg m) at
     /// `frames`, with the driving unit's mass `unit_mass_kg`.
-    pub fn first_moment(&self, frames: &Frames, unit_mass_kg: f64) -> (f64, Vec3) {
+    pub fn first_moment(&self, frames: &[Mat3], unit_mass_kg: f64) -> (f64, Vec3) {
         let (mut mass, mut first) = (unit_mass_kg, scale(unit_mass_kg, self.unit_centre()));
         for i in 0..3 {
             let tube = self.tube(i);
@@ -693,7 +693,7 @@ impl Body3 {
     /// The front cup's face at `frames` for `robot`: its centre (m), `c +
     /// front_offset` from tube 1's tip along the plate's right normal
     /// `-R_P e_y`, and the surface's outward normal `R_P e_y`.
-    pub fn front_face(&self, robot: &Robot, frames: &Frames) -> (Vec3, Vec3) {
+    pub fn front_face(&self, robot: &Robot, frames: &[Mat3]) -> (Vec3, Vec3) {
         let plate = self.plate_frame(frames);
         (front_cup_centre(robot, self.endpoint(frames), &plate), column(&plate, 1))
     }
@@ -729,38 +729,37 @@ impl Body3 {
     }
 
     /// The front hold's six rows at `frames` for `target` (module doc),
-    /// with the multipliers `mu` (N, then N m): values, scales and Jacobian
-    /// into the first [`FRONT_ROWS`] rows of `cev` (sized for all the
-    /// run-time rows), with `HESSIAN` their Hessian blocks into `ev`.
+    /// with the multipliers `mu` (N, then N m): values (the tip's offset,
+    /// m, and the plate's rotation, rad), compliance and Jacobian into rows
+    /// 12 to 17 of `ev`, with `HESSIAN` their Hessian blocks; row `r`
+    /// holds `C_r + c mu_r = 0` ([`Evaluation::row_value`]).
     pub(crate) fn add_front_rows<const HESSIAN: bool>(
         &self,
-        frames: &Frames,
+        frames: &[Mat3],
         target: &FrontTarget,
         mu: &[f64],
-        ev: &mut Eval3,
-        cev: &mut ContactEval,
+        ev: &mut Evaluation,
     ) {
-        let m = cev.gaps.len();
+        let m = ev.rows();
         let last = self.tube(0).len() - 1;
         let gap = axpy(-1.0, target.tip, self.link_tip(frames, 0, last));
         for c in 0..3 {
             let mut normal = [0.0; 3];
             normal[c] = 1.0;
-            cev.gaps[c] = gap[c] + target.compliance[0] * mu[c];
-            cev.scales[c] = self.row_scale(0);
-            cev.compliance[c] = target.compliance[0];
-            let mut sink = row_sink::<HESSIAN>(ev, &mut cev.jacobian, (m, c), self.links() - 1);
+            ev.constraints[PLATE_ROWS + c] = gap[c];
+            ev.compliance[PLATE_ROWS + c] = target.compliance[0];
+            let mut sink = row_sink::<HESSIAN>(ev, PLATE_ROWS + c, self.links() - 1);
             self.point_terms(frames, 0, last, normal, mu[c], |u, grad, hess| sink(u, grad, hess, None));
         }
         let p = self.links() - 1;
         let w = [-mu[3], -mu[4], -mu[5]];
-        let terms = pair_terms(&mul_tn(&target.plate, &frames.as_slice()[p]), |_| w, [0.0; 3], HESSIAN);
+        let terms = pair_terms(&mul_tn(&target.plate, &frames[p]), |_| w, [0.0; 3], HESSIAN);
         for c in 0..3 {
-            cev.gaps[3 + c] = terms.theta[c] + target.compliance[1] * mu[3 + c];
-            cev.scales[3 + c] = 1.0;
-            cev.compliance[3 + c] = target.compliance[1];
+            let r = PLATE_ROWS + 3 + c;
+            ev.constraints[r] = terms.theta[c];
+            ev.compliance[r] = target.compliance[1];
             for (k, j) in terms.jacobian_b[c].iter().enumerate() {
-                cev.jacobian[(3 * p + k) * m + 3 + c] = *j;
+                ev.jacobian[(3 * p + k) * m + r] = *j;
             }
         }
         if HESSIAN {
@@ -798,17 +797,20 @@ mod tests {
         (body, frames, target, [1.5, -0.7, 2.2, 0.03, -0.05, 0.02])
     }
 
-    /// The rows' values, Jacobian (`(3 u + c) * 6 + r`) and Hessian blocks alone.
-    fn rows(body: &Body3, frames: &Frames, target: &FrontTarget, mu: &[f64]) -> (ContactEval, Eval3) {
-        let mut ev = Eval3::new(body);
-        let mut cev = ContactEval {
-            gaps: vec![0.0; FRONT_ROWS],
-            jacobian: vec![0.0; 3 * body.links() * FRONT_ROWS],
-            scales: vec![0.0; FRONT_ROWS],
-            compliance: vec![0.0; FRONT_ROWS],
-        };
-        body.add_front_rows::<true>(frames, target, mu, &mut ev, &mut cev);
-        (cev, ev)
+    /// The rows' values, Jacobian (`(3 u + c) * 6 + r`) and Hessian blocks
+    /// alone: the rows of an evaluation with the weld's left zero.
+    fn rows(body: &Body3, frames: &Frames, target: &FrontTarget, mu: &[f64]) -> (Rows, Evaluation) {
+        let mut ev = body.evaluation(PLATE_ROWS + FRONT_ROWS);
+        body.add_front_rows::<true>(frames, target, mu, &mut ev);
+        let m = ev.rows();
+        let jacobian = ev.jacobian.chunks_exact(m).flat_map(|j| j[PLATE_ROWS..].to_vec()).collect();
+        (Rows { gaps: ev.constraints[PLATE_ROWS..].to_vec(), jacobian }, ev)
+    }
+
+    /// The front hold's rows' values and Jacobian (`(3 u + c) * 6 + r`).
+    struct Rows {
+        gaps: Vec<f64>,
+        jacobian: Vec<f64>,
     }
 
     /// `frames` with local steps `(coordinate, h)` (summed per link, one retraction each).
@@ -830,7 +832,6 @@ mod tests {
             assert!((cev.gaps[c] - (tip[c] - target.tip[c])).abs() < 1e-15);
             assert_eq!(cev.gaps[3 + c], theta[c]);
         }
-        assert_eq!(cev.scales, [body.row_scale(0), body.row_scale(0), body.row_scale(0), 1.0, 1.0, 1.0]);
     }
 
     #[test]
@@ -874,7 +875,7 @@ mod tests {
             let u = body.index(0, j);
             for a in 0..3 {
                 for b in 0..3 {
-                    let exact = if u == p { ev.plate_corner[a][b] } else { ev.diag[9 * u + 3 * a + b] };
+                    let exact = if u == p { ev.hessian_corner[3 * a + b] } else { ev.hessian_diag[9 * u + 3 * a + b] };
                     let fd = second(3 * u + a, 3 * u + b);
                     assert!((fd - exact).abs() < 1e-6, "link {u} ({a}, {b}): {exact} against {fd}");
                 }
@@ -885,7 +886,7 @@ mod tests {
         let (u, v) = (body.index(0, 1), body.index(0, 4));
         assert!(second(3 * u + 1, 3 * v + 2).abs() < 1e-6 && second(3 * u, 3 * p + 1).abs() < 1e-6);
         let side = body.index(1, 3);
-        assert!((0..9).all(|k| ev.diag[9 * side + k] == 0.0) && second(3 * side, 3 * side + 1).abs() < 1e-9);
+        assert!((0..9).all(|k| ev.hessian_diag[9 * side + k] == 0.0) && second(3 * side, 3 * side + 1).abs() < 1e-9);
     }
 
     /// The reach declared to the factorization holds: nothing before a

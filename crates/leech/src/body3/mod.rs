@@ -97,6 +97,7 @@ pub mod hold3;
 pub mod place3;
 pub mod planar;
 pub mod solve;
+pub mod system3;
 pub mod tube3;
 
 pub use body3::{Body3, Derivatives, Frames, PLATE_ROWS};

@@ -113,6 +113,13 @@ impl BorderedLdl {
         self.profile.update(&self.pattern);
     }
 
+    /// Declares that border row `row` is zero on chain `c`'s blocks before
+    /// `first` ([`Pattern::set_border_start`]), read by the next
+    /// [`BorderedLdl::set_border_rows`].
+    pub fn set_border_start(&mut self, c: usize, row: usize, first: usize) {
+        self.pattern.set_border_start(c, row, first);
+    }
+
     /// Factors the matrix and returns its inertia (Sylvester's law: that of
     /// the chains' pivots plus that of the Schur complement).
     ///

@@ -3,7 +3,7 @@
 //! folds (snaps) and bifurcations.
 
 use super::iterate::Iterate;
-use super::newton::{distance, sup_norm, transposed_product, Budget};
+use super::newton::{sup_norm, transposed_product, Budget};
 use super::outcome::{Event, SolveError, Stage, StopReason};
 use super::scratch::Scratch;
 use super::system::Path;
@@ -66,7 +66,7 @@ impl Solver {
             }
             dt = dt.min(1.0 - t);
             let out = self.corrector(sys, it, t, dt, ws);
-            if out.stable() && distance(&it.q, &ws.q_predicted) <= self.options.jump_tolerance {
+            if out.stable() && sys.within(&it.q, &ws.q_predicted, self.options.jump_tolerance) {
                 t = if dt >= 1.0 - t { 1.0 } else { t + dt };
                 it.steps += 1;
                 residual = out.residual;
@@ -115,9 +115,7 @@ impl Solver {
     ) -> super::newton::Newton {
         ws.q_saved.copy_from_slice(&it.q);
         ws.lambda_saved.copy_from_slice(&it.lambda);
-        for (q, d) in it.q.iter_mut().zip(&ws.tangent) {
-            *q += dt * d;
-        }
+        sys.retract(&ws.q_saved, &ws.tangent, dt, &mut it.q);
         for (l, d) in it.lambda.iter_mut().zip(&ws.lambda_tangent) {
             *l += dt * d;
         }
@@ -144,7 +142,7 @@ impl Solver {
     ) -> Result<(f64, f64), SolveError> {
         let t = (at + dt).min(1.0);
         let (residual, escaped) = self.settle(sys, it, t, stage, ws)?;
-        let jump_rad = distance(&it.q, &ws.q_saved);
+        let jump_rad = sys.distance(&it.q, &ws.q_saved);
         // A settle that stays close was a hard step, not a snap.
         if let Some(side) = escaped {
             it.events.push(Event::Bifurcation { stage, at, side, jump_rad });

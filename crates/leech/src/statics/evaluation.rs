@@ -8,7 +8,10 @@
 /// banded part (`hessian_diag`, `hessian_off`) covers the chains, the border
 /// `hessian_border` (`n_s x f`, entry `(i, a)` at `i f + a`) couples chains
 /// and free coordinates, and `hessian_corner` (`f x f`, row-major) the free
-/// coordinates among themselves.
+/// coordinates among themselves. With blocks of 3
+/// ([`Potential::block_size`](super::Potential::block_size)) the chains'
+/// diagonal and off-diagonal hold `3 x 3` blocks, 9 row-major entries per
+/// block of 3 coordinates.
 #[derive(Clone, Debug, Default)]
 pub struct Evaluation {
     /// Potential `V` (J).
@@ -38,6 +41,10 @@ pub struct Evaluation {
     pub cos: Vec<f64>,
     /// Sines of the coordinates.
     pub sin: Vec<f64>,
+    /// Number of free coordinates (the last ones).
+    free: usize,
+    /// The chains' block size (1 or 3).
+    block: usize,
 }
 
 impl Evaluation {
@@ -57,10 +64,18 @@ impl Evaluation {
     /// Resizes to `n` coordinates of which `free` are free, and `m` rows
     /// (the values left are stale: an evaluation clears what it accumulates).
     pub fn resize(&mut self, n: usize, free: usize, m: usize) {
+        self.resize_blocks(n, free, m, 1);
+    }
+
+    /// [`Evaluation::resize`] for chains of blocks of `block` (1 or 3)
+    /// coordinates: `block x block` entries per block on the diagonal and
+    /// off it (for blocks of 1, the `n_s - 1` couplings of neighbours).
+    pub fn resize_blocks(&mut self, n: usize, free: usize, m: usize, block: usize) {
         let chains = n - free;
+        (self.free, self.block) = (free, block);
         self.gradient.resize(n, 0.0);
-        self.hessian_diag.resize(chains, 0.0);
-        self.hessian_off.resize(chains.saturating_sub(1), 0.0);
+        self.hessian_diag.resize(chains * block, 0.0);
+        self.hessian_off.resize(if block == 1 { chains.saturating_sub(1) } else { chains * block }, 0.0);
         self.hessian_border.resize(chains * free, 0.0);
         self.hessian_corner.resize(free * free, 0.0);
         self.constraints.resize(m, 0.0);
@@ -73,7 +88,12 @@ impl Evaluation {
 
     /// Number of free coordinates `f`.
     pub fn free(&self) -> usize {
-        self.gradient.len() - self.hessian_diag.len()
+        self.free
+    }
+
+    /// The chains' block size (1 or 3).
+    pub fn block_size(&self) -> usize {
+        self.block.max(1)
     }
 
     /// Number of constraint rows `m`.
@@ -94,6 +114,26 @@ impl Evaluation {
             &mut self.compliance,
             &mut self.jacobian,
             &mut self.curvature,
+        ] {
+            v.fill(0.0);
+        }
+    }
+
+    /// [`Evaluation::clear`] but for the curvature: for a system whose
+    /// Hessian holds its rows' curvature times the multipliers
+    /// ([`StaticSystem::multipliers_in_hessian`](super::StaticSystem::multipliers_in_hessian)),
+    /// which leaves it unused.
+    pub fn clear_multiplied(&mut self) {
+        self.energy = 0.0;
+        for v in [
+            &mut self.gradient,
+            &mut self.hessian_diag,
+            &mut self.hessian_off,
+            &mut self.hessian_border,
+            &mut self.hessian_corner,
+            &mut self.constraints,
+            &mut self.compliance,
+            &mut self.jacobian,
         ] {
             v.fill(0.0);
         }

@@ -89,7 +89,7 @@ pub use iterate::Iterate;
 pub use options::{BranchRule, SolverOptions, Tuning};
 pub use outcome::{Equilibrium, Event, Side, SolveError, Stage, StopReason};
 pub use scratch::Scratch;
-pub use system::{Constraints, Path, Potential, Row, RowKind, StaticSystem};
+pub use system::{Border, Constraints, Path, Potential, Row, RowKind, StaticSystem};
 
 /// The solver: options plus the algorithms that use them.
 #[derive(Clone, Debug, Default)]
@@ -105,7 +105,7 @@ impl Solver {
     }
 
     /// The error for a Newton run that stopped for `reason`.
-    fn fail(&self, stage: Stage, it: &Iterate, residual: f64, reason: StopReason) -> SolveError {
+    pub(crate) fn fail(&self, stage: Stage, it: &Iterate, residual: f64, reason: StopReason) -> SolveError {
         match self.options.deadline.check() {
             Some(halt) if reason == StopReason::TimeLimit => {
                 SolveError::Stopped { halt, iterations: it.iterations, residual }
@@ -126,9 +126,11 @@ impl Solver {
         ws: &mut Scratch,
     ) -> Result<f64, SolveError> {
         assert!(ws.fits(sys), "scratch sized for another system");
+        ws.q_saved.copy_from_slice(&it.q);
         let (residual, escaped) = self.settle(sys, it, t, stage, ws)?;
         if let Some(side) = escaped {
-            it.events.push(Event::Bifurcation { stage, at: t, side, jump_rad: 0.0 });
+            let jump_rad = sys.distance(&it.q, &ws.q_saved);
+            it.events.push(Event::Bifurcation { stage, at: t, side, jump_rad });
         }
         Ok(residual)
     }
@@ -171,7 +173,7 @@ impl Solver {
         let verdict = match it.verdict {
             Some(v) if v.t == 1.0 && v.fingerprint == it.fingerprint() => v,
             _ => {
-                sys.evaluate(&it.q, 1.0, &mut ws.current);
+                sys.evaluate_at(&it.q, &it.lambda, 1.0, &mut ws.current);
                 // More active rows than the factorization holds: no verdict
                 // can be had, so the point is not reported stable.
                 let fits = it.active.iter().filter(|a| **a).count() <= ws.kkt.active_capacity();
@@ -222,8 +224,8 @@ impl Solver {
     /// Checks a warm start's size and finiteness.
     pub fn check_start<S: StaticSystem + ?Sized>(sys: &S, q: &[f64]) -> Result<(), SolveError> {
         let got = q.iter().filter(|x| x.is_finite()).count();
-        if q.len() != sys.dim() || got != q.len() {
-            return Err(SolveError::BadStart { expected: sys.dim(), got });
+        if q.len() != sys.point_dim() || got != q.len() {
+            return Err(SolveError::BadStart { expected: sys.point_dim(), got });
         }
         Ok(())
     }

@@ -40,10 +40,6 @@ pub(super) fn sup_norm(v: &[f64]) -> f64 {
     v.iter().fold(0.0f64, |a, x| a.max(x.abs()))
 }
 
-pub(super) fn distance(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).fold(0.0f64, |acc, (x, y)| acc.max((x - y).abs()))
-}
-
 /// `out = base - J_A^T lambda` for an interleaved Jacobian of stride `m`
 /// (inactive rows carry zero multipliers, so they drop out).
 pub(super) fn transposed_product(base: &[f64], jac: &[f64], lambda: &[f64], out: &mut [f64]) {
@@ -128,7 +124,7 @@ impl Solver {
     /// The merit: `V/k`, plus each active compliant row's spring energy
     /// `C^2/(2 c)/k` (the compliant equilibrium minimizes `V + sum C^2/(2c)`),
     /// plus the exact penalty `rho |C_R / s|_1` of the rigid active rows `R`.
-    fn merit(ev: &Evaluation, rows: &[Row], active: &[bool], rho: f64, k: f64) -> f64 {
+    pub(super) fn merit(ev: &Evaluation, rows: &[Row], active: &[bool], rho: f64, k: f64) -> f64 {
         let mut springs = 0.0;
         let mut penalty = 0.0;
         for (r, spec) in rows.iter().enumerate().filter(|(r, _)| active[*r]) {
@@ -234,8 +230,14 @@ impl Solver {
 
     /// The Lagrangian Hessian `hess V - sum_r lambda_r hess C_r` of
     /// `ws.current` into `ws.lagrangian_*` (the constraint Hessians are diagonal).
-    fn lagrangian(ws: &mut Scratch, lambda: &[f64]) {
+    pub(super) fn lagrangian(ws: &mut Scratch, lambda: &[f64]) {
         let ev = &ws.current;
+        if ws.multiplied {
+            // The system evaluated the Lagrangian's Hessian itself.
+            ws.lagrangian_diag.copy_from_slice(&ev.hessian_diag);
+            ws.lagrangian_corner.copy_from_slice(&ev.hessian_corner);
+            return;
+        }
         transposed_product(&ev.hessian_diag, &ev.curvature, lambda, &mut ws.lagrangian_diag);
         ws.lagrangian_corner.copy_from_slice(&ev.hessian_corner);
         let (chains, free, m) = (ev.hessian_diag.len(), ev.free(), lambda.len());
@@ -343,7 +345,8 @@ impl Solver {
         let tuning = &self.options.tuning;
         let k = sys.moment_scale();
         ws.q_predicted.copy_from_slice(&it.q);
-        sys.evaluate(&it.q, t, &mut ws.current);
+        sys.evaluate_at(&it.q, &it.lambda, t, &mut ws.current);
+        self.estimate_multipliers(sys, it, t, ws);
         let mut state = Damping::default();
         let (mut iter, mut best, mut best_at) = (0, f64::INFINITY, 0);
         // After a tiny unshifted step from a minimum, the last factors still
@@ -423,7 +426,7 @@ impl Solver {
                     return Newton::failed(res, StopReason::NoDescent);
                 }
             }
-            if leash.is_finite() && distance(&it.q, &ws.q_predicted) > leash {
+            if leash.is_finite() && !sys.within(&it.q, &ws.q_predicted, leash) {
                 return Newton::failed(res, StopReason::LeftBranch);
             }
         }
@@ -464,6 +467,11 @@ impl Solver {
                     state.damping = if shift > min_shift { tuning.damping_memory * shift } else { 0.0 };
                     if shift > 0.0 {
                         self.unshifted_multipliers(it, ws, k, shift);
+                        // The point's Hessian holds the multipliers it was
+                        // evaluated with: evaluated again with the corrected ones.
+                        if ws.multiplied {
+                            sys.evaluate_at(&it.q, &it.lambda, t, &mut ws.current);
+                        }
                     }
                     return Some(Taken::Moved(shift));
                 }
@@ -477,6 +485,26 @@ impl Solver {
             shift = (tuning.damping_growth * shift).max(tuning.min_damping * k);
         }
         None
+    }
+
+    /// A start without multipliers (all zero) of a system whose Hessian
+    /// holds them ([`StaticSystem::multipliers_in_hessian`]) starts from
+    /// their least-squares estimate `lambda = (J_A J_A^T)^-1 J_A grad V`
+    /// instead (the KKT solve with a shift of `1e6 k`), evaluated again.
+    /// At zero multipliers that Hessian lacks the rows' curvature: a warm
+    /// start at an equilibrium whose weld carries large forces looked
+    /// unstable, and no step from it descends.
+    fn estimate_multipliers<S: StaticSystem + ?Sized>(&self, sys: &S, it: &mut Iterate, t: f64, ws: &mut Scratch) {
+        if !ws.multiplied || it.lambda.is_empty() || it.lambda.iter().any(|l| *l != 0.0) {
+            return;
+        }
+        let k = sys.moment_scale();
+        Self::lagrangian(ws, &it.lambda);
+        ws.factor_kkt(1e6 * k, &it.active, self.options.tuning.tiny_pivot * k);
+        ws.rhs.fill(0.0);
+        ws.kkt.solve(&ws.current.gradient, &ws.rhs, &mut ws.spare, &mut ws.dual_step);
+        it.lambda.copy_from_slice(&ws.dual_step);
+        sys.evaluate_at(&it.q, &it.lambda, t, &mut ws.current);
     }
 
     /// Takes the fictitious force `shift dq` of an accepted shifted step out
@@ -494,7 +522,7 @@ impl Solver {
             *f = shift * d;
         }
         ws.rhs.fill(0.0);
-        ws.kkt.solve(&ws.residual_trial, &ws.rhs, &mut ws.q_trial, &mut ws.dual_step);
+        ws.kkt.solve(&ws.residual_trial, &ws.rhs, &mut ws.spare, &mut ws.dual_step);
         for (l, y) in it.lambda.iter_mut().zip(&ws.dual_step) {
             *l -= y;
         }
@@ -507,11 +535,11 @@ impl Solver {
     /// shifted: the caller factors again for its next trial.
     fn restoring_length(&self, it: &Iterate, ws: &mut Scratch, k: f64) -> f64 {
         ws.factor_kkt(1e6 * k, &it.active, self.options.tuning.tiny_pivot * k);
-        ws.q_trial.fill(0.0);
+        ws.spare.fill(0.0);
         for (r, rhs) in ws.rhs.iter_mut().enumerate() {
             *rhs = -ws.current.row_value(r, it.lambda[r]);
         }
-        ws.kkt.solve(&ws.q_trial, &ws.rhs, &mut ws.step, &mut ws.dual_step);
+        ws.kkt.solve(&ws.spare, &ws.rhs, &mut ws.step, &mut ws.dual_step);
         sup_norm(&ws.step)
     }
 
@@ -551,8 +579,16 @@ impl Solver {
         // a full Newton step across a released contact can leap far: those
         // steps are kept within the trust radius too.
         let guarded = min_shift > 0.0 || ws.rows.iter().any(|r| r.kind == RowKind::Inequality);
-        // The share of the Newton step taken (cut by the radius or a blocking row).
+        // The share of the Newton step taken (cut by the radius, the
+        // retraction's range or a blocking row).
         let mut whole = 1.0;
+        let range = sys.step_limit();
+        if longest > range {
+            let cut = range / longest;
+            ws.step.iter_mut().for_each(|d| *d *= cut);
+            ws.dual_step.iter_mut().for_each(|y| *y *= cut);
+            (longest, whole) = (range, cut);
+        }
         let limit = if state.restoring.is_nan() { 0.0 } else { 2.0 * state.restoring };
         let radius = self.options.trust_radius.max(limit);
         if guarded && longest > radius {
@@ -603,11 +639,11 @@ impl Solver {
         for i in 0..ws.n {
             descent += ws.current.gradient[i] * ws.step[i];
             squares += (ws.residual[i] / k) * (ws.residual[i] / k);
-            ws.q_trial[i] = it.q[i] + ws.step[i];
         }
+        sys.retract(&it.q, &ws.step, 1.0, &mut ws.q_trial);
         let slope = Self::merit_slope(&ws.current, &ws.rows, &it.active, &ws.step, descent, (state.rho, whole), k);
         let r0 = Self::row_squares(squares, &ws.current, &ws.rows, &it.lambda, &it.active).sqrt();
-        sys.evaluate(&ws.q_trial, t, &mut ws.trial);
+        sys.evaluate_at(&ws.q_trial, &ws.lambda_trial, t, &mut ws.trial);
         let phi = Self::merit(&ws.trial, &ws.rows, &it.active, state.rho, k);
         transposed_product(&ws.trial.gradient, &ws.trial.jacobian, &ws.lambda_trial, &mut ws.residual_trial);
         let r_trial =

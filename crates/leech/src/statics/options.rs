@@ -123,8 +123,15 @@ pub struct Tuning {
     pub escape_iterations: usize,
     /// Gap below the Gershgorin bound of the inverse-iteration shift, times `k`.
     pub escape_gap: f64,
-    /// Size of the kick (rad, sup norm) off an unstable equilibrium.
+    /// Size of the first kick (rad, sup norm) off an unstable equilibrium
+    /// or a fold's ghost.
     pub escape_kick: f64,
+    /// Growth of the kick between kicks of one settle (0.01, 0.03, 0.09, ...
+    /// rad by default): a landing back where it was left is kicked harder.
+    pub escape_kick_growth: f64,
+    /// Kicks one settle may take before it gives up
+    /// ([`StopReason::StillUnstable`](super::StopReason::StillUnstable)).
+    pub escapes: usize,
     /// Most the predictor of a first continuation step may turn a coordinate
     /// (rad) on a stiff path: the first step is then
     /// `min(first_step, first_step_angle / |dq/dt|)`. Measured on the body at
@@ -183,6 +190,8 @@ impl Default for Tuning {
             escape_iterations: 200,
             escape_gap: 1e-3,
             escape_kick: 0.01,
+            escape_kick_growth: 3.0,
+            escapes: 4,
             first_step_angle: 0.15,
             stiff_path: 2e4,
             step_after_event: 1e-3,

@@ -4,7 +4,7 @@
 use std::cell::RefCell;
 
 use super::evaluation::{Evaluation, PathTerms};
-use super::system::{Path, Row, RowKind, StaticSystem};
+use super::system::{Border, Path, Row, RowKind, StaticSystem};
 use crate::linalg::{BorderedLdl, Pattern, MAX_BORDER};
 
 /// What a factorization found about the KKT matrix of the working set.
@@ -43,13 +43,18 @@ pub(super) struct KktSolver {
     /// Right-hand side and solution of the border rows (k).
     c: Vec<f64>,
     y: Vec<f64>,
+    /// Where each row reaches each chain ([`StaticSystem::border_start`]):
+    /// row `r` from block `row_starts[c * m + r]` of chain `c`; empty when
+    /// every row may reach everywhere.
+    row_starts: Vec<usize>,
 }
 
 impl KktSolver {
-    fn new(n: usize, free: usize, m: usize, blocks: &[usize]) -> KktSolver {
+    fn new(n: usize, free: usize, m: usize, blocks: &[usize], block: usize) -> KktSolver {
         let (chains, capacity) = (n - free, (free + m).min(MAX_BORDER));
+        let in_blocks: Vec<usize> = blocks.iter().map(|b| b / block).collect();
         KktSolver {
-            ldl: BorderedLdl::new(&Pattern::new(1, blocks, capacity, free)),
+            ldl: BorderedLdl::new(&Pattern::new(block, &in_blocks, capacity, free)),
             chains,
             free,
             m,
@@ -59,7 +64,28 @@ impl KktSolver {
             corner: vec![0.0; capacity * capacity],
             c: vec![0.0; capacity],
             y: vec![0.0; capacity],
+            row_starts: Vec::new(),
         }
+    }
+
+    /// Reads where `system`'s border entries reach the chains: the free
+    /// coordinates' starts into the factorization's pattern, the rows' into
+    /// `row_starts` (placed by [`KktSolver::factor`], whose border holds
+    /// the active rows only).
+    fn read_reach<S: StaticSystem + ?Sized>(&mut self, system: &S) {
+        self.row_starts.clear();
+        if !system.sparse_border() {
+            return;
+        }
+        let chains = self.ldl.pattern().chains();
+        for c in 0..chains {
+            for a in 0..self.free {
+                self.ldl.set_border_start(c, a, system.border_start(c, Border::Free(a)));
+            }
+        }
+        self.row_starts.extend((0..chains).flat_map(|c| (0..self.m).map(move |r| (c, r))).map(|(c, r)| {
+            system.border_start(c, Border::Row(r))
+        }));
     }
 
     /// Whether the border's buffers hold `m` rows (with the free coordinates).
@@ -141,6 +167,13 @@ impl KktSolver {
         self.slots.clear();
         self.slots.extend((0..self.m).filter(|r| active[*r]));
         let k = self.free + self.slots.len();
+        if !self.row_starts.is_empty() {
+            for c in 0..self.ldl.pattern().chains() {
+                for (s, r) in self.slots.iter().enumerate() {
+                    self.ldl.set_border_start(c, self.free + s, self.row_starts[c * self.m + r]);
+                }
+            }
+        }
         self.ldl.set_border_rows(k);
         let count = if self.direct() {
             self.corner[..k * k].fill(0.0);
@@ -213,6 +246,11 @@ pub struct Scratch {
     pub(super) lambda_saved: Vec<f64>,
     pub(super) lambda_trial: Vec<f64>,
     pub(super) rhs: Vec<f64>,
+    /// A tangent-sized buffer for solves whose primal part is not wanted.
+    pub(super) spare: Vec<f64>,
+    /// Whether the system's Hessian holds its rows' curvature
+    /// ([`StaticSystem::multipliers_in_hessian`]).
+    pub(super) multiplied: bool,
     /// The dual regularization of the inequality rows in the factorization
     /// (1/(N m)): zero unless the working set is degenerate (rows of one rigid
     /// piece resting on one surface at three points, dependent with the weld),
@@ -231,13 +269,15 @@ impl Scratch {
     pub fn for_system<S: StaticSystem + ?Sized>(system: &S) -> Scratch {
         let (n, m, free) = (system.dim(), system.rows(), system.free());
         let chains = system.blocks();
+        let block = system.block_size();
+        assert!(block == 1 || system.multipliers_in_hessian(), "blocks of {block}: the rows' curvature must be in the Hessian");
         let mut ws = Scratch {
             n,
             rows: Vec::new(),
             current: Evaluation::default(),
             trial: Evaluation::default(),
             path: PathTerms::default(),
-            kkt: KktSolver::new(n, free, m, &chains),
+            kkt: KktSolver::new(n, free, m, &chains, block),
             chains,
             residual: Vec::new(),
             residual_trial: Vec::new(),
@@ -254,6 +294,8 @@ impl Scratch {
             lambda_saved: Vec::new(),
             lambda_trial: Vec::new(),
             rhs: Vec::new(),
+            spare: Vec::new(),
+            multiplied: false,
             dual: 0.0,
             shift_index: 0,
         };
@@ -268,12 +310,20 @@ impl Scratch {
     /// and the border still holds them.
     pub fn refit<S: StaticSystem + ?Sized>(&mut self, system: &S) {
         if self.fits(system) {
+            // Systems of one size may still differ in where their rows reach.
+            self.kkt.read_reach(system);
             return;
         }
         let (n, m, free) = (system.dim(), system.rows(), system.free());
         let chains = system.blocks();
-        if self.n != n || self.kkt.free != free || self.chains != chains || !self.kkt.holds_rows(m) {
-            self.kkt = KktSolver::new(n, free, m, &chains);
+        let block = system.block_size();
+        if self.n != n
+            || self.kkt.free != free
+            || self.chains != chains
+            || self.kkt.ldl.pattern().block_size() != block
+            || !self.kkt.holds_rows(m)
+        {
+            self.kkt = KktSolver::new(n, free, m, &chains, block);
         } else {
             self.kkt.set_rows(m);
         }
@@ -284,24 +334,28 @@ impl Scratch {
     /// Sizes every buffer but the factorization's for `system`.
     fn size_buffers<S: StaticSystem + ?Sized>(&mut self, system: &S) {
         let (n, m, free) = (system.dim(), system.rows(), system.free());
+        let block = system.block_size();
         self.rows.clear();
         self.rows.extend((0..m).map(|r| system.row(r)));
-        self.current.resize(n, free, m);
-        self.trial.resize(n, free, m);
+        self.multiplied = system.multipliers_in_hessian();
+        self.kkt.read_reach(system);
+        self.current.resize_blocks(n, free, m, block);
+        self.trial.resize_blocks(n, free, m, block);
         self.path.resize(n, m);
         for v in [
             &mut self.residual,
             &mut self.residual_trial,
             &mut self.step,
-            &mut self.q_trial,
             &mut self.tangent,
-            &mut self.q_saved,
-            &mut self.q_predicted,
             &mut self.direction,
+            &mut self.spare,
         ] {
             v.resize(n, 0.0);
         }
-        self.lagrangian_diag.resize(n - free, 0.0);
+        for v in [&mut self.q_trial, &mut self.q_saved, &mut self.q_predicted] {
+            v.resize(system.point_dim(), 0.0);
+        }
+        self.lagrangian_diag.resize((n - free) * block, 0.0);
         self.lagrangian_corner.resize(free * free, 0.0);
         for v in [
             &mut self.dual_step,
@@ -336,9 +390,12 @@ impl Scratch {
     /// Whether this scratch is sized for `system`.
     pub fn fits<S: StaticSystem + ?Sized>(&self, system: &S) -> bool {
         self.n == system.dim()
+            && self.q_trial.len() == system.point_dim()
             && self.kkt.free == system.free()
             && self.rows.len() == system.rows()
             && self.chains == system.blocks()
+            && self.multiplied == system.multipliers_in_hessian()
+            && self.kkt.ldl.pattern().block_size() == system.block_size()
             && (0..self.rows.len()).all(|r| self.rows[r] == system.row(r))
     }
 
