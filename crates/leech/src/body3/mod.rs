@@ -18,22 +18,19 @@
 //! tubes 2 and 3's tips. With `L2 = L3`, `b = c` and gravity in the
 //! symmetry plane this is exactly the planar [`crate::body::Body`].
 //!
-//! # Why a solver of its own
+//! # One solver
 //!
-//! [`crate::statics`]' contract is built for scalar coordinates: a
-//! tridiagonal Hessian of scalars per chain, *diagonal* constraint Hessians
-//! (its weld rows are linear in the tips) and additive updates `q += dq`.
-//! The 3D body needs 3 x 3 blocks, constraint Hessians that couple the
-//! plate with the side tubes' last links (a weld of two frames is bilinear
-//! in them), and updates on SO(3). Rather than widen that contract for
-//! every planar system (and its hot paths), this module keeps its own Newton
-//! and continuation ([`solve`]) in local rotation-vector coordinates
-//! re-based after every step (`R <- R Exp(delta)`: the gradient and
-//! Hessian are those of the pullback at `delta = 0`), and reuses what
-//! carries over unchanged: the factorization ([`crate::linalg::BorderedLdl`]
-//! with 3 x 3 blocks, the plate's 3 coordinates as primal border rows), the
-//! options, tuning constants, events and errors of [`crate::statics`], and
-//! the planar discretization ([`crate::chain::Chain`]).
+//! The body is solved by [`crate::statics`], the planar body's solver,
+//! through [`system3::System3`]: the contract's blocks of 3 (the Hessian
+//! block tridiagonal with 3 x 3 blocks along each tube, the plate's 3
+//! coordinates free border rows of [`crate::linalg::BorderedLdl`]), its
+//! retraction `R <- R Exp(delta)` on SO(3) (the gradient and Hessian are
+//! those of the pullback at `delta = 0`) and a Hessian that holds the
+//! weld's curvature times its multipliers (a weld of two frames is bilinear
+//! in them, so its Hessian is not diagonal). [`solve`] keeps only the
+//! body's paths (feeding, loading, the front hold's target) and the contact
+//! rows' active set among solids; Newton, continuation and the escapes from
+//! unstable points are the solver's, with its options and tuning.
 //!
 //! # Holds
 //!
@@ -79,7 +76,8 @@
 //! with the plate, the front target); [`body3`] (the body, its Lagrangian's
 //! derivatives); [`contact3`] (contact rows with scene solids);
 //! [`equilibrium3`] (the solved body: frames, summary, contacts);
-//! [`solve`] (Newton, continuation); [`place3`] (placing the body for a
+//! [`system3`] (the body as a static system of [`crate::statics`]);
+//! [`solve`] (the paths and the contacts' active set); [`place3`] (placing the body for a
 //! hold: the plate's frame from angles, the cups, the points a scene must
 //! leave free); [`held3`] (the body held: the holds' equations and solves,
 //! among solids too, each cup's reaction and verdict); [`planar`] (the

@@ -67,6 +67,22 @@
 //! Residuals are dimensionless: moments divided by the largest joint
 //! stiffness, constraint rows by their [`Row::scale`].
 //!
+//! *Bodies it solves.* The planar body and its stances (link angles,
+//! tridiagonal Hessian, diagonal row curvature, `q + dq`), the single tube,
+//! and the three-tube body in 3D ([`crate::body3`]: frames on SO(3), 3 x 3
+//! blocks, the weld's Hessian coupling frames): the contract's block size,
+//! retraction `q (+) dq` and Lagrangian Hessian ([`system`]) cover both, and
+//! everything above is written in the tangent space. Where the Hessian holds
+//! the multipliers, a Newton run without any starts from their
+//! least-squares estimate `(J_A J_A^T)^-1 J_A grad V`.
+//!
+//! *Escapes.* An unstable landing is kicked along its most negative
+//! curvature to the branch rule's side, and a settle where no step descends
+//! (a fold's ghost; systems without inequality rows only, since a kick could
+//! cross a surface) along its softest mode to the side of lower merit; then
+//! it minimizes again, the kick growing by [`Tuning::escape_kick_growth`],
+//! at most [`Tuning::escapes`] times (`escape.rs`).
+//!
 //! # Layout
 //!
 //! [`system`] (the contract: [`Potential`], [`Constraints`], [`Path`]),

@@ -415,6 +415,10 @@ impl Solver {
                         let stable = self.factor(k, it, ws).0 == Inertia::Minimum;
                         return Newton { residual: res, result: Ok(stable) };
                     }
+                    if self.restore(sys, it, t, ws) {
+                        (residual_known, factors_fresh) = (true, false);
+                        continue;
+                    }
                     // A saddle whose unstable mode the gradient does not reach
                     // (a straight column compressed past its buckling load by
                     // a compliant row: symmetric, the mode orthogonal to the
@@ -485,6 +489,59 @@ impl Solver {
             shift = (tuning.damping_growth * shift).max(tuning.min_damping * k);
         }
         None
+    }
+
+    /// The feasibility restoration of a point where no trial step was
+    /// accepted while an active row is violated: the least-change step
+    /// that restores the rows' linearization, `dq_1 = -J_A^T (J_A J_A^T)^-1 g_A`
+    /// (the KKT solve with a shift of `1e6 k`), with a second-order
+    /// correction `dq_2` of the same form for the rows' values at
+    /// `q (+) dq_1` (the same factors), taken as `q (+) (dq_1 + dq_2)` if
+    /// that reduces the rows' violation `sum |g_r / s_r|` measurably;
+    /// multipliers kept. Where a row is curved (a weld of frames) the
+    /// merit's penalty rises along the restoring step itself (the Maratos
+    /// effect), so no Levenberg shift finds a step it accepts: this one
+    /// gives up energy for feasibility, and Newton goes on from there.
+    /// Returns whether it moved `it` (then `ws.current` and `ws.residual`
+    /// are the new point's).
+    fn restore<S: StaticSystem + ?Sized>(&self, sys: &S, it: &mut Iterate, t: f64, ws: &mut Scratch) -> bool {
+        let k = sys.moment_scale();
+        let violation = |ev: &Evaluation, rows: &[Row], lambda: &[f64], active: &[bool]| -> f64 {
+            let terms = rows.iter().enumerate().filter(|(r, _)| active[*r]);
+            terms.map(|(r, spec)| (ev.row_value(r, lambda[r]) / spec.scale).abs()).sum()
+        };
+        let before = violation(&ws.current, &ws.rows, &it.lambda, &it.active);
+        if !(before > self.options.tolerance) {
+            return false;
+        }
+        ws.factor_kkt(1e6 * k, &it.active, self.options.tuning.tiny_pivot * k);
+        let restoring = |ev_of_trial: bool, ws: &mut Scratch, out_direction: bool| {
+            let ev = if ev_of_trial { &ws.trial } else { &ws.current };
+            for (r, rhs) in ws.rhs.iter_mut().enumerate() {
+                *rhs = -ev.row_value(r, it.lambda[r]);
+            }
+            ws.spare.fill(0.0);
+            let out = if out_direction { &mut ws.direction } else { &mut ws.step };
+            ws.kkt.solve(&ws.spare, &ws.rhs, out, &mut ws.dual_step);
+        };
+        restoring(false, ws, false);
+        sys.retract(&it.q, &ws.step, 1.0, &mut ws.q_trial);
+        sys.evaluate_at(&ws.q_trial, &it.lambda, t, &mut ws.trial);
+        restoring(true, ws, true);
+        for (s, d) in ws.step.iter_mut().zip(&ws.direction) {
+            *s += d;
+        }
+        sys.retract(&it.q, &ws.step, 1.0, &mut ws.q_trial);
+        sys.evaluate_at(&ws.q_trial, &it.lambda, t, &mut ws.trial);
+        let after = violation(&ws.trial, &ws.rows, &it.lambda, &it.active);
+        if !(after < (1.0 - self.options.tuning.residual_decrease) * before) {
+            return false;
+        }
+        std::mem::swap(&mut it.q, &mut ws.q_trial);
+        std::mem::swap(&mut ws.current, &mut ws.trial);
+        ws.dual_step.fill(0.0);
+        transposed_product(&ws.current.gradient, &ws.current.jacobian, &it.lambda, &mut ws.residual);
+        true
     }
 
     /// A start without multipliers (all zero) of a system whose Hessian
