@@ -387,7 +387,7 @@ impl Body3 {
     /// (the first 12 of `ev`'s) and their Jacobian and, with `HESSIAN`, the
     /// Lagrangian Hessian `hess V - sum_r lambda_r hess C_r` into `ev`
     /// (cleared here but for its unused curvature); without it the
-    /// Hessian is left zero, at about half the cost.
+    /// Hessian is left as it was (unused), at about half the cost.
     pub(crate) fn evaluate<const HESSIAN: bool>(
         &self,
         frames: &[Mat3],
@@ -395,7 +395,11 @@ impl Body3 {
         param: Param,
         ev: &mut Evaluation,
     ) {
-        ev.clear_multiplied();
+        if HESSIAN {
+            ev.clear_multiplied();
+        } else {
+            ev.clear_first_order();
+        }
         let f = frames;
         // Hanging, gravity turns with the plate: added after the loop.
         let g = if param.hang.is_some() { 0.0 } else { param.load * self.gravity };

@@ -139,6 +139,15 @@ impl Evaluation {
         }
     }
 
+    /// [`Evaluation::clear_multiplied`] but for the Hessian too: for an
+    /// evaluation of the first derivatives alone, which leaves it unused.
+    pub fn clear_first_order(&mut self) {
+        self.energy = 0.0;
+        for v in [&mut self.gradient, &mut self.constraints, &mut self.compliance, &mut self.jacobian] {
+            v.fill(0.0);
+        }
+    }
+
     /// Row `r`'s residual with multiplier `lambda`: `C_r + c_r lambda`.
     pub fn row_value(&self, r: usize, lambda: f64) -> f64 {
         self.constraints[r] + self.compliance[r] * lambda

@@ -192,7 +192,7 @@ impl Solver {
         let inequality = |r: usize| it.active[r] && ws.rows[r].kind == RowKind::Inequality;
         if tuning.block_at_rows && first == Inertia::Singular && (0..ws.rows.len()).any(inequality) {
             ws.dual = tuning.dual_regularization / k;
-            first = ws.factor_kkt(0.0, &it.active, tiny);
+            first = ws.refactor_kkt(0.0, &it.active, tiny);
         }
         if first == Inertia::Minimum {
             return (first, 0.0);
@@ -203,7 +203,7 @@ impl Solver {
         // Powers of the growth: exact for the default (8), as the repeated
         // product the search once took.
         let shift = |i: usize| tuning.first_shift * k * tuning.shift_growth.powi(i as i32);
-        let minimum = |i: usize, ws: &mut Scratch| ws.factor_kkt(shift(i), &it.active, tiny) == Inertia::Minimum;
+        let minimum = |i: usize, ws: &mut Scratch| ws.refactor_kkt(shift(i), &it.active, tiny) == Inertia::Minimum;
         let mut i = ws.shift_index.min(tuning.max_shift_tries - 1);
         if minimum(i, ws) {
             while i > 0 && minimum(i - 1, ws) {
@@ -464,7 +464,7 @@ impl Solver {
         state.first_trial = true;
         for attempt in 0..tuning.max_trials {
             if attempt > 0 || shift != min_shift {
-                ws.factor_kkt(shift, &it.active, tuning.tiny_pivot * k);
+                ws.refactor_kkt(shift, &it.active, tuning.tiny_pivot * k);
             }
             match self.trial(sys, it, t, ws, state, min_shift, shift) {
                 Trial::Accepted => {
@@ -591,7 +591,7 @@ impl Solver {
     /// without bound, taken here with a shift of `1e6 k`. Leaves the factors
     /// shifted: the caller factors again for its next trial.
     fn restoring_length(&self, it: &Iterate, ws: &mut Scratch, k: f64) -> f64 {
-        ws.factor_kkt(1e6 * k, &it.active, self.options.tuning.tiny_pivot * k);
+        ws.refactor_kkt(1e6 * k, &it.active, self.options.tuning.tiny_pivot * k);
         ws.spare.fill(0.0);
         for (r, rhs) in ws.rhs.iter_mut().enumerate() {
             *rhs = -ws.current.row_value(r, it.lambda[r]);

@@ -43,6 +43,14 @@ pub(super) struct KktSolver {
     /// Right-hand side and solution of the border rows (k).
     c: Vec<f64>,
     y: Vec<f64>,
+    /// The active rows and dual regularization the assembled border was
+    /// made for, while it holds the current evaluation's entries
+    /// ([`KktSolver::factor`] with `reuse`).
+    assembled: Option<(Vec<usize>, f64)>,
+    /// The active rows whose reach the factorization's pattern holds (its
+    /// border rows set for them): placing them again costs a walk over the
+    /// pattern's layout per factorization.
+    placed: Option<Vec<usize>>,
     /// Where each row reaches each chain ([`StaticSystem::border_start`]):
     /// row `r` from block `row_starts[c * m + r]` of chain `c`; empty when
     /// every row may reach everywhere.
@@ -65,6 +73,8 @@ impl KktSolver {
             c: vec![0.0; capacity],
             y: vec![0.0; capacity],
             row_starts: Vec::new(),
+            assembled: None,
+            placed: None,
         }
     }
 
@@ -73,6 +83,7 @@ impl KktSolver {
     /// `row_starts` (placed by [`KktSolver::factor`], whose border holds
     /// the active rows only).
     fn read_reach<S: StaticSystem + ?Sized>(&mut self, system: &S) {
+        self.placed = None;
         self.row_starts.clear();
         if !system.sparse_border() {
             return;
@@ -97,6 +108,7 @@ impl KktSolver {
     fn set_rows(&mut self, m: usize) {
         self.m = m;
         self.slots.clear();
+        (self.assembled, self.placed) = (None, None);
     }
 
     /// How many rows may be active at once.
@@ -114,11 +126,18 @@ impl KktSolver {
     fn assemble(&mut self, ev: &Evaluation, lagrangian_corner: &[f64], rows: &[Row], dual: f64) {
         let (f, m) = (self.free, self.m);
         let k = f + self.slots.len();
+        // Every row active (a system of equalities): the Jacobian's rows
+        // are the border's as they are.
+        let all = self.slots.len() == m;
         for i in 0..self.chains {
             let row = &mut self.border[i * k..(i + 1) * k];
             row[..f].copy_from_slice(&ev.hessian_border[i * f..(i + 1) * f]);
-            for (dst, r) in row[f..].iter_mut().zip(&self.slots) {
-                *dst = ev.jacobian[i * m + r];
+            if all {
+                row[f..].copy_from_slice(&ev.jacobian[i * m..(i + 1) * m]);
+            } else {
+                for (dst, r) in row[f..].iter_mut().zip(&self.slots) {
+                    *dst = ev.jacobian[i * m + r];
+                }
             }
         }
         let corner = &mut self.corner[..k * k];
@@ -153,6 +172,11 @@ impl KktSolver {
     ///
     /// # Panics
     /// If more rows are active than [`KktSolver::active_capacity`].
+    ///
+    /// With `reuse`, the border assembled by the last factorization serves
+    /// again if it was made for the same working set and regularization:
+    /// the caller vouches that the evaluation did not change (a search over
+    /// shifts, or the trials of one point).
     #[allow(clippy::too_many_arguments)]
     pub fn factor(
         &mut self,
@@ -160,27 +184,43 @@ impl KktSolver {
         ev: &Evaluation,
         lagrangian_corner: &[f64],
         (rows, dual): (&[Row], f64),
-        shift: f64,
+        (shift, reuse): (f64, bool),
         active: &[bool],
         tiny: f64,
     ) -> Inertia {
         self.slots.clear();
         self.slots.extend((0..self.m).filter(|r| active[*r]));
         let k = self.free + self.slots.len();
-        if !self.row_starts.is_empty() {
-            for c in 0..self.ldl.pattern().chains() {
-                for (s, r) in self.slots.iter().enumerate() {
-                    self.ldl.set_border_start(c, self.free + s, self.row_starts[c * self.m + r]);
+        if self.placed.as_ref() != Some(&self.slots) {
+            if !self.row_starts.is_empty() {
+                for c in 0..self.ldl.pattern().chains() {
+                    for (s, r) in self.slots.iter().enumerate() {
+                        self.ldl.set_border_start(c, self.free + s, self.row_starts[c * self.m + r]);
+                    }
                 }
             }
+            self.ldl.set_border_rows(k);
+            match &mut self.placed {
+                Some(placed) => placed.clone_from(&self.slots),
+                None => self.placed = Some(self.slots.clone()),
+            }
         }
-        self.ldl.set_border_rows(k);
         let count = if self.direct() {
             self.corner[..k * k].fill(0.0);
             self.comply(ev, rows, dual);
             self.ldl.factor(diag, &ev.hessian_off, &ev.jacobian, &self.corner[..k * k], shift, tiny)
         } else {
-            self.assemble(ev, lagrangian_corner, rows, dual);
+            let same = matches!(&self.assembled, Some((slots, d)) if reuse && *slots == self.slots && *d == dual);
+            if !same {
+                self.assemble(ev, lagrangian_corner, rows, dual);
+                match &mut self.assembled {
+                    Some((slots, d)) => {
+                        slots.clone_from(&self.slots);
+                        *d = dual;
+                    }
+                    None => self.assembled = Some((self.slots.clone(), dual)),
+                }
+            }
             let border = &self.border[..self.chains * k];
             self.ldl.factor(diag, &ev.hessian_off, border, &self.corner[..k * k], shift, tiny)
         };
@@ -403,7 +443,14 @@ impl Scratch {
     /// point with the Lagrangian Hessian in `lagrangian_*`, shifted by `shift`.
     pub(super) fn factor_kkt(&mut self, shift: f64, active: &[bool], tiny: f64) -> Inertia {
         let rows = (&self.rows[..], self.dual);
-        self.kkt.factor(&self.lagrangian_diag, &self.current, &self.lagrangian_corner, rows, shift, active, tiny)
+        self.kkt.factor(&self.lagrangian_diag, &self.current, &self.lagrangian_corner, rows, (shift, false), active, tiny)
+    }
+
+    /// [`Scratch::factor_kkt`] again at the same evaluation and Lagrangian
+    /// (another shift): the border assembled last time is kept.
+    pub(super) fn refactor_kkt(&mut self, shift: f64, active: &[bool], tiny: f64) -> Inertia {
+        let rows = (&self.rows[..], self.dual);
+        self.kkt.factor(&self.lagrangian_diag, &self.current, &self.lagrangian_corner, rows, (shift, true), active, tiny)
     }
 
     /// Fills the path derivatives at the current point.
