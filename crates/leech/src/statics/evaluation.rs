@@ -103,20 +103,8 @@ impl Evaluation {
 
     /// Sets every accumulated quantity to zero before an evaluation.
     pub fn clear(&mut self) {
-        self.energy = 0.0;
-        for v in [
-            &mut self.gradient,
-            &mut self.hessian_diag,
-            &mut self.hessian_off,
-            &mut self.hessian_border,
-            &mut self.hessian_corner,
-            &mut self.constraints,
-            &mut self.compliance,
-            &mut self.jacobian,
-            &mut self.curvature,
-        ] {
-            v.fill(0.0);
-        }
+        self.clear_multiplied();
+        self.curvature.fill(0.0);
     }
 
     /// [`Evaluation::clear`] but for the curvature: for a system whose
@@ -124,17 +112,8 @@ impl Evaluation {
     /// ([`StaticSystem::multipliers_in_hessian`](super::StaticSystem::multipliers_in_hessian)),
     /// which leaves it unused.
     pub fn clear_multiplied(&mut self) {
-        self.energy = 0.0;
-        for v in [
-            &mut self.gradient,
-            &mut self.hessian_diag,
-            &mut self.hessian_off,
-            &mut self.hessian_border,
-            &mut self.hessian_corner,
-            &mut self.constraints,
-            &mut self.compliance,
-            &mut self.jacobian,
-        ] {
+        self.clear_first_order();
+        for v in [&mut self.hessian_diag, &mut self.hessian_off, &mut self.hessian_border, &mut self.hessian_corner] {
             v.fill(0.0);
         }
     }
