@@ -99,13 +99,10 @@
 //! cup's, off the whole body's weight and moment ([`super::held3`]).
 
 use super::body3::{Body3, Param, Terms3, PLATE_ROWS};
-use super::equilibrium3::Equilibrium3;
 use super::hold3::{FrontHold, FRONT_ROWS};
-use crate::error::InputError;
-use crate::error::StanceError;
 use crate::geom3::{apply, apply_t, axpy, dot, linear_terms, scale, scale_mat, Mat3, Vec3};
 use crate::scene::{Plane3, Scene3};
-use crate::statics::{Evaluation, Solver};
+use crate::statics::Evaluation;
 
 /// A contact row: the tip of link `link` of tube `tube` (0, 1, 2) against
 /// `plane`.
@@ -207,20 +204,6 @@ impl Body3 {
             };
             ev.constraints[r] = gap;
         }
-    }
-
-    /// The equilibrium among `scene`'s solids, the driving unit fixed (the
-    /// rear hold): the tubes fed at `g = 0`, then gravity raised in
-    /// [`super::solve::LOAD_STAGES`] stages, each settled with the contact
-    /// rows' active set (module doc). Its `contacts` are the rows that push
-    /// at the end, with their forces (N).
-    /// The tubes' centre lines keep `clearance` (m, their radius) from the solids.
-    /// A clearance that is not a finite length of at least 0 is refused.
-    pub fn solve_among(&self, solver: &Solver, scene: &Scene3, clearance: f64) -> Result<Equilibrium3, StanceError> {
-        if !(clearance.is_finite() && clearance >= 0.0) {
-            return Err(InputError::invalid("clearance (m)", clearance, "a finite length of at least 0").into());
-        }
-        Ok(self.solve_among_on(solver, scene, clearance, None)?)
     }
 
     /// The tip of link `link` of tube `tube` (m).

@@ -24,6 +24,7 @@ use super::equilibrium3::Equilibrium3;
 use super::hold3::{FrontHold, FrontTarget, Hanging, FRONT_ROWS};
 use super::system3::System3;
 use crate::cantilever::start_compliance;
+use crate::error::{InputError, StanceError};
 use crate::geom3::dot;
 use crate::linalg::MAX_BORDER;
 use crate::scene::Scene3;
@@ -179,6 +180,20 @@ impl Body3 {
         let lengths = [0, 1, 2].map(|i| self.tube(i).tube_length());
         let shortest = lengths.iter().copied().fold(f64::INFINITY, f64::min);
         move |tau| Param { load: 0.0, scale: lengths.map(|l| (shortest + tau * (l - shortest)) / l), ..Param::FULL }
+    }
+
+    /// The equilibrium among `scene`'s solids, the driving unit fixed (the
+    /// rear hold): the tubes fed at `g = 0`, then gravity raised in
+    /// [`LOAD_STAGES`] stages, each settled with the contact
+    /// rows' active set ([`super::contact3`]). Its `contacts` are the rows that push
+    /// at the end, with their forces (N).
+    /// The tubes' centre lines keep `clearance` (m, their radius) from the solids.
+    /// A clearance that is not a finite length of at least 0 is refused.
+    pub fn solve_among(&self, solver: &Solver, scene: &Scene3, clearance: f64) -> Result<Equilibrium3, StanceError> {
+        if !(clearance.is_finite() && clearance >= 0.0) {
+            return Err(InputError::invalid("clearance (m)", clearance, "a finite length of at least 0").into());
+        }
+        Ok(self.solve_among_on(solver, scene, clearance, None)?)
     }
 
     /// The equilibrium among `scene`'s solids on the default path: the

@@ -365,3 +365,43 @@ fn robot_files_take_the_torsional_stiffness() {
     let err = Body3::from_robot(&midpoint, [0.2, 0.2, 0.2]).unwrap_err().to_string();
     assert!(err.contains("model.discretization"), "{err}");
 }
+
+/// The body's files in the order the module doc gives (`body3::mod`,
+/// "Layout"): each imports only files before it, so none imports another
+/// in a circle.
+#[test]
+fn body3_files_import_only_earlier_ones() {
+    let order = [
+        "tube3",
+        "hold3",
+        "body3",
+        "contact3",
+        "equilibrium3",
+        "system3",
+        "solve",
+        "place3",
+        "held3",
+        "planar",
+        "constant_curvature3",
+    ];
+    let dir = format!("{}/src/body3", env!("CARGO_MANIFEST_DIR"));
+    let mut files: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter_map(|n| n.strip_suffix(".rs").map(str::to_string))
+        .filter(|n| n != "mod")
+        .collect();
+    files.sort();
+    let mut listed: Vec<String> = order.iter().map(|s| s.to_string()).collect();
+    listed.sort();
+    assert_eq!(files, listed, "every file of body3/ has its place in the order");
+    for (at, file) in order.iter().enumerate() {
+        let text = std::fs::read_to_string(format!("{dir}/{file}.rs")).unwrap();
+        // The module's own code: its tests may use anything.
+        let code = text.split("#[cfg(test)]").next().unwrap();
+        for (place, other) in order.iter().enumerate() {
+            let used = code.contains(&format!("super::{other}::")) || code.contains(&format!("super::{other};"));
+            assert!(!used || place < at, "{file} uses {other}, which comes after it");
+        }
+    }
+}
