@@ -405,8 +405,9 @@ pub(crate) struct Solved {
     pub body: Option<Seed>,
 }
 
-/// Solves one point along the path. A warm-started point's
-/// `fresh_difference_m` is NaN until [`check_fresh`] fills it in.
+/// Solves one point along the path with `robot`, validated (a sweep checks
+/// its robots once). A warm-started point's `fresh_difference_m` is NaN
+/// until [`check_fresh`] fills it in.
 fn solve_point(
     robot: &Robot,
     (la, lb): (f64, f64),
@@ -414,7 +415,7 @@ fn solve_point(
     solver: &Solver,
     ws: &mut Option<Scratch>,
 ) -> Solved {
-    match robot.body(la, lb) {
+    match robot.valid_body(la, lb) {
         Ok(body) => solve_body(robot, body, seed, solver, ws),
         Err(e) => failed(la, lb, e.to_string()),
     }
@@ -537,7 +538,8 @@ fn check_fresh(robots: &[Robot], points: &mut [Vec<Point>], solver: &Solver, pro
 }
 
 /// The distances (m) from grid point `g`'s endpoints to a fresh solve's
-/// (see the module doc), into `out[k]` for each robot `k` it is `unchecked` for.
+/// (see the module doc), into `out[k]` for each robot `k` (validated) it is
+/// `unchecked` for.
 fn fresh_differences(
     robots: &[Robot],
     points: &[Vec<Point>],
@@ -548,11 +550,11 @@ fn fresh_differences(
     out: &mut [f64],
 ) {
     let [la, lb] = points[0][g].lengths_m;
-    let Ok(first) = robots[0].body(la, lb) else { return out.fill(f64::INFINITY) };
+    let Ok(first) = robots[0].valid_body(la, lb) else { return out.fill(f64::INFINITY) };
     let scratch = fitted(ws, &first);
     let fed = first.feed_in(solver, scratch);
     for (k, robot) in robots.iter().enumerate().filter(|(k, _)| unchecked(*k)) {
-        let fresh = match (&fed, robot.body(la, lb)) {
+        let fresh = match (&fed, robot.valid_body(la, lb)) {
             (Ok(fed), Ok(body)) => body
                 .load_in(solver, fed.for_stiffness(body.moment_scale()), scratch)
                 .ok()
