@@ -280,22 +280,28 @@ fn chain_columns(
     (cos, sin): (&[f64], &[f64]),
     m: usize,
     jac: &mut [f64],
-    mut curvature: Option<&mut [f64]>,
+    curvature: Option<&mut [f64]>,
     sum: &mut [f64; 2],
 ) {
-    for (i, l) in lengths.iter().enumerate() {
-        let (co, si) = (cos[i], sin[i]);
-        let ls = l * factor;
-        jac[i * m] = -ls * si;
-        jac[i * m + 1] = ls * co;
-        if let Some(curvature) = curvature.as_deref_mut() {
-            jac[i * m + 2] = 0.0;
-            curvature[i * m] = -ls * co;
-            curvature[i * m + 1] = -ls * si;
-            curvature[i * m + 2] = 0.0;
+    // By the links' rows of `m` entries (the weld's three rows first): no
+    // index to check in the loop.
+    let links = lengths.iter().zip(cos).zip(sin).map(|((l, co), si)| (l * factor, *co, *si));
+    match curvature {
+        Some(curvature) => {
+            for ((ls, co, si), (j, c)) in links.zip(jac.chunks_exact_mut(m).zip(curvature.chunks_exact_mut(m))) {
+                j[..3].copy_from_slice(&[-ls * si, ls * co, 0.0]);
+                c[..3].copy_from_slice(&[-ls * co, -ls * si, 0.0]);
+                sum[0] += ls * co;
+                sum[1] += ls * si;
+            }
         }
-        sum[0] += ls * co;
-        sum[1] += ls * si;
+        None => {
+            for ((ls, co, si), j) in links.zip(jac.chunks_exact_mut(m)) {
+                j[..2].copy_from_slice(&[-ls * si, ls * co]);
+                sum[0] += ls * co;
+                sum[1] += ls * si;
+            }
+        }
     }
 }
 

@@ -191,6 +191,11 @@ pub struct Chain {
     clamp_point: [f64; 2],
     clamp_angle: f64,
     root_length: f64,
+    /// `clamp_point + root_length e(clamp_angle)` (m), kept: every solver
+    /// evaluation of a body starts four sums there (each chain's potential,
+    /// the weld's two tips), and its sine and cosine were 4 % of the
+    /// evaluations' on the Fig. 12 sweep.
+    first_joint: [f64; 2],
     tube_length: f64,
     element_length: f64,
     lengths: Vec<f64>,
@@ -237,6 +242,10 @@ impl Chain {
             clamp_point: spec.clamp_point,
             clamp_angle: spec.clamp_angle,
             root_length,
+            first_joint: {
+                let u = unit(spec.clamp_angle);
+                [spec.clamp_point[0] + root_length * u[0], spec.clamp_point[1] + root_length * u[1]]
+            },
             tube_length: spec.tube_length,
             element_length: l,
             lengths,
@@ -392,8 +401,7 @@ impl Chain {
 
     /// Where the first flexible joint sits (m).
     pub fn first_joint(&self) -> [f64; 2] {
-        let u = unit(self.clamp_angle);
-        [self.clamp_point[0] + self.root_length * u[0], self.clamp_point[1] + self.root_length * u[1]]
+        self.first_joint
     }
 
     /// The straight, unloaded configuration: every link along the clamp.

@@ -680,6 +680,13 @@ impl Robot {
     /// `lb` (side pair, chain B), in m.
     pub fn body(&self, la: f64, lb: f64) -> Result<Body, InputError> {
         self.validate()?;
+        self.valid_body(la, lb)
+    }
+
+    /// [`Robot::body`] of a robot validated already: a sweep checks its
+    /// robots once, not at each of its tens of thousands of bodies (the
+    /// whole robot's checks were 1 % of the Fig. 12 sweep).
+    pub(crate) fn valid_body(&self, la: f64, lb: f64) -> Result<Body, InputError> {
         let la = self.check_tube_length("lengths[0] (LA)", la)?;
         let lb = self.check_tube_length("lengths[1] (LB)", lb)?;
         // The plate takes three constraints: with fewer than four links the

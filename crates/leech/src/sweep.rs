@@ -405,8 +405,9 @@ pub(crate) struct Solved {
     pub body: Option<Seed>,
 }
 
-/// Solves one point along the path. A warm-started point's
-/// `fresh_difference_m` is NaN until [`check_fresh`] fills it in.
+/// Solves one point along the path with `robot`, validated (a sweep checks
+/// its robots once). A warm-started point's `fresh_difference_m` is NaN
+/// until [`check_fresh`] fills it in.
 fn solve_point(
     robot: &Robot,
     (la, lb): (f64, f64),
@@ -414,7 +415,7 @@ fn solve_point(
     solver: &Solver,
     ws: &mut Option<Scratch>,
 ) -> Solved {
-    match robot.body(la, lb) {
+    match robot.valid_body(la, lb) {
         Ok(body) => solve_body(robot, body, seed, solver, ws),
         Err(e) => failed(la, lb, e.to_string()),
     }
@@ -452,10 +453,7 @@ pub(crate) fn solve_body(
     ws: &mut Option<Scratch>,
 ) -> Solved {
     let [la, lb] = [body.chain_a().tube_length(), body.chain_b().tube_length()];
-    let scratch = match ws {
-        Some(w) if w.fits(&body) => w,
-        _ => ws.insert(Scratch::for_system(&body)),
-    };
+    let scratch = fitted(ws, &body);
     // (result, snapped, warm): a cold solve is the fresh one.
     let (result, snapped, warm) = match seed {
         Some((previous, q)) => {
@@ -494,6 +492,19 @@ pub(crate) fn solve_body(
     }
 }
 
+/// The scratch `ws` sized for `body`: its buffers kept where they suffice
+/// ([`Scratch::refit`]; a walk's or a thread's points mostly differ in a few
+/// links), a new one the first time.
+fn fitted<'w>(ws: &'w mut Option<Scratch>, body: &Body) -> &'w mut Scratch {
+    match ws {
+        Some(w) => {
+            w.refit(body);
+            w
+        }
+        None => ws.insert(Scratch::for_system(body)),
+    }
+}
+
 /// Fills in `fresh_difference_m` of the warm-started points of every shape
 /// parameter (`points[k]` walked with `robots[k]`, which differ only in the
 /// joint stiffness): at each grid point the tubes are fed at `g = 0` once,
@@ -527,7 +538,8 @@ fn check_fresh(robots: &[Robot], points: &mut [Vec<Point>], solver: &Solver, pro
 }
 
 /// The distances (m) from grid point `g`'s endpoints to a fresh solve's
-/// (see the module doc), into `out[k]` for each robot `k` it is `unchecked` for.
+/// (see the module doc), into `out[k]` for each robot `k` (validated) it is
+/// `unchecked` for.
 fn fresh_differences(
     robots: &[Robot],
     points: &[Vec<Point>],
@@ -538,14 +550,11 @@ fn fresh_differences(
     out: &mut [f64],
 ) {
     let [la, lb] = points[0][g].lengths_m;
-    let Ok(first) = robots[0].body(la, lb) else { return out.fill(f64::INFINITY) };
-    let scratch = match ws {
-        Some(w) if w.fits(&first) => w,
-        _ => ws.insert(Scratch::for_system(&first)),
-    };
+    let Ok(first) = robots[0].valid_body(la, lb) else { return out.fill(f64::INFINITY) };
+    let scratch = fitted(ws, &first);
     let fed = first.feed_in(solver, scratch);
     for (k, robot) in robots.iter().enumerate().filter(|(k, _)| unchecked(*k)) {
-        let fresh = match (&fed, robot.body(la, lb)) {
+        let fresh = match (&fed, robot.valid_body(la, lb)) {
             (Ok(fed), Ok(body)) => body
                 .load_in(solver, fed.for_stiffness(body.moment_scale()), scratch)
                 .ok()
