@@ -4,6 +4,7 @@
 use std::cell::RefCell;
 
 use super::evaluation::{Evaluation, PathTerms};
+use super::iterate::Iterate;
 use super::system::{Border, Path, Row, RowKind, StaticSystem};
 use crate::linalg::{BorderedLdl, Pattern, MAX_BORDER};
 
@@ -94,9 +95,11 @@ impl KktSolver {
                 self.ldl.set_border_start(c, a, system.border_start(c, Border::Free(a)));
             }
         }
-        self.row_starts.extend((0..chains).flat_map(|c| (0..self.m).map(move |r| (c, r))).map(|(c, r)| {
-            system.border_start(c, Border::Row(r))
-        }));
+        self.row_starts.extend(
+            (0..chains)
+                .flat_map(|c| (0..self.m).map(move |r| (c, r)))
+                .map(|(c, r)| system.border_start(c, Border::Row(r))),
+        );
     }
 
     /// Whether the border's buffers hold `m` rows (with the free coordinates).
@@ -302,6 +305,61 @@ pub struct Scratch {
     /// inertia-correcting shift of the current Newton run was: the next
     /// search starts there (see `Solver::factor`).
     pub(super) shift_index: usize,
+    /// Where the working-set runs of the current Newton run started (see
+    /// `Solver::newton`): a run that starts where an earlier one did
+    /// repeats the cycle between them.
+    pub(super) run_starts: RunStarts,
+}
+
+/// Where the working-set runs of one Newton run started: the working set
+/// and the shift search's place exactly, the point and the multipliers (a
+/// run reads nothing else of what came before it: its damping starts
+/// afresh), each with the iterations and working-set changes counted when
+/// it started. Buffers kept between runs.
+#[derive(Clone, Debug, Default)]
+pub(super) struct RunStarts {
+    /// The working sets and shift indices, one record of `it.active.len() + 1` words each.
+    sets: Vec<usize>,
+    /// The points and multipliers, one record of `q.len() + lambda.len()` each.
+    states: Vec<f64>,
+    /// The counts `(iterations, changes)` at each record's start.
+    counts: Vec<(usize, usize)>,
+}
+
+impl RunStarts {
+    /// Forgets every record (a Newton run begins).
+    pub fn clear(&mut self) {
+        self.sets.clear();
+        self.states.clear();
+        self.counts.clear();
+    }
+
+    /// The counts of the earlier run that started on the working set of
+    /// `it` with shift index `shift_index`, from a point and multipliers
+    /// within `within` of its (each coordinate relative to its size, at
+    /// least one: rad, m or N), if one did; else
+    /// records this one's with `counts`.
+    pub fn repeated(
+        &mut self,
+        it: &Iterate,
+        shift_index: usize,
+        within: f64,
+        counts: (usize, usize),
+    ) -> Option<(usize, usize)> {
+        let set = || it.active.iter().map(|a| usize::from(*a)).chain(std::iter::once(shift_index));
+        let (words, values) = (it.active.len() + 1, it.q.len() + it.lambda.len());
+        let records = self.sets.chunks_exact(words).zip(self.states.chunks_exact(values));
+        let near = |state: &[f64]| {
+            state.iter().zip(it.q.iter().chain(&it.lambda)).all(|(a, b)| (a - b).abs() <= within * a.abs().max(1.0))
+        };
+        if let Some(run) = records.into_iter().position(|(s, state)| s.iter().copied().eq(set()) && near(state)) {
+            return Some(self.counts[run]);
+        }
+        self.sets.extend(set());
+        self.states.extend(it.q.iter().chain(&it.lambda));
+        self.counts.push(counts);
+        None
+    }
 }
 
 impl Scratch {
@@ -310,7 +368,10 @@ impl Scratch {
         let (n, m, free) = (system.dim(), system.rows(), system.free());
         let chains = system.blocks();
         let block = system.block_size();
-        assert!(block == 1 || system.multipliers_in_hessian(), "blocks of {block}: the rows' curvature must be in the Hessian");
+        assert!(
+            block == 1 || system.multipliers_in_hessian(),
+            "blocks of {block}: the rows' curvature must be in the Hessian"
+        );
         let mut ws = Scratch {
             n,
             rows: Vec::new(),
@@ -338,6 +399,7 @@ impl Scratch {
             multiplied: false,
             dual: 0.0,
             shift_index: 0,
+            run_starts: RunStarts::default(),
         };
         ws.size_buffers(system);
         ws
@@ -443,19 +505,65 @@ impl Scratch {
     /// point with the Lagrangian Hessian in `lagrangian_*`, shifted by `shift`.
     pub(super) fn factor_kkt(&mut self, shift: f64, active: &[bool], tiny: f64) -> Inertia {
         let rows = (&self.rows[..], self.dual);
-        self.kkt.factor(&self.lagrangian_diag, &self.current, &self.lagrangian_corner, rows, (shift, false), active, tiny)
+        self.kkt.factor(
+            &self.lagrangian_diag,
+            &self.current,
+            &self.lagrangian_corner,
+            rows,
+            (shift, false),
+            active,
+            tiny,
+        )
     }
 
     /// [`Scratch::factor_kkt`] again at the same evaluation and Lagrangian
     /// (another shift): the border assembled last time is kept.
     pub(super) fn refactor_kkt(&mut self, shift: f64, active: &[bool], tiny: f64) -> Inertia {
         let rows = (&self.rows[..], self.dual);
-        self.kkt.factor(&self.lagrangian_diag, &self.current, &self.lagrangian_corner, rows, (shift, true), active, tiny)
+        self.kkt.factor(
+            &self.lagrangian_diag,
+            &self.current,
+            &self.lagrangian_corner,
+            rows,
+            (shift, true),
+            active,
+            tiny,
+        )
     }
 
     /// Fills the path derivatives at the current point.
     pub(super) fn path_terms<S: Path + ?Sized>(&mut self, sys: &S, q: &[f64], t: f64) {
         self.path.clear();
         sys.path(q, t, &self.current, &mut self.path);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn iterate(q: &[f64], lambda: &[f64], active: &[bool]) -> Iterate {
+        Iterate { lambda: lambda.to_vec(), active: active.to_vec(), ..Iterate::new(q.to_vec()) }
+    }
+
+    /// A start is a repeat of an earlier one only on the same working set
+    /// and shift index, at a point and multipliers within rounding; the
+    /// counts returned are the earlier start's.
+    #[test]
+    fn run_starts_find_the_same_start_to_rounding_only() {
+        let mut starts = RunStarts::default();
+        let first = iterate(&[0.5, -1.0], &[2.0, 0.0], &[true, false]);
+        assert_eq!(starts.repeated(&first, 3, 1e-12, (10, 1)), None);
+        // Another working set, shift index, or a point moved beyond rounding: new starts.
+        let other_set = iterate(&[0.5, -1.0], &[2.0, 0.0], &[true, true]);
+        assert_eq!(starts.repeated(&other_set, 3, 1e-12, (20, 2)), None);
+        assert_eq!(starts.repeated(&first, 4, 1e-12, (30, 3)), None);
+        let moved = iterate(&[0.5 + 1e-9, -1.0], &[2.0, 0.0], &[true, false]);
+        assert_eq!(starts.repeated(&moved, 3, 1e-12, (40, 4)), None);
+        // The first start again, a unit of rounding off in a multiplier.
+        let again = iterate(&[0.5, -1.0], &[2.0 + 4e-16, 0.0], &[true, false]);
+        assert_eq!(starts.repeated(&again, 3, 1e-12, (50, 5)), Some((10, 1)));
+        starts.clear();
+        assert_eq!(starts.repeated(&again, 3, 1e-12, (60, 6)), None);
     }
 }
