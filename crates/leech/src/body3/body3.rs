@@ -20,8 +20,8 @@ use super::tube3::Tube3;
 use crate::chain::{Chain, Discretization};
 use crate::error::InputError;
 use crate::geom3::{
-    apply, axpy, cross, is_rotation, linear_terms, mul_tn, pair_terms, rot_z, scale, tangent_hessian,
-    transpose, Mat3, Vec3,
+    apply, axpy, cross, is_rotation, linear_terms, mul_tn, pair_terms, rot_z, scale, tangent_hessian, transpose, Mat3,
+    Vec3,
 };
 use crate::robot::Robot;
 use crate::statics::Evaluation;

@@ -348,7 +348,14 @@ impl Body3 {
 
     /// A free minimization at `param` (reported at the path parameter
     /// `at`), which ends stable ([`Solver::minimize`]).
-    fn settle(&self, solver: &Solver, state: &mut State, param: Param, at: f64, stage: Stage) -> Result<f64, SolveError> {
+    fn settle(
+        &self,
+        solver: &Solver,
+        state: &mut State,
+        param: Param,
+        at: f64,
+        stage: Stage,
+    ) -> Result<f64, SolveError> {
         let fixed = move |_: f64| param;
         let contacts = std::mem::take(&mut state.contacts);
         let sys = System3::new(self, &fixed, &contacts);

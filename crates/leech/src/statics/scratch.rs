@@ -504,31 +504,19 @@ impl Scratch {
     /// Factors the KKT matrix of the working set `active` at the current
     /// point with the Lagrangian Hessian in `lagrangian_*`, shifted by `shift`.
     pub(super) fn factor_kkt(&mut self, shift: f64, active: &[bool], tiny: f64) -> Inertia {
-        let rows = (&self.rows[..], self.dual);
-        self.kkt.factor(
-            &self.lagrangian_diag,
-            &self.current,
-            &self.lagrangian_corner,
-            rows,
-            (shift, false),
-            active,
-            tiny,
-        )
+        self.factor_reusing(shift, false, active, tiny)
     }
 
     /// [`Scratch::factor_kkt`] again at the same evaluation and Lagrangian
     /// (another shift): the border assembled last time is kept.
     pub(super) fn refactor_kkt(&mut self, shift: f64, active: &[bool], tiny: f64) -> Inertia {
+        self.factor_reusing(shift, true, active, tiny)
+    }
+
+    fn factor_reusing(&mut self, shift: f64, reuse: bool, active: &[bool], tiny: f64) -> Inertia {
         let rows = (&self.rows[..], self.dual);
-        self.kkt.factor(
-            &self.lagrangian_diag,
-            &self.current,
-            &self.lagrangian_corner,
-            rows,
-            (shift, true),
-            active,
-            tiny,
-        )
+        let (diag, corner) = (&self.lagrangian_diag, &self.lagrangian_corner);
+        self.kkt.factor(diag, &self.current, corner, rows, (shift, reuse), active, tiny)
     }
 
     /// Fills the path derivatives at the current point.
