@@ -453,7 +453,8 @@ pub(crate) fn solve_body(
     ws: &mut Option<Scratch>,
 ) -> Solved {
     let [la, lb] = [body.chain_a().tube_length(), body.chain_b().tube_length()];
-    let scratch = fitted(ws, &body);
+    // A walk's or a thread's points mostly differ in a few links.
+    let scratch = Scratch::fitted(ws, &body);
     // (result, snapped, warm): a cold solve is the fresh one.
     let (result, snapped, warm) = match seed {
         Some((previous, q)) => {
@@ -489,19 +490,6 @@ pub(crate) fn solve_body(
             }
         }
         Err(e) => failed(la, lb, e.to_string()),
-    }
-}
-
-/// The scratch `ws` sized for `body`: its buffers kept where they suffice
-/// ([`Scratch::refit`]; a walk's or a thread's points mostly differ in a few
-/// links), a new one the first time.
-fn fitted<'w>(ws: &'w mut Option<Scratch>, body: &Body) -> &'w mut Scratch {
-    match ws {
-        Some(w) => {
-            w.refit(body);
-            w
-        }
-        None => ws.insert(Scratch::for_system(body)),
     }
 }
 
@@ -551,7 +539,7 @@ fn fresh_differences(
 ) {
     let [la, lb] = points[0][g].lengths_m;
     let Ok(first) = robots[0].valid_body(la, lb) else { return out.fill(f64::INFINITY) };
-    let scratch = fitted(ws, &first);
+    let scratch = Scratch::fitted(ws, &first);
     let fed = first.feed_in(solver, scratch);
     for (k, robot) in robots.iter().enumerate().filter(|(k, _)| unchecked(*k)) {
         let fresh = match (&fed, robot.valid_body(la, lb)) {

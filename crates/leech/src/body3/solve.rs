@@ -66,16 +66,21 @@ impl State {
         State { it, contacts, ws: None }
     }
 
-    /// The iterate and the scratch, sized for `sys`; every row in the
+    /// Runs `run` on the body along `path` with this state's contact rows,
+    /// its iterate and its scratch sized for that system; every row in the
     /// working set (all are equalities: the contacts' active set is kept
     /// here, not by the solver).
-    fn parts(&mut self, sys: &System3) -> (&mut Iterate, &mut Scratch) {
-        self.it.active.clear();
-        self.it.active.resize(self.it.lambda.len(), true);
-        if let Some(ws) = self.ws.as_mut() {
-            ws.refit(sys);
-        }
-        (&mut self.it, self.ws.get_or_insert_with(|| Scratch::for_system(sys)))
+    fn on<R>(
+        &mut self,
+        body: &Body3,
+        path: &dyn Fn(f64) -> Param,
+        run: impl FnOnce(&System3, &mut Iterate, &mut Scratch) -> R,
+    ) -> R {
+        let State { it, contacts, ws } = self;
+        let sys = System3::new(body, path, contacts);
+        it.active.clear();
+        it.active.resize(it.lambda.len(), true);
+        run(&sys, it, Scratch::fitted(ws, &sys))
     }
 
     fn frames(&self) -> &[crate::geom3::Mat3] {
@@ -356,13 +361,7 @@ impl Body3 {
         at: f64,
         stage: Stage,
     ) -> Result<f64, SolveError> {
-        let fixed = move |_: f64| param;
-        let contacts = std::mem::take(&mut state.contacts);
-        let sys = System3::new(self, &fixed, &contacts);
-        let (it, ws) = state.parts(&sys);
-        let out = solver.minimize(&sys, it, at, stage, ws);
-        state.contacts = contacts;
-        out
+        state.on(self, &move |_| param, |sys, it, ws| solver.minimize(sys, it, at, stage, ws))
     }
 
     /// Follows `path(tau)`, `tau` from 0 to 1 ([`Solver::continuation`]),
@@ -375,22 +374,15 @@ impl Body3 {
         path: &dyn Fn(f64) -> Param,
         stage: Stage,
     ) -> Result<f64, SolveError> {
-        let contacts = std::mem::take(&mut state.contacts);
-        let sys = System3::new(self, path, &contacts);
-        let (it, ws) = state.parts(&sys);
-        let out = solver.continuation(&sys, it, 0.0, stage, ws);
-        state.contacts = contacts;
-        out
+        state.on(self, path, |sys, it, ws| solver.continuation(sys, it, 0.0, stage, ws))
     }
 
     /// Packs a state converged at the full load, `param`.
     fn finish(&self, solver: &Solver, mut state: State, residual: f64, param: Param) -> Equilibrium3 {
-        let fixed = move |_: f64| param;
-        let contacts = std::mem::take(&mut state.contacts);
-        let sys = System3::new(self, &fixed, &contacts);
-        state.parts(&sys);
-        let mut ws = state.ws.take().expect("sized by parts");
-        let mut summary = solver.finish(&sys, state.it, residual, &mut ws);
+        let mut summary = state.on(self, &move |_| param, |sys, it, ws| {
+            solver.finish(sys, std::mem::replace(it, Iterate::new(Vec::new())), residual, ws)
+        });
+        let contacts = state.contacts;
         let frames = Frames(System3::frames(&summary.q).to_vec());
         summary.q = frames.iter().flat_map(crate::geom3::log).collect();
         let front_hold = param.front.map(|_| std::array::from_fn(|r| summary.multipliers[PLATE_ROWS + r]));

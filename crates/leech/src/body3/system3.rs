@@ -39,7 +39,7 @@ use super::contact3::ContactRow3;
 use super::hold3::FRONT_ROWS;
 use crate::geom3::{apply, axpy, column, cross, dot, Mat3};
 use crate::linalg::Pattern;
-use crate::statics::{Border, Constraints, Evaluation, Path, PathTerms, Potential, Row, RowKind, StaticSystem};
+use crate::statics::{Border, Constraints, Evaluation, Path, PathTerms, Potential, Row, RowKind, StaticSystem, Tuning};
 
 /// Most a plain Newton step turns a frame (rad, sup norm over the links).
 pub const RETRACTION_LIMIT: f64 = 0.5;
@@ -217,29 +217,18 @@ impl StaticSystem for System3<'_> {
 impl Path for System3<'_> {
     fn path(&self, q: &[f64], t: f64, ev: &Evaluation, out: &mut PathTerms) {
         // Gradient, Jacobian and values do not depend on the multipliers.
-        let zero = &self.zero;
         let mut other = self.other.borrow_mut();
         let other = other.get_or_insert_with(|| self.body.evaluation(self.rows()));
-        let mut add = |sign: f64, over: f64, at: f64, base: Option<&Evaluation>| {
-            self.evaluate_into::<false>(q, zero, at, other);
-            let pairs = [
-                (&mut out.gradient, &other.gradient, base.map(|b| &b.gradient)),
-                (&mut out.jacobian, &other.jacobian, base.map(|b| &b.jacobian)),
-                (&mut out.constraints, &other.constraints, base.map(|b| &b.constraints)),
-                (&mut out.compliance, &other.compliance, base.map(|b| &b.compliance)),
-            ];
-            for (dst, there, here) in pairs {
-                match here {
-                    Some(here) => dst.iter_mut().zip(there.iter().zip(here)).for_each(|(d, (a, b))| *d += a - b),
-                    None => dst.iter_mut().zip(there).for_each(|(d, a)| *d += sign * a / over),
-                }
-            }
-        };
         if (self.path)(t).front.is_none() {
-            add(1.0, 1.0, t + 1.0, Some(ev));
+            self.evaluate_into::<false>(q, &self.zero, t + 1.0, other);
+            each_term(out, other, |d, a| *d = a);
+            each_term(out, ev, |d, b| *d -= b);
         } else {
-            add(1.0, 2.0 * PATH_DIFFERENCE, t + PATH_DIFFERENCE, None);
-            add(-1.0, 2.0 * PATH_DIFFERENCE, t - PATH_DIFFERENCE, None);
+            let over = 2.0 * PATH_DIFFERENCE;
+            self.evaluate_into::<false>(q, &self.zero, t + PATH_DIFFERENCE, other);
+            each_term(out, other, |d, a| *d = a / over);
+            self.evaluate_into::<false>(q, &self.zero, t - PATH_DIFFERENCE, other);
+            each_term(out, other, |d, b| *d -= b / over);
         }
     }
 
@@ -249,5 +238,23 @@ impl Path for System3<'_> {
     /// took 2.2 ms instead of 0.6 ms on the 25/30/22-link body.
     fn discrete_stiffness(&self) -> f64 {
         f64::INFINITY
+    }
+
+    fn first_turn(&self, tuning: &Tuning) -> f64 {
+        tuning.first_frame_turn
+    }
+}
+
+/// `f(d, e)` for each path term `d` of `out` and the matching entry `e` of
+/// `ev` (gradient, Jacobian, values, compliance).
+fn each_term(out: &mut PathTerms, ev: &Evaluation, f: impl Fn(&mut f64, f64)) {
+    let pairs = [
+        (&mut out.gradient, &ev.gradient),
+        (&mut out.jacobian, &ev.jacobian),
+        (&mut out.constraints, &ev.constraints),
+        (&mut out.compliance, &ev.compliance),
+    ];
+    for (dst, src) in pairs {
+        dst.iter_mut().zip(src).for_each(|(d, s)| f(d, *s));
     }
 }

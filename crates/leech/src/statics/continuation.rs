@@ -56,8 +56,7 @@ impl Solver {
         let tuning = &self.options.tuning;
         let mut dt = sys.first_step().min(1.0 - from);
         if sys.discrete_stiffness() > tuning.stiff_path {
-            let angle = if sys.block_size() == 3 { tuning.first_frame_turn } else { tuning.first_step_angle };
-            dt = dt.min(angle / sup_norm(&ws.tangent));
+            dt = dt.min(sys.first_turn(tuning) / sup_norm(&ws.tangent));
         }
         let mut steps = 0;
         while t < 1.0 {

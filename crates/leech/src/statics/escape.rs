@@ -81,8 +81,7 @@ impl Solver {
         if (measure < 0.0) == (wanted == Side::Right) {
             ws.direction.iter_mut().for_each(|x| *x = -*x);
         }
-        ws.q_trial.copy_from_slice(&it.q);
-        sys.retract(&ws.q_trial, &ws.direction, kick, &mut it.q);
+        kicked(sys, it, kick, ws);
         Ok(wanted)
     }
 
@@ -116,8 +115,7 @@ impl Solver {
         if !best.0.is_finite() {
             return Err(StopReason::NonFinite);
         }
-        ws.q_trial.copy_from_slice(&it.q);
-        sys.retract(&ws.q_trial, &ws.direction, best.1 * kick, &mut it.q);
+        kicked(sys, it, best.1 * kick, ws);
         Ok(())
     }
 
@@ -146,6 +144,12 @@ impl Solver {
         }
         Ok(())
     }
+}
+
+/// `it.q <- it.q (+) by ws.direction`.
+fn kicked<S: StaticSystem + ?Sized>(sys: &S, it: &mut Iterate, by: f64, ws: &mut Scratch) {
+    ws.q_trial.copy_from_slice(&it.q);
+    sys.retract(&ws.q_trial, &ws.direction, by, &mut it.q);
 }
 
 /// A lower bound (Gershgorin) on the eigenvalues of the Lagrangian Hessian

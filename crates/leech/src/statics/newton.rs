@@ -73,6 +73,12 @@ fn transposed_product_fixed<const M: usize>(base: &[f64], jac: &[f64], lambda: &
 /// by far more (0.4).
 const SAME_START: f64 = 1e-12;
 
+/// The shift (times `k`) of the least-change solves: with `H + 1e6 k I`
+/// the KKT step is, to about 1e-6, the one that changes the point least
+/// for a given change of the rows (`-J^T (J J^T)^-1 g`), and its dual part
+/// the least-squares multipliers for a given force.
+const LEAST_CHANGE_SHIFT: f64 = 1e6;
+
 /// What a trial step found.
 enum Trial {
     Accepted,
@@ -544,20 +550,13 @@ impl Solver {
         if !(before > self.options.tolerance) {
             return false;
         }
-        ws.factor_kkt(1e6 * k, &it.active, self.options.tuning.tiny_pivot * k);
-        let restoring = |ev_of_trial: bool, ws: &mut Scratch, out_direction: bool| {
-            let ev = if ev_of_trial { &ws.trial } else { &ws.current };
-            for (r, rhs) in ws.rhs.iter_mut().enumerate() {
-                *rhs = -ev.row_value(r, it.lambda[r]);
-            }
-            ws.spare.fill(0.0);
-            let out = if out_direction { &mut ws.direction } else { &mut ws.step };
-            ws.kkt.solve(&ws.spare, &ws.rhs, out, &mut ws.dual_step);
-        };
-        restoring(false, ws, false);
+        ws.factor_kkt(LEAST_CHANGE_SHIFT * k, &it.active, self.options.tuning.tiny_pivot * k);
+        Self::least_change(ws, &it.lambda, false);
         sys.retract(&it.q, &ws.step, 1.0, &mut ws.q_trial);
         sys.evaluate_at(&ws.q_trial, &it.lambda, t, &mut ws.trial);
-        restoring(true, ws, true);
+        // The correction goes to `direction`, then joins the step.
+        std::mem::swap(&mut ws.step, &mut ws.direction);
+        Self::least_change(ws, &it.lambda, true);
         for (s, d) in ws.step.iter_mut().zip(&ws.direction) {
             *s += d;
         }
@@ -587,7 +586,7 @@ impl Solver {
         }
         let k = sys.moment_scale();
         Self::lagrangian(ws, &it.lambda);
-        ws.factor_kkt(1e6 * k, &it.active, self.options.tuning.tiny_pivot * k);
+        ws.factor_kkt(LEAST_CHANGE_SHIFT * k, &it.active, self.options.tuning.tiny_pivot * k);
         ws.rhs.fill(0.0);
         ws.kkt.solve(&ws.current.gradient, &ws.rhs, &mut ws.spare, &mut ws.dual_step);
         it.lambda.copy_from_slice(&ws.dual_step);
@@ -603,7 +602,7 @@ impl Solver {
     /// and a Lagrangian Hessian so indefinite that no shift corrected it
     /// (reported as a singular Jacobian). Updates `ws.residual`.
     fn unshifted_multipliers(&self, it: &mut Iterate, ws: &mut Scratch, k: f64, shift: f64) {
-        ws.factor_kkt(1e6 * k, &it.active, self.options.tuning.tiny_pivot * k);
+        ws.factor_kkt(LEAST_CHANGE_SHIFT * k, &it.active, self.options.tuning.tiny_pivot * k);
         // The old point's residual is spent: it holds the fictitious force.
         for (f, d) in ws.residual_trial.iter_mut().zip(&ws.step) {
             *f = shift * d;
@@ -621,13 +620,22 @@ impl Solver {
     /// without bound, taken here with a shift of `1e6 k`. Leaves the factors
     /// shifted: the caller factors again for its next trial.
     fn restoring_length(&self, it: &Iterate, ws: &mut Scratch, k: f64) -> f64 {
-        ws.refactor_kkt(1e6 * k, &it.active, self.options.tuning.tiny_pivot * k);
-        ws.spare.fill(0.0);
-        for (r, rhs) in ws.rhs.iter_mut().enumerate() {
-            *rhs = -ws.current.row_value(r, it.lambda[r]);
-        }
-        ws.kkt.solve(&ws.spare, &ws.rhs, &mut ws.step, &mut ws.dual_step);
+        ws.refactor_kkt(LEAST_CHANGE_SHIFT * k, &it.active, self.options.tuning.tiny_pivot * k);
+        Self::least_change(ws, &it.lambda, false);
         sup_norm(&ws.step)
+    }
+
+    /// The least-change step restoring the rows' values (with multipliers
+    /// `lambda`) of `ws.current`, or of `ws.trial` when `at_trial`, into
+    /// `ws.step`: the KKT solve for `(0, -g)` with the factors in `ws.kkt`
+    /// (shifted by [`LEAST_CHANGE_SHIFT`]).
+    fn least_change(ws: &mut Scratch, lambda: &[f64], at_trial: bool) {
+        let ev = if at_trial { &ws.trial } else { &ws.current };
+        for (r, rhs) in ws.rhs.iter_mut().enumerate() {
+            *rhs = -ev.row_value(r, lambda[r]);
+        }
+        ws.spare.fill(0.0);
+        ws.kkt.solve(&ws.spare, &ws.rhs, &mut ws.step, &mut ws.dual_step);
     }
 
     /// One trial step with the current factors (of shift `shift`): solve,

@@ -139,9 +139,9 @@ pub struct Tuning {
     /// corrector rejected trials 2.5 to 3.5 times over; 0.1 to 0.15 rad is
     /// the fastest, and from 0.2 rad the corrector fails again at 300 links.
     pub first_step_angle: f64,
-    /// [`Tuning::first_step_angle`] for systems of frames (blocks of 3,
-    /// [`Potential::block_size`](super::Potential::block_size)), whose
-    /// predictor turns rotation vectors: measured on 400 random three-tube
+    /// [`Tuning::first_step_angle`] for systems of frames, whose predictor
+    /// turns rotation vectors ([`Path::first_turn`](super::Path::first_turn)
+    /// of the three-tube body): measured on 400 random three-tube
     /// bodies (0.05 to 0.30 m, any clamp angle), 0.3 to 0.7 rad need the
     /// same iterations to 1 %, and 0.15 rad three more continuation steps
     /// on the 25/30/22-link body.

@@ -203,10 +203,7 @@ impl KktSolver {
                 }
             }
             self.ldl.set_border_rows(k);
-            match &mut self.placed {
-                Some(placed) => placed.clone_from(&self.slots),
-                None => self.placed = Some(self.slots.clone()),
-            }
+            self.placed.get_or_insert_with(Vec::new).clone_from(&self.slots);
         }
         let count = if self.direct() {
             self.corner[..k * k].fill(0.0);
@@ -216,13 +213,9 @@ impl KktSolver {
             let same = matches!(&self.assembled, Some((slots, d)) if reuse && *slots == self.slots && *d == dual);
             if !same {
                 self.assemble(ev, lagrangian_corner, rows, dual);
-                match &mut self.assembled {
-                    Some((slots, d)) => {
-                        slots.clone_from(&self.slots);
-                        *d = dual;
-                    }
-                    None => self.assembled = Some((self.slots.clone(), dual)),
-                }
+                let (slots, d) = self.assembled.get_or_insert_with(|| (Vec::new(), 0.0));
+                slots.clone_from(&self.slots);
+                *d = dual;
             }
             let border = &self.border[..self.chains * k];
             self.ldl.factor(diag, &ev.hessian_off, border, &self.corner[..k * k], shift, tiny)
@@ -431,6 +424,16 @@ impl Scratch {
         }
         (self.n, self.chains) = (n, chains);
         self.size_buffers(system);
+    }
+
+    /// The scratch in `slot` sized for `system` ([`Scratch::refit`]: its
+    /// buffers kept where they suffice), or a new one the first time: for
+    /// callers that solve a sequence of slightly different systems.
+    pub fn fitted<'s, S: StaticSystem + ?Sized>(slot: &'s mut Option<Scratch>, system: &S) -> &'s mut Scratch {
+        if let Some(ws) = slot.as_mut() {
+            ws.refit(system);
+        }
+        slot.get_or_insert_with(|| Scratch::for_system(system))
     }
 
     /// Sizes every buffer but the factorization's for `system`.

@@ -208,4 +208,12 @@ pub trait Path: StaticSystem {
     fn discrete_stiffness(&self) -> f64 {
         0.0
     }
+    /// Most the first predictor may turn a coordinate (rad) where the first
+    /// step is sized from the tangent: [`Tuning::first_step_angle`] for link
+    /// angles by default.
+    ///
+    /// [`Tuning::first_step_angle`]: super::Tuning::first_step_angle
+    fn first_turn(&self, tuning: &super::Tuning) -> f64 {
+        tuning.first_step_angle
+    }
 }
