@@ -10,8 +10,9 @@ use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-use leech::body3::{Body3, Hold3};
+use leech::body3::Body3;
 use leech::budget::Deadline;
+use leech::hold::Hold3;
 
 use leech::calibration::{read_sag, read_shapes, BodyShape, Fit, SagTube};
 use leech::chain::Discretization;

@@ -294,7 +294,7 @@ fn cups<'a>(robot: &Robot, held: &'a Held3) -> [CupMark<'a>; 2] {
 pub fn held3_figure(robot: &Robot, held: &Held3, scene: Option<&Scene3>) -> Figure {
     let body = &held.body;
     let [l1, l2, l3] = [0, 1, 2].map(|i| body.tube(i).tube_length() * 1e3);
-    let hold = leech::report::hold_name(&held.hold).replace('_', " ");
+    let hold = held.hold.name().replace('_', " ");
     let title = format!("{}: L1 = {l1:.1} mm, L2 = {l2:.1} mm, L3 = {l3:.1} mm, {hold} hold", robot.name);
     let tubes = Tubes::of(body, &held.equilibrium.frames);
     views(title, &[tubes], scene, &cups(robot, held), body.gravity() > 0.0, robot.cup.min_safety_factor)

@@ -55,6 +55,7 @@
 //! * [`calibration`]: fitting `k` (and `m`) to measured tubes and bodies; model comparison.
 //! * [`constant_curvature`]: the kinematic constant-curvature model, planar and tri-tube.
 //! * [`cup`]: whether a suction cup holds under a hold's reaction: pull-off, peel, slip.
+//! * [`hold`]: which cups hold a body and where (rear, front, both, a free front joint), planar and 3D.
 //! * [`stance`]: the body held by its rear cup, its front cup or both; the reactions on the cups.
 //! * [`statics`]: the Newton-KKT solver, continuation, stability, inequality rows.
 //! * [`dynamics`]: constrained forward dynamics and integrators.
@@ -86,6 +87,7 @@ pub mod error;
 pub mod files;
 pub mod geom;
 pub mod geom3;
+pub mod hold;
 pub mod inverse_statics;
 pub mod least_squares;
 pub mod linalg;

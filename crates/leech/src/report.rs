@@ -18,8 +18,8 @@ mod climb;
 mod held;
 
 pub use body3::{
-    hold_name, ArcTubeReport, Body3Report, ConstantCurvature3Report, Contact3Report, Cup3Report, PlanarCounterpart,
-    PlanarReport, TubeReport,
+    ArcTubeReport, Body3Report, ConstantCurvature3Report, Contact3Report, Cup3Report, PlanarCounterpart, PlanarReport,
+    TubeReport,
 };
 pub use climb::{write_climb_csv, ClimbReport, ClimbRow, ClimbStep, SafetyFactors};
 pub use held::{Cups, HalfPlaneReport, HoldReport, Holds, PolygonReport, SceneReport, ShapeReport, StanceReport};

@@ -5,8 +5,9 @@
 use std::path::Path;
 
 use leech::body3::place3::{first_inside, hold_points, plate_frame_from_angles};
-use leech::body3::{Body3, Hold3};
+use leech::body3::Body3;
 use leech::error::{within, Num};
+use leech::hold::{AsBuilt, Hold3, Pose3};
 use leech::prelude::*;
 use leech::scene::{is_scene3, Scene, SceneFile3, BUILTIN_SCENES, MAX_COORDINATE_M, ON_SURFACE_M};
 use leech::stance::{self, Hold, Pose};
@@ -67,18 +68,18 @@ pub(super) fn situation3(
     }
     let front = a.front.map(front3).transpose()?;
     let hold = match (a.hold.unwrap_or(Hold3Arg::Rear), front) {
-        (Hold3Arg::Rear, None) => Hold3::Rear,
+        (Hold3Arg::Rear, None) => Hold3::Rear(AsBuilt),
         (Hold3Arg::Rear, Some(_)) => {
             let given = a.front.map_or(String::new(), |v| v.map(|c| Num(c).to_string()).join(","));
             return Err(Failure::Input(format!(
                 "--front: got {given} with the rear hold, expected --hold front, front-pivot or both with it"
             )));
         }
-        (Hold3Arg::Front, Some((tip_m, plate))) => Hold3::Front { tip_m, plate },
-        (Hold3Arg::FrontPivot, Some((tip_m, plate))) => {
-            Hold3::FrontPivot { centre_m: leech::body3::place3::front_cup_centre(robot, tip_m, &plate), plate }
+        (Hold3Arg::Front, Some((tip_m, plate))) => Hold3::Front(Pose3 { point_m: tip_m, frame: plate }),
+        (Hold3Arg::FrontPivot, Some((tip_m, plate))) => Hold3::FrontPivot(Pose3 { point_m: tip_m, frame: plate }),
+        (Hold3Arg::Both, Some((tip_m, plate))) => {
+            Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: tip_m, frame: plate } }
         }
-        (Hold3Arg::Both, Some((tip_m, plate))) => Hold3::Both { tip_m, plate },
         (held, None) => {
             let name = match held {
                 Hold3Arg::Front => "front",

@@ -258,7 +258,7 @@ pub fn sideways(out: &mut String, a: &ClimbSideways, plan: &SidewaysPlan) -> Res
                     "phase": step.phase.name(),
                     "stride": step.stride,
                     "lengths_m": step.lengths_m,
-                    "hold": leech::report::hold_name(&step.held.hold),
+                    "hold": step.held.hold.name(),
                     "stable": step.held.equilibrium.summary.stable,
                     "endpoint_m": body.endpoint(frames),
                     "plate_frame": body.plate_frame(frames),

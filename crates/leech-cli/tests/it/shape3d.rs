@@ -206,21 +206,22 @@ fn cup_factor(v: &Value, cup: &str) -> f64 {
 #[test]
 fn holds_report_their_cups_as_the_library_solves_them() {
     use leech::body3::place3::plate_frame_from_angles;
-    use leech::body3::Hold3;
+    use leech::hold::{AsBuilt, Hold3, Pose3};
     let robot = Robot::builtin();
     let body = Body3::from_robot(&robot, [0.25, 0.25, 0.25]).unwrap();
     let solver = Solver::default();
     // The default: the rear cup holds, the front cup is free.
     let v = json_of(&["shape3d", "--lengths", "0.25,0.25,0.25"]);
     assert_eq!((v["hold"].as_str(), v["front_cup"].is_null()), (Some("rear"), true));
-    let rear = body.solve_held(&robot, Hold3::Rear, &solver).unwrap().rear.unwrap();
+    let rear = body.solve_held(&robot, Hold3::Rear(AsBuilt), &solver).unwrap().rear.unwrap();
     assert!((cup_factor(&v, "rear_cup") - rear.verdict.safety_factor).abs() < 1e-9);
     assert!(distance(&vector(&v["rear_cup"]["force_n"]), &rear.reaction.force_n) < 1e-9);
     // The front hold up a wall, turned 15 deg about the face's normal: out of the plane, no planar model.
     let args = ["shape3d", "--lengths", "0.25,0.25,0.25", "--hold", "front", "--front", "0,0.3,0,90,15"];
     let v = json_of(&args);
     let plate = plate_frame_from_angles(90f64.to_radians(), 15f64.to_radians(), 0.0);
-    let held = body.solve_held(&robot, Hold3::Front { tip_m: [0.0, 0.3, 0.0], plate }, &solver).unwrap();
+    let held =
+        body.solve_held(&robot, Hold3::Front(Pose3 { point_m: [0.0, 0.3, 0.0], frame: plate }), &solver).unwrap();
     let front = held.front.unwrap();
     assert!(v["rear_cup"].is_null() && (cup_factor(&v, "front_cup") - front.verdict.safety_factor).abs() < 1e-9);
     assert!(distance(&vector(&v["front_cup"]["moment_nm"]), &front.reaction.moment_nm) < 1e-9);

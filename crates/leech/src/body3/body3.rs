@@ -68,10 +68,10 @@ pub(crate) struct Param {
     pub scale: [f64; 3],
     /// Hanging from the front cup: gravity as [`super::held3`] writes it
     /// (turning with the plate), in place of the fixed unit's.
-    pub hang: Option<super::hold3::Hanging>,
+    pub hang: Option<crate::hold::front3::Hanging>,
     /// Both cups holding: the front hold's target (tube 1's tip and the
     /// plate's frame), whose six rows follow the weld's 12 ([`super::held3`]).
-    pub front: Option<super::hold3::FrontTarget>,
+    pub front: Option<crate::hold::front3::FrontTarget>,
 }
 
 impl Param {
@@ -633,9 +633,9 @@ pub(crate) mod tests {
     /// A bent, twisted state of `body` (link `u` turned by
     /// `Exp(0.1, -0.2 + 0.03 u, 0.05)`) and a front hold to hang it from:
     /// a generic point for checks of the evaluation.
-    pub(crate) fn bent_and_hanging(body: &Body3) -> (Frames, super::super::hold3::Hanging) {
+    pub(crate) fn bent_and_hanging(body: &Body3) -> (Frames, crate::hold::front3::Hanging) {
         let frames = Frames((0..body.links()).map(|u| exp([0.1, -0.2 + 0.03 * u as f64, 0.05])).collect());
-        (frames, super::super::hold3::Hanging { up: [0.6, 0.0, 0.8], unit_mass_kg: 0.1 })
+        (frames, crate::hold::front3::Hanging { up: [0.6, 0.0, 0.8], unit_mass_kg: 0.1 })
     }
 
     /// The border reach declared to the factorization must hold: every

@@ -7,7 +7,8 @@
 //! [`Body3::solve_held_among`] is the entry point:
 //!
 //! ```
-//! use leech::body3::{Body3, Hold3};
+//! use leech::body3::Body3;
+//! use leech::hold::{AsBuilt, Hold3, Pose3};
 //! use leech::prelude::*;
 //! use leech::scene::{Scene3, Solid3};
 //! let mut robot = Robot::builtin();
@@ -16,7 +17,7 @@
 //! // The floor under the rear cup's face.
 //! let floor = Solid3::HalfSpace { point_m: body.rear_cup_centre(&robot), normal: [0.0, 1.0, 0.0] };
 //! let scene = Scene3::new("floor", vec![floor]).unwrap();
-//! let held = body.solve_held_among(&robot, Hold3::Rear, &scene, &Solver::default()).unwrap();
+//! let held = body.solve_held_among(&robot, Hold3::Rear(AsBuilt), &scene, &Solver::default()).unwrap();
 //! assert!(held.equilibrium.contacts.iter().all(|c| c.force_n >= 0.0));
 //! ```
 //!
@@ -99,8 +100,8 @@
 //! cup's, off the whole body's weight and moment ([`super::held3`]).
 
 use super::body3::{Body3, Param, Terms3, PLATE_ROWS};
-use super::hold3::{FrontHold, FRONT_ROWS};
 use crate::geom3::{apply, apply_t, axpy, dot, linear_terms, scale, scale_mat, Mat3, Vec3};
+use crate::hold::front3::{FrontHold, FRONT_ROWS};
 use crate::scene::{Plane3, Scene3};
 use crate::statics::Evaluation;
 

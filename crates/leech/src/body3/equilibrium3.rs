@@ -5,7 +5,7 @@
 
 use super::body3::Frames;
 use super::contact3::Contact3;
-use super::hold3::FRONT_ROWS;
+use crate::hold::front3::FRONT_ROWS;
 use crate::statics::Equilibrium;
 
 /// A converged equilibrium of the 3D body: its frames, and the solve's

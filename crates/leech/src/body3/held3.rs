@@ -170,8 +170,7 @@
 use super::body3::{Body3, Derivatives, Frames, Param, Terms3, PLATE_ROWS};
 use super::contact3::{row_sink, ContactRow3};
 use super::equilibrium3::Equilibrium3;
-use super::hold3::{check_hold, FrontHold, FrontTarget, Hanging, Hold3, FRONT_ROWS};
-use super::place3::{first_inside, front_cup_centre, front_tip, hold_points};
+use super::place3::{first_inside, front_cup_centre, hold_points};
 use crate::cup::{Cup, CupVerdict};
 use crate::error::StanceError;
 use crate::error::{InputError, Num};
@@ -179,6 +178,8 @@ use crate::geom3::{
     apply, axpy, column, cross, dot, exp, hat, jr_inv, linear_terms, log, mul, mul_tn, pair_terms, scale, scale_mat,
     transpose, Mat3, Vec3,
 };
+use crate::hold::front3::{FrontHold, FrontTarget, Hanging, FRONT_ROWS};
+use crate::hold::{AsBuilt, Hold3, Pose3};
 use crate::robot::Robot;
 use crate::scene::Scene3;
 use crate::statics::{Evaluation, Solver};
@@ -473,18 +474,7 @@ impl Body3 {
         scene: Option<(&Scene3, f64)>,
     ) -> Result<Held3, StanceError> {
         let md = robot.driving_unit.mass_kg;
-        match hold {
-            Hold3::Rear => {}
-            Hold3::Front { tip_m, plate } => {
-                check_hold("front hold tip (m)", tip_m, "front hold plate frame", &plate)?;
-            }
-            Hold3::Both { tip_m, plate } => {
-                check_hold("both holds: front tip (m)", tip_m, "both holds: front plate frame", &plate)?;
-            }
-            Hold3::FrontPivot { centre_m, plate } => {
-                check_hold("front pivot centre (m)", centre_m, "front pivot plate frame", &plate)?;
-            }
-        }
+        hold.checked()?;
         if let Some((solids, _)) = scene {
             // A cup or the plate inside a solid has no equilibrium to find.
             if let Some(p) = first_inside(solids, &hold_points(robot, self, &hold)) {
@@ -498,19 +488,19 @@ impl Body3 {
             }
         }
         match hold {
-            Hold3::Rear => {
+            Hold3::Rear(AsBuilt) => {
                 let equilibrium = self.picture(solver, None, scene)?;
                 let rear = Some(self.rear_cup(robot, &equilibrium)?);
                 Ok(Held3 { hold, body: self.clone(), equilibrium, rear, front: None, pivot_turn_rad: None })
             }
-            Hold3::Front { tip_m, plate } => {
+            Hold3::Front(Pose3 { point_m: tip_m, frame: plate }) => {
                 let held = FrontHold { tip: tip_m, plate, unit_mass_kg: md };
                 let picture = self.picture(solver, Some(&held), scene)?;
                 let (body, equilibrium) = self.hung(&picture, &held);
                 let front = Some(body.front_cup(robot, &equilibrium, md)?);
                 Ok(Held3 { hold, body, equilibrium, rear: None, front, pivot_turn_rad: None })
             }
-            Hold3::Both { tip_m, plate } => {
+            Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: tip_m, frame: plate } } => {
                 let equilibrium = self
                     .solve_both_on(solver, FrontTarget { tip: tip_m, plate, compliance: [0.0; 2] }, scene)
                     .map_err(|source| self.beyond_reach(source, tip_m))?;
@@ -520,7 +510,9 @@ impl Body3 {
                 let front = Some(cup_state(robot, centre, normal, reaction)?);
                 Ok(Held3 { hold, body: self.clone(), equilibrium, rear, front, pivot_turn_rad: None })
             }
-            Hold3::FrontPivot { centre_m, plate } => self.swing(robot, hold, centre_m, &plate, solver, scene),
+            Hold3::FrontPivot(Pose3 { point_m: tip_m, frame: plate }) => {
+                self.swing(robot, hold, tip_m, &plate, solver, scene)
+            }
         }
     }
 
@@ -550,14 +542,13 @@ impl Body3 {
         &self,
         robot: &Robot,
         hold: Hold3,
-        centre: Vec3,
+        tip: Vec3,
         plate: &Mat3,
         solver: &Solver,
         scene: Option<(&Scene3, f64)>,
     ) -> Result<Held3, StanceError> {
         let md = robot.driving_unit.mass_kg;
         let normal = column(plate, 1);
-        let tip = front_tip(robot, centre, plate);
         let front = |turn: f64| FrontHold { tip, plate: mul(&exp(scale(turn, normal)), plate), unit_mass_kg: md };
         // The surface's moment about n on the plate turned by `turn`, from a
         // picture converged there.

@@ -44,16 +44,17 @@
 //! its verdict ([`held3`]):
 //!
 //! ```
-//! use leech::body3::{Body3, Hold3};
+//! use leech::body3::Body3;
+//! use leech::hold::{AsBuilt, Hold3, Pose3};
 //! use leech::geom3::rot_z;
 //! use leech::prelude::*;
 //! let robot = Robot::builtin();
 //! let body = Body3::from_robot(&robot, [0.25, 0.28, 0.22]).unwrap();
 //! let solver = Solver::default();
-//! let rear = body.solve_held(&robot, Hold3::Rear, &solver).unwrap();
+//! let rear = body.solve_held(&robot, Hold3::Rear(AsBuilt), &solver).unwrap();
 //! assert!(rear.rear.unwrap().verdict.holds);
 //! // Held at the front, the plate along +y (up a wall), the unit below.
-//! let hold = Hold3::Front { tip_m: [0.0, 0.5, 0.0], plate: rot_z(std::f64::consts::FRAC_PI_2) };
+//! let hold = Hold3::Front(Pose3 { point_m: [0.0, 0.5, 0.0], frame: rot_z(std::f64::consts::FRAC_PI_2) });
 //! let front = body.solve_held(&robot, hold, &solver).unwrap();
 //! assert!(front.body.tube(0).root()[1] < 0.5);
 //! ```
@@ -71,9 +72,7 @@
 //! The rotations it is written in (`Exp`, `Log`, `Jr^-1`, the local
 //! derivatives of linear and relative terms, whether a matrix is a rotation)
 //! are [`crate::geom3`], in the numbers layer. The files, each importing
-//! only the ones before it: [`tube3`] (one tube's links); [`hold3`] (what
-//! holds: `Hold3`, and what a hold puts on the evaluation: gravity turning
-//! with the plate, the front target); [`body3`] (the body, its Lagrangian's
+//! only the ones before it: [`tube3`] (one tube's links); [`body3`] (the body, its Lagrangian's
 //! derivatives); [`contact3`] (contact rows with scene solids);
 //! [`equilibrium3`] (the solved body: frames, summary, contacts);
 //! [`system3`] (the body as a static system of [`crate::statics`]);
@@ -91,7 +90,6 @@ pub mod constant_curvature3;
 pub mod contact3;
 pub mod equilibrium3;
 pub mod held3;
-pub mod hold3;
 pub mod place3;
 pub mod planar;
 pub mod solve;
@@ -103,5 +101,4 @@ pub use constant_curvature3::ConstantCurvature3;
 pub use contact3::{Contact3, ContactRow3};
 pub use equilibrium3::Equilibrium3;
 pub use held3::{verdict3, CupState3, Held3, Wrench};
-pub use hold3::{Hanging, Hold3, FRONT_ROWS};
 pub use tube3::Tube3;

@@ -21,11 +21,11 @@
 use super::body3::{Body3, Frames, Param, PLATE_ROWS};
 use super::contact3::{Contact3, ContactRow3, HeldAt};
 use super::equilibrium3::Equilibrium3;
-use super::hold3::{FrontHold, FrontTarget, Hanging, FRONT_ROWS};
 use super::system3::System3;
 use crate::cantilever::start_compliance;
 use crate::error::{InputError, StanceError};
 use crate::geom3::dot;
+use crate::hold::front3::{FrontHold, FrontTarget, Hanging, FRONT_ROWS};
 use crate::linalg::MAX_BORDER;
 use crate::scene::Scene3;
 use crate::statics::{Iterate, Scratch, SolveError, Solver, Stage, StopReason};

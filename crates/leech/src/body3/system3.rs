@@ -36,8 +36,8 @@ use std::cell::RefCell;
 
 use super::body3::{angle_between, retract, within, Body3, Param, PLATE_ROWS};
 use super::contact3::ContactRow3;
-use super::hold3::FRONT_ROWS;
 use crate::geom3::{apply, axpy, column, cross, dot, Mat3};
+use crate::hold::front3::FRONT_ROWS;
 use crate::linalg::Pattern;
 use crate::statics::{Border, Constraints, Evaluation, Path, PathTerms, Potential, Row, RowKind, StaticSystem, Tuning};
 
@@ -45,7 +45,7 @@ use crate::statics::{Border, Constraints, Evaluation, Path, PathTerms, Potential
 pub const RETRACTION_LIMIT: f64 = 0.5;
 
 /// The central difference's step along a path that is not affine (the
-/// front hold's target, [`super::hold3::FrontTarget::toward`]).
+/// front hold's target, [`crate::hold::front3::FrontTarget::toward`]).
 const PATH_DIFFERENCE: f64 = 1e-6;
 
 /// The body along a path of [`Param`]s with its run-time rows.

@@ -7,9 +7,10 @@ use serde::Serialize;
 use super::Solution;
 use crate::body::Body;
 use crate::body3::planar::{compare, compare_points, PlanarDifference};
-use crate::body3::{Body3, Contact3, CupState3, Equilibrium3, Held3, Hold3};
+use crate::body3::{Body3, Contact3, CupState3, Equilibrium3, Held3};
 use crate::cup::CupVerdict;
 use crate::geom3::{Mat3, Vec3};
+use crate::hold::{AsBuilt, Hold3, Pose3};
 use crate::robot::Robot;
 use crate::scene::SceneFile3;
 use crate::stance::{self, Held, Hold, Pose};
@@ -80,16 +81,6 @@ impl From<&Contact3> for Contact3Report {
             normal: c.row.plane.normal,
             force_n: c.force_n,
         }
-    }
-}
-
-/// A 3D hold's name in reports: `rear`, `front`, `both` or `front_pivot`.
-pub fn hold_name(hold: &Hold3) -> &'static str {
-    match hold {
-        Hold3::Rear => "rear",
-        Hold3::Front { .. } => "front",
-        Hold3::Both { .. } => "both",
-        Hold3::FrontPivot { .. } => "front_pivot",
     }
 }
 
@@ -187,13 +178,13 @@ impl PlanarCounterpart {
         };
         let out_of_plane = || PlanarCounterpart::Absent("the front hold is out of the x-y plane".into());
         let planar_hold = match hold {
-            Hold3::Rear if planar_scene.is_none() => return PlanarCounterpart::solve(robot, lengths, solver),
-            Hold3::Rear => Hold::Rear(rear()),
-            Hold3::Front { tip_m, plate } => match front(tip_m, plate) {
+            Hold3::Rear(AsBuilt) if planar_scene.is_none() => return PlanarCounterpart::solve(robot, lengths, solver),
+            Hold3::Rear(AsBuilt) => Hold::Rear(rear()),
+            Hold3::Front(Pose3 { point_m: tip_m, frame: plate }) => match front(tip_m, plate) {
                 Some(pose) => Hold::Front(pose),
                 None => return out_of_plane(),
             },
-            Hold3::Both { tip_m, plate } => match front(tip_m, plate) {
+            Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: tip_m, frame: plate } } => match front(tip_m, plate) {
                 Some(pose) => Hold::Both { rear: rear(), front: pose },
                 None => return out_of_plane(),
             },
@@ -321,7 +312,7 @@ impl Body3Report {
             planar_difference_m: planar.as_ref().map(|p| p.difference.endpoint_m),
             planar,
             planar_note,
-            hold: hold_name(&Hold3::Rear),
+            hold: Hold3::Rear(AsBuilt).name(),
             rear_cup: None,
             front_cup: None,
             pivot_turn_rad: None,
@@ -341,7 +332,7 @@ impl Body3Report {
         planar: &PlanarCounterpart,
     ) -> Body3Report {
         Body3Report {
-            hold: hold_name(&held.hold),
+            hold: held.hold.name(),
             rear_cup: held.rear.as_ref().map(Cup3Report::from),
             front_cup: held.front.as_ref().map(Cup3Report::from),
             pivot_turn_rad: held.pivot_turn_rad,

@@ -2,11 +2,11 @@
 //! unit's pose `(p0, phi0)`, under the weld and the holds.
 
 use super::contact::{chain_terms, ContactRow, Touching, FRONT_CUP, REAR_CUP};
-use super::hold::{Hold, Pose};
 use crate::body::{Body, WELD_ROWS};
 use crate::cantilever::start_compliance;
 use crate::chain::Chain;
 use crate::geom::{dot, right_normal, unit, Vec2};
+use crate::hold::{Hold, Pose};
 use crate::statics::{Constraints, Evaluation, Path, PathTerms, Potential, Row, RowKind, Stage, StaticSystem};
 
 /// Free coordinates: `p0` (x, y; m) and `phi0` (rad), after the chains' angles.

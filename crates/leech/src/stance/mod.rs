@@ -65,7 +65,6 @@ pub mod census;
 mod contact;
 mod feeding;
 mod floating;
-mod hold;
 mod phases;
 mod points;
 mod scene_solve;
@@ -73,10 +72,10 @@ pub mod tube;
 
 pub use crate::cantilever::{start_compliance, START_SOFTNESS};
 pub use crate::error::StanceError;
+pub use crate::hold::{Hold, Pose};
 pub use contact::{detect, penetration, swept_clear, ContactOptions, ContactRow, Touching, FRONT_CUP, REAR_CUP};
 pub use feeding::{FALLBACK_STEP_M, FEED_STEP_M, MIN_FEED_STEP_M};
 pub use floating::{Approach, CupFaces, FloatingBody, FREE, HOLD_ROWS};
-pub use hold::{Hold, Pose};
 pub use phases::{solve_after, RELEASE_SPAN_M};
 pub use tube::{tube_in, Tube, TubeHeld, TUBE_FEED_START_M};
 
@@ -170,7 +169,7 @@ pub fn solve(robot: &Robot, lengths: [f64; 2], hold: Hold, solver: &Solver) -> R
             let eq = body.solve(solver)?;
             rear_held(robot, &body, &eq, pose, solver)
         }
-        Hold::Front(pose) => {
+        Hold::Front(pose) | Hold::FrontPivot(pose) => {
             let body = robot.body(lengths[0], lengths[1])?;
             let q = placed(&body, &unloaded(robot, lengths, solver)?, pose);
             let floating = FloatingBody::new(&body, b, unit_mass, hold, Approach::Load);
@@ -189,7 +188,7 @@ pub fn solve(robot: &Robot, lengths: [f64; 2], hold: Hold, solver: &Solver) -> R
 /// The equilibrium is the one nearest `near`, not necessarily the one
 /// [`solve`] finds: a search's probe, to be confirmed cold.
 pub fn solve_near(robot: &Robot, lengths: [f64; 2], near: &Held, solver: &Solver) -> Result<Held, StanceError> {
-    let Hold::Front(_) = near.hold else { return solve(robot, lengths, near.hold, solver) };
+    let (Hold::Front(_) | Hold::FrontPivot(_)) = near.hold else { return solve(robot, lengths, near.hold, solver) };
     let body = robot.body(lengths[0], lengths[1])?;
     let chains = near.body.dim();
     let mut q = body.carry_over(&near.body, &near.equilibrium.q[..chains]);

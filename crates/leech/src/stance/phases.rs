@@ -196,7 +196,7 @@ impl Fed for Handover<'_> {
         }
         let softness = shape.fraction / (1.0 - shape.fraction);
         let approach = match self.single {
-            Hold::Front(_) => Approach::ReleaseRear(softness),
+            Hold::Front(_) | Hold::FrontPivot(_) => Approach::ReleaseRear(softness),
             _ => Approach::ReleaseFront(softness),
         };
         system(self.robot, &shape.body, self.both, approach, self.cups)

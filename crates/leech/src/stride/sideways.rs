@@ -70,9 +70,11 @@ use serde::Deserialize;
 
 use super::machine::Phase;
 use super::plan::Status;
-use crate::body3::{Body3, Held3, Hold3};
+use crate::body3::place3::front_tip;
+use crate::body3::{Body3, Held3};
 use crate::error::{within, InputError};
 use crate::geom3::{axpy, column, cross, dot, exp, mul, scale, Mat3, Vec3};
+use crate::hold::{AsBuilt, Hold3, Pose3};
 use crate::robot::Robot;
 use crate::scene::file::parse_bounded;
 use crate::scene::MAX_COORDINATE_M;
@@ -354,7 +356,7 @@ impl<'a> Planner<'a> {
 
     /// The rear hold at `lengths` from `(y, z)`.
     fn rear(&self, lengths: [f64; 3], at: [f64; 2]) -> Result<Held3, Blocked> {
-        self.solve(&self.body_at(lengths, at)?, Hold3::Rear, lengths)
+        self.solve(&self.body_at(lengths, at)?, Hold3::Rear(AsBuilt), lengths)
     }
 
     /// The front cup's face of a rear-held body: centre and normal.
@@ -436,7 +438,8 @@ impl<'a> Planner<'a> {
     /// with the plate's frame `plate`; each cup must hold.
     fn both(&self, body: &Body3, lengths: [f64; 3], centre: Vec3, plate: &Mat3) -> Result<Held3, Blocked> {
         let d = self.robot.body.tip_spacing_m + self.robot.cup.front_offset_m;
-        let hold = Hold3::Both { tip_m: axpy(d, column(plate, 1), centre), plate: *plate };
+        let hold =
+            Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: axpy(d, column(plate, 1), centre), frame: *plate } };
         let held = self.solve(body, hold, lengths)?;
         self.holding("rear (both holding)", &held, held.rear.as_ref())?;
         self.holding("front (both holding)", &held, held.front.as_ref())?;
@@ -447,14 +450,13 @@ impl<'a> Planner<'a> {
     /// smallest safety factor of the front cup along it.
     fn swing(&self, lengths: [f64; 3], centre: Vec3, plate: &Mat3) -> Result<(Held3, f64), Blocked> {
         let body = Body3::from_robot(&self.robot, lengths).map_err(|e| format!("{e}"))?;
-        let held = self.solve(&body, Hold3::FrontPivot { centre_m: centre, plate: *plate }, lengths)?;
+        let tip = front_tip(&self.robot, centre, plate);
+        let held = self.solve(&body, Hold3::FrontPivot(Pose3 { point_m: tip, frame: *plate }), lengths)?;
         let turn = held.pivot_turn_rad.unwrap_or(0.0);
-        let d = self.robot.body.tip_spacing_m + self.robot.cup.front_offset_m;
-        let tip = axpy(d, WALL_NORMAL, centre);
         let mut worst = self.holding("front", &held, held.front.as_ref())?;
         for k in 1..=SWING_SAMPLES {
             let psi = turn * k as f64 / (SWING_SAMPLES + 1) as f64;
-            let locked = Hold3::Front { tip_m: tip, plate: mul(&exp(scale(psi, WALL_NORMAL)), plate) };
+            let locked = Hold3::Front(Pose3 { point_m: tip, frame: mul(&exp(scale(psi, WALL_NORMAL)), plate) });
             let at = self.solve(&body, locked, lengths)?;
             worst = worst.min(self.holding("front (along the swing)", &at, at.front.as_ref())?);
         }
@@ -481,7 +483,8 @@ impl<'a> Planner<'a> {
     fn hang(&self, lengths: [f64; 3], centre: Vec3, swung: &Held3) -> Result<Held3, Blocked> {
         let plate = swung.body.plate_frame(&swung.equilibrium.frames);
         let body = Body3::from_robot(&self.robot, lengths).map_err(|e| format!("{e}"))?;
-        self.solve(&body, Hold3::FrontPivot { centre_m: centre, plate }, lengths)
+        let pivot = Pose3 { point_m: front_tip(&self.robot, centre, &plate), frame: plate };
+        self.solve(&body, Hold3::FrontPivot(pivot), lengths)
     }
 
     /// The rear cup's face of a body: centre and the surface's normal.

@@ -2,8 +2,10 @@
 //! stance on a floor reproduced in the plane, and a turning body resting on
 //! a floor checked by balance and complementarity.
 
-use leech::body3::{Body3, Held3, Hold3};
+use leech::body3::place3::front_tip;
+use leech::body3::{Body3, Held3};
 use leech::geom3::{axpy, cross, dot, scale, Vec3};
+use leech::hold::{AsBuilt, Hold3, Pose3};
 use leech::prelude::*;
 use leech::scene::{Scene3, Solid3};
 use leech::stance::{self, Hold, Pose};
@@ -26,7 +28,7 @@ fn floor_under(body: &Body3, robot: &Robot) -> Scene3 {
 fn on_floor(robot: &Robot, lengths: [f64; 3]) -> (Held3, Scene3) {
     let body = Body3::from_robot(robot, lengths).unwrap();
     let floor = floor_under(&body, robot);
-    let held = body.solve_held_among(robot, Hold3::Rear, &floor, &Solver::default()).unwrap();
+    let held = body.solve_held_among(robot, Hold3::Rear(AsBuilt), &floor, &Solver::default()).unwrap();
     (held, floor)
 }
 
@@ -148,15 +150,15 @@ fn a_bad_clearance_or_hold_is_refused() {
     let e = body.solve_among(&Solver::default(), &floor, f64::NAN).unwrap_err().to_string();
     assert!(e.starts_with("clearance (m)"), "{e}");
     let plate = [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 1.0]];
-    let hold = Hold3::Front { tip_m: [0.3, 0.0, 0.0], plate };
+    let hold = Hold3::Front(Pose3 { point_m: [0.3, 0.0, 0.0], frame: plate });
     let e = body.solve_held_among(&robot, hold, &floor, &Solver::default()).unwrap_err().to_string();
     assert!(e.starts_with("front hold plate frame"), "{e}");
-    let hold = Hold3::FrontPivot { centre_m: [f64::NAN, 0.0, 0.0], plate: body.base_frame() };
+    let hold = Hold3::FrontPivot(Pose3 { point_m: [f64::NAN, 0.0, 0.0], frame: body.base_frame() });
     let e = body.solve_held_among(&robot, hold, &floor, &Solver::default()).unwrap_err().to_string();
-    assert!(e.starts_with("front pivot centre (m)"), "{e}");
+    assert!(e.starts_with("front pivot tip (m)"), "{e}");
     // The clamp points up, so the rear cup's surface is a wall on the +x
     // side (the unit's y axis its outward normal): a plate 0.2 m into it.
-    let hold = Hold3::Front { tip_m: [0.2, 0.1, 0.0], plate: body.base_frame() };
+    let hold = Hold3::Front(Pose3 { point_m: [0.2, 0.1, 0.0], frame: body.base_frame() });
     let e = body.solve_held_among(&robot, hold, &floor, &Solver::default()).unwrap_err().to_string();
     assert!(e.starts_with("hold: ") && e.contains("the endpoint plate at (") && !e.contains('\n'), "{e}");
 }
@@ -182,7 +184,12 @@ fn a_body_held_on_a_wall_rests_on_the_floor() {
     let tip = axpy(robot.body.tip_spacing_m + robot.cup.front_offset_m, [0.0, 0.0, 1.0], centre);
     for lengths in [[0.25, 0.25, 0.25], [0.25, 0.22, 0.27]] {
         let body = Body3::from_robot(&robot, lengths).unwrap();
-        let held = body.solve_held_among(&robot, Hold3::Front { tip_m: tip, plate }, &scene, &Solver::default());
+        let held = body.solve_held_among(
+            &robot,
+            Hold3::Front(Pose3 { point_m: tip, frame: plate }),
+            &scene,
+            &Solver::default(),
+        );
         let held = held.unwrap();
         check(&robot, &held, &scene);
         let eq = &held.equilibrium;
@@ -197,7 +204,8 @@ fn a_body_held_on_a_wall_rests_on_the_floor() {
             front.verdict.safety_factor
         );
         // Without the floor it hangs lower: the floor holds it up.
-        let free = body.solve_held(&robot, Hold3::Front { tip_m: tip, plate }, &Solver::default()).unwrap();
+        let free =
+            body.solve_held(&robot, Hold3::Front(Pose3 { point_m: tip, frame: plate }), &Solver::default()).unwrap();
         let low = |h: &Held3| {
             (0..3).flat_map(|i| h.body.points(&h.equilibrium.frames, i)).fold(f64::INFINITY, |m, p| m.min(p[1]))
         };
@@ -216,9 +224,10 @@ fn far_solids_change_nothing_under_the_front_holds() {
     let far = far.unwrap();
     let tip = axpy(robot.body.tip_spacing_m + robot.cup.front_offset_m, [0.0, 0.0, 1.0], centre);
     let body = Body3::from_robot(&robot, [0.25, 0.22, 0.27]).unwrap();
-    for (hold, tolerance) in
-        [(Hold3::Front { tip_m: tip, plate }, 1e-12), (Hold3::FrontPivot { centre_m: centre, plate }, 1e-12)]
-    {
+    for (hold, tolerance) in [
+        (Hold3::Front(Pose3 { point_m: tip, frame: plate }), 1e-12),
+        (Hold3::FrontPivot(Pose3 { point_m: tip, frame: plate }), 1e-12),
+    ] {
         let alone = body.solve_held(&robot, hold, &solver).unwrap();
         let among = body.solve_held_among(&robot, hold, &far, &solver).unwrap();
         assert!(among.equilibrium.contacts.is_empty());
@@ -251,7 +260,7 @@ fn the_front_hold_on_a_floor_is_the_planar_stance() {
     let pose = Pose::from_deg([0.5, height], 0.0);
     let planar = stance::solve_in(&robot, [l1, l23], Hold::Front(pose), &planar_floor, &solver).unwrap();
     let body = Body3::from_robot(&robot, [l1, l23, l23]).unwrap();
-    let hold = Hold3::Front { tip_m: [0.5, height, 0.0], plate: leech::geom3::rot_z(0.0) };
+    let hold = Hold3::Front(Pose3 { point_m: [0.5, height, 0.0], frame: leech::geom3::rot_z(0.0) });
     let held = body.solve_held_among(&robot, hold, &floor, &solver).unwrap();
     check(&robot, &held, &floor);
     let eq = &held.equilibrium;
@@ -288,7 +297,7 @@ fn the_swing_on_a_free_front_joint_ends_on_the_floor() {
     let robot = Robot::builtin();
     let (scene, plate, centre) = wall_and_floor(0.12);
     let body = Body3::from_robot(&robot, [0.25, 0.22, 0.27]).unwrap();
-    let hold = Hold3::FrontPivot { centre_m: centre, plate };
+    let hold = Hold3::FrontPivot(Pose3 { point_m: front_tip(&robot, centre, &plate), frame: plate });
     let held = body.solve_held_among(&robot, hold, &scene, &Solver::default()).unwrap();
     check(&robot, &held, &scene);
     let eq = &held.equilibrium;
@@ -321,7 +330,7 @@ fn a_turning_body_rests_on_a_box_on_the_floor() {
         frame: leech::geom3::exp([0.0, 0.2, 0.0]),
     };
     let scene = Scene3::new("floor and block", vec![floor.solids[0].clone(), block]).unwrap();
-    let held = body.solve_held_among(&robot, Hold3::Rear, &scene, &Solver::default()).unwrap();
+    let held = body.solve_held_among(&robot, Hold3::Rear(AsBuilt), &scene, &Solver::default()).unwrap();
     check(&robot, &held, &scene);
     assert!(held.equilibrium.contacts.iter().any(|c| c.row.solid == 1), "nothing rests on the block");
 }
@@ -343,7 +352,7 @@ fn both_cups_hold_a_body_resting_on_a_floor() {
         // The cup's centre on the floor: tube 1's tip `c + front_offset` above it.
         let lift = robot.body.tip_spacing_m + robot.cup.front_offset_m;
         let tip_m = [end[0] - 0.03, rear.body.rear_cup_centre(&robot)[1] + lift, 0.0];
-        let hold = Hold3::Both { tip_m, plate: rear.body.base_frame() };
+        let hold = Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: tip_m, frame: rear.body.base_frame() } };
         let held = rear.body.solve_held_among(&robot, hold, &floor, &solver).unwrap();
         check(&robot, &held, &floor);
         let eq = &held.equilibrium;

@@ -2,8 +2,10 @@
 //! balance, against the planar stance where the body is planar, and the 3D
 //! cup verdict.
 
-use leech::body3::{verdict3, Body3, Held3, Hold3};
+use leech::body3::place3::front_tip;
+use leech::body3::{verdict3, Body3, Held3};
 use leech::geom3::{axpy, cross, dot, exp, mul, rot_z, scale};
+use leech::hold::{AsBuilt, Hold3, Pose3};
 use leech::prelude::*;
 use leech::stance::{Hold, Pose};
 
@@ -141,7 +143,7 @@ proptest::proptest! {
         let norm = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt().max(1e-3);
         let plate = leech::geom3::exp(scale(turn / norm, [axis[0], axis[1], axis[2]]));
         let tip = [0.3, -0.1, 0.2];
-        let held = body.solve_held(&robot, Hold3::Front { tip_m: tip, plate }, &Solver::default()).unwrap();
+        let held = body.solve_held(&robot, Hold3::Front(Pose3 { point_m: tip, frame: plate }), &Solver::default()).unwrap();
         let eq = &held.equilibrium;
         proptest::prop_assert!(eq.stable && eq.residual < 1e-10 && held.rear.is_none());
         let end = held.body.endpoint(&eq.frames);
@@ -181,7 +183,7 @@ fn front_hold_equals_the_planar_stance() {
         let pose = Pose::from_deg(point, angle);
         let planar = leech::stance::solve(&robot, [l1, l23], Hold::Front(pose), &solver).unwrap();
         let body = Body3::from_robot(&robot, [l1, l23, l23]).unwrap();
-        let hold = Hold3::Front { tip_m: [point[0], point[1], 0.0], plate: rot_z(pose.angle_rad) };
+        let hold = Hold3::Front(Pose3 { point_m: [point[0], point[1], 0.0], frame: rot_z(pose.angle_rad) });
         let held = body.solve_held(&robot, hold, &solver).unwrap();
         let root = held.body.tube(0).root();
         let base = held.body.base_frame();
@@ -221,7 +223,13 @@ fn the_body_swings_below_a_free_front_joint() {
     let centre = [0.5, 1.0, 0.0];
     for lengths in [[0.20, 0.20, 0.20], [0.25, 0.22, 0.27]] {
         let body = Body3::from_robot(&robot, lengths).unwrap();
-        let held = body.solve_held(&robot, Hold3::FrontPivot { centre_m: centre, plate }, &solver).unwrap();
+        let held = body
+            .solve_held(
+                &robot,
+                Hold3::FrontPivot(Pose3 { point_m: front_tip(&robot, centre, &plate), frame: plate }),
+                &solver,
+            )
+            .unwrap();
         let eq = &held.equilibrium;
         assert!(eq.stable && eq.residual < 1e-10, "{lengths:?}");
         let cup = held.front.clone().unwrap();
@@ -238,7 +246,7 @@ fn the_body_swings_below_a_free_front_joint() {
         // front hold without the joint, where it started, is higher.
         let turn = held.pivot_turn_rad.unwrap();
         let tip = axpy(robot.body.tip_spacing_m + robot.cup.front_offset_m, [0.0, 0.0, 1.0], centre);
-        let start = body.solve_held(&robot, Hold3::Front { tip_m: tip, plate }, &solver).unwrap();
+        let start = body.solve_held(&robot, Hold3::Front(Pose3 { point_m: tip, frame: plate }), &solver).unwrap();
         assert!(
             turn > 0.0 && eq.energy < start.equilibrium.energy,
             "{lengths:?}: turned {turn}, {} vs {}",
@@ -251,7 +259,11 @@ fn the_body_swings_below_a_free_front_joint() {
     let skew = [[1.0, 0.1, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
     let err = Body3::from_robot(&robot, [0.2; 3])
         .unwrap()
-        .solve_held(&robot, Hold3::FrontPivot { centre_m: centre, plate: skew }, &solver)
+        .solve_held(
+            &robot,
+            Hold3::FrontPivot(Pose3 { point_m: front_tip(&robot, centre, &skew), frame: skew }),
+            &solver,
+        )
         .unwrap_err()
         .to_string();
     assert!(err.contains("front pivot plate frame"), "{err}");
@@ -269,13 +281,13 @@ fn both_from_rear(
     turn: [f64; 3],
 ) -> (Body3, Held3, Hold3) {
     let body = Body3::from_robot(robot, lengths).unwrap();
-    let rear = body.solve_held(robot, Hold3::Rear, &Solver::default()).unwrap();
+    let rear = body.solve_held(robot, Hold3::Rear(AsBuilt), &Solver::default()).unwrap();
     let frames = &rear.equilibrium.frames;
     let end = body.endpoint(frames);
     let chord = axpy(-1.0, body.tube(0).root(), end);
     let tip_m = axpy(-inward / dot(chord, chord).sqrt(), chord, axpy(1.0, shift, end));
     let plate = mul(&exp(turn), &body.plate_frame(frames));
-    (body, rear, Hold3::Both { tip_m, plate })
+    (body, rear, Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: tip_m, frame: plate } })
 }
 
 proptest::proptest! {
@@ -295,7 +307,7 @@ proptest::proptest! {
         let (shift, turn) = ([shift[0], shift[1], shift[2]], [turn[0], turn[1], turn[2]]);
         let (body, _, hold) = both_from_rear(&robot, [l1, l2, l3], inward, shift, turn);
         let held = body.solve_held(&robot, hold, &Solver::default()).unwrap();
-        let Hold3::Both { tip_m, plate } = hold else { unreachable!() };
+        let Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: tip_m, frame: plate } } = hold else { unreachable!() };
         let eq = &held.equilibrium;
         proptest::prop_assert!(eq.stable && eq.residual < 1e-10, "{} {}", eq.stable, eq.residual);
         let end = held.body.endpoint(&eq.frames);
@@ -364,7 +376,7 @@ fn both_holds_equal_the_planar_stance() {
         let robot = robot.with_base_angle(angle).unwrap();
         let (body, rear3, hold) =
             both_from_rear(&robot, [l1, l23, l23], inward, [shift[0], shift[1], 0.0], [0.0, 0.0, turn]);
-        let Hold3::Both { tip_m, plate } = hold else { unreachable!() };
+        let Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: tip_m, frame: plate } } = hold else { unreachable!() };
         let held = body.solve_held(&robot, hold, &solver).unwrap();
         let root = body.tube(0).root();
         let rear = Pose { point_m: [root[0], root[1]], angle_rad: f64::to_radians(angle) };
@@ -438,7 +450,13 @@ fn held_both(robot: &Robot, lengths: [f64; 3], tip_m: [f64; 3], degrees: f64) ->
     let body = Body3::from_robot(robot, lengths).unwrap();
     let plate = rot_z(f64::to_radians(degrees));
     let case = format!("{lengths:?} {:?}, {tip_m:?} at {degrees} deg", robot.body);
-    let held = body.solve_held(robot, Hold3::Both { tip_m, plate }, &Solver::default()).expect(&case);
+    let held = body
+        .solve_held(
+            robot,
+            Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: tip_m, frame: plate } },
+            &Solver::default(),
+        )
+        .expect(&case);
     let eq = &held.equilibrium;
     assert!(eq.stable && eq.residual < 1e-10, "{case}: {} {}", eq.stable, eq.residual);
     let end = held.body.endpoint(&eq.frames);
@@ -466,7 +484,10 @@ fn both_holds_refuse_what_cannot_be_held() {
     let robot = Robot::builtin();
     let body = Body3::from_robot(&robot, [0.2; 3]).unwrap();
     let solver = Solver::default();
-    let far = Hold3::Both { tip_m: [0.0, 0.3, 0.0], plate: rot_z(std::f64::consts::FRAC_PI_2) };
+    let far = Hold3::Both {
+        rear: AsBuilt,
+        front: Pose3 { point_m: [0.0, 0.3, 0.0], frame: rot_z(std::f64::consts::FRAC_PI_2) },
+    };
     match body.solve_held(&robot, far, &solver) {
         Err(leech::stance::StanceError::OutOfReach { distance_m, reach_m, .. }) => {
             assert!(distance_m > reach_m && (reach_m - 0.2).abs() < 1e-12, "{distance_m} {reach_m}")
@@ -474,10 +495,16 @@ fn both_holds_refuse_what_cannot_be_held() {
         other => panic!("{other:?}"),
     }
     let skew = [[1.0, 0.1, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    let err = body.solve_held(&robot, Hold3::Both { tip_m: [0.0, 0.1, 0.0], plate: skew }, &solver).unwrap_err();
+    let err = body
+        .solve_held(
+            &robot,
+            Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: [0.0, 0.1, 0.0], frame: skew } },
+            &solver,
+        )
+        .unwrap_err();
     let err = err.to_string();
     assert!(err.contains("both holds: front plate frame") && !err.contains('\n'), "{err}");
-    let nan = Hold3::Both { tip_m: [0.0, f64::NAN, 0.0], plate: rot_z(0.0) };
+    let nan = Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: [0.0, f64::NAN, 0.0], frame: rot_z(0.0) } };
     let err = body.solve_held(&robot, nan, &solver).unwrap_err().to_string();
     assert!(err.contains("both holds: front tip (m)") && err.contains("NaN"), "{err}");
 }
