@@ -520,3 +520,41 @@ impl Held {
         Held::new(&system, equilibrium)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::robot::Robot;
+    use crate::stance::{Approach, Hold, Pose};
+
+    /// Fed across a whole element (a link grows in at chain A's tip), a
+    /// contact that pushed keeps its node counted from the clamp, where the
+    /// carried state leaves it, and one at the tip stays at the new tip.
+    #[test]
+    fn a_carried_contact_keeps_its_node_from_the_clamp_and_the_tip_its_tip() {
+        let robot = Robot::builtin();
+        let (b, unit_mass) = (robot.body.base_spacing_m, robot.driving_unit.mass_kg);
+        let hold = Hold::Rear(Pose::from_deg([0.0, 0.03], 0.0));
+        let (short, long) = (robot.body(0.155, 0.15).unwrap(), robot.body(0.165, 0.15).unwrap());
+        let before = FloatingBody::new(&short, b, unit_mass, hold, Approach::Load);
+        let after = FloatingBody::new(&long, b, unit_mass, hold, Approach::Load);
+        let (n, m) = (before.chain_len(0), after.chain_len(0));
+        assert_eq!(m, n + 1);
+        let row = |chain, link| ContactRow { chain, link, fraction: 1.0, normal: [0.0, 1.0], offset: 0.004 };
+        let on = |system: &FloatingBody<'_>, chain, link| Pushing::new(system, &row(chain, link), 0.1);
+        assert_eq!(on(&before, 0, 5).link_in(&after), Some(5));
+        assert_eq!(on(&before, 0, n - 1).link_in(&after), Some(m - 1));
+        assert!(on(&before, 0, n - 1).matches(&after, &row(0, m - 1)));
+        assert!(!on(&before, 0, n - 1).matches(&after, &row(0, n - 1)));
+        // Chain B did not grow: its rows are where they were.
+        assert_eq!(on(&before, 1, 3).link_in(&after), Some(3));
+        // Drawn back by three elements, the tip is the shorter chain's tip
+        // again, and a node beyond the shorter chain has no row.
+        let longer = robot.body(0.185, 0.15).unwrap();
+        let drawn = FloatingBody::new(&longer, b, unit_mass, hold, Approach::Load);
+        let l = drawn.chain_len(0);
+        assert_eq!(l, n + 3);
+        assert_eq!(on(&drawn, 0, l - 1).link_in(&before), Some(n - 1));
+        assert_eq!(on(&drawn, 0, n + 1).link_in(&before), None);
+    }
+}
