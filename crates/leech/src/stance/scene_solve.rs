@@ -18,33 +18,48 @@ pub(super) struct Settled<S> {
     pub equilibrium: Equilibrium,
 }
 
-/// A contact that pushed in a solve: its row, with the link counted from
-/// the chain's tip, and the force (N). Carried from one stage or feeding step
-/// to the next, so that the next solve starts with the body resting on what
-/// held it (a contact dropped would let Newton first drop the body through
-/// the surface, then climb back out). Links are counted from the tip because
-/// feeding adds links at the clamp: the material near the tip keeps its place.
+/// A contact that pushed in a solve: its row, whether it was at the chain's
+/// tip, and the force (N). Carried from one stage or feeding step to the
+/// next, so that the next solve starts with the body resting on what held it
+/// (a contact dropped would let Newton first drop the body through the
+/// surface, then climb back out).
+///
+/// A fed chain is meshed from the clamp (whole elements, the remainder at
+/// the tip: [`Chain::new`](crate::chain::Chain::new)) and its state is
+/// carried over link by link from the clamp ([`Chain::carry_over`](crate::chain::Chain::carry_over)):
+/// node `j` keeps its place, and a link that grows in appears at the tip.
+/// So a contact keeps its link counted from the clamp, and one at the tip
+/// stays at the tip (the plate, which carries the endpoint's weight, is
+/// there). Counted from the tip instead, every contact moved one node
+/// towards the tip wherever a step added a link: the body started resting
+/// on nodes above the floor while the nodes on it had no rows active, and
+/// the soft body lying on a floor spent three quarters of its Newton
+/// iterations in the steps that added a link.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Pushing {
     row: ContactRow,
-    from_tip: usize,
+    at_tip: bool,
     force: f64,
 }
 
 impl Pushing {
     /// A contact that pushed on `row` of `system` with `force` (N).
     fn new<S: Touching>(system: &S, row: &ContactRow, force: f64) -> Pushing {
-        // A cup's rim is counted as it is: no links grow in front of it.
-        let from_tip = if on_cup(row.chain) { row.link } else { system.chain_len(row.chain) - 1 - row.link };
-        Pushing { row: *row, from_tip, force }
+        // A cup's rim is no node of a chain.
+        let at_tip = !on_cup(row.chain) && row.fraction >= 1.0 && row.link + 1 == system.chain_len(row.chain);
+        Pushing { row: *row, at_tip, force }
     }
 
     /// Its link in `system` (a cup's rim as it is), where the chain still reaches that far.
     fn link_in<S: Touching>(&self, system: &S) -> Option<usize> {
         if on_cup(self.row.chain) {
-            return Some(self.from_tip);
+            return Some(self.row.link);
         }
-        system.chain_len(self.row.chain).checked_sub(self.from_tip + 1)
+        let links = system.chain_len(self.row.chain);
+        if self.at_tip {
+            return Some(links - 1);
+        }
+        (self.row.link < links).then_some(self.row.link)
     }
 
     /// Whether `row` of `system` touches the same material point on the same surface.
@@ -503,5 +518,43 @@ impl Held {
     pub(super) fn settled(settled: Settled<FloatingBody<'_>>) -> Held {
         let Settled { system, equilibrium } = settled;
         Held::new(&system, equilibrium)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::robot::Robot;
+    use crate::stance::{Approach, Hold, Pose};
+
+    /// Fed across a whole element (a link grows in at chain A's tip), a
+    /// contact that pushed keeps its node counted from the clamp, where the
+    /// carried state leaves it, and one at the tip stays at the new tip.
+    #[test]
+    fn a_carried_contact_keeps_its_node_from_the_clamp_and_the_tip_its_tip() {
+        let robot = Robot::builtin();
+        let (b, unit_mass) = (robot.body.base_spacing_m, robot.driving_unit.mass_kg);
+        let hold = Hold::Rear(Pose::from_deg([0.0, 0.03], 0.0));
+        let (short, long) = (robot.body(0.155, 0.15).unwrap(), robot.body(0.165, 0.15).unwrap());
+        let before = FloatingBody::new(&short, b, unit_mass, hold, Approach::Load);
+        let after = FloatingBody::new(&long, b, unit_mass, hold, Approach::Load);
+        let (n, m) = (before.chain_len(0), after.chain_len(0));
+        assert_eq!(m, n + 1);
+        let row = |chain, link| ContactRow { chain, link, fraction: 1.0, normal: [0.0, 1.0], offset: 0.004 };
+        let on = |system: &FloatingBody<'_>, chain, link| Pushing::new(system, &row(chain, link), 0.1);
+        assert_eq!(on(&before, 0, 5).link_in(&after), Some(5));
+        assert_eq!(on(&before, 0, n - 1).link_in(&after), Some(m - 1));
+        assert!(on(&before, 0, n - 1).matches(&after, &row(0, m - 1)));
+        assert!(!on(&before, 0, n - 1).matches(&after, &row(0, n - 1)));
+        // Chain B did not grow: its rows are where they were.
+        assert_eq!(on(&before, 1, 3).link_in(&after), Some(3));
+        // Drawn back by three elements, the tip is the shorter chain's tip
+        // again, and a node beyond the shorter chain has no row.
+        let longer = robot.body(0.185, 0.15).unwrap();
+        let drawn = FloatingBody::new(&longer, b, unit_mass, hold, Approach::Load);
+        let l = drawn.chain_len(0);
+        assert_eq!(l, n + 3);
+        assert_eq!(on(&drawn, 0, l - 1).link_in(&before), Some(n - 1));
+        assert_eq!(on(&drawn, 0, n + 1).link_in(&before), None);
     }
 }
