@@ -11,12 +11,13 @@
 //! of its face (a circle of its diameter, seen as an ellipse), coloured by
 //! its verdict as in [`crate::stance`].
 
-use leech::body3::place3::front_cup_centre;
-use leech::body3::{Body3, CupState3, Frames, Held3};
+use leech::body3::{Body3, Frames};
 use leech::geom::Vec2;
 use leech::geom3::{cross, dot, Vec3};
 use leech::robot::Robot;
 use leech::scene::{Scene3, Solid3, MAX_COORDINATE_M};
+use leech::stance3::place3::front_cup_centre;
+use leech::stance3::{CupState3, Held3};
 use leech::stride::{SidewaysPlan, SidewaysScenario};
 
 use crate::figure::{Axes, Figure, SeriesStyle, PALETTE};

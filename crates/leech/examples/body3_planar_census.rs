@@ -14,10 +14,10 @@
 //!   leaves it) and the 3D path reported a bifurcation;
 //! * anything else is printed as `unexpected`, with the case.
 
-use leech::body3::planar::compare;
 use leech::body3::Body3;
 use leech::geom3::rot_z;
 use leech::prelude::*;
+use leech::stance3::planar::compare;
 
 fn main() {
     let args: Vec<u64> = std::env::args().skip(1).filter_map(|s| s.parse().ok()).collect();

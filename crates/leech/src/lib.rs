@@ -56,6 +56,8 @@
 //! * [`constant_curvature`]: the kinematic constant-curvature model, planar and tri-tube.
 //! * [`cup`]: whether a suction cup holds under a hold's reaction: pull-off, peel, slip.
 //! * [`hold`]: which cups hold a body and where (rear, front, both, a free front joint), planar and 3D.
+//! * [`contact`]: contact rows between a body and a scene's solids, planar and 3D.
+//! * [`stance3`]: the three-tube body held by its cups and among solids; each cup's reaction and verdict.
 //! * [`stance`]: the body held by its rear cup, its front cup or both; the reactions on the cups.
 //! * [`statics`]: the Newton-KKT solver, continuation, stability, inequality rows.
 //! * [`dynamics`]: constrained forward dynamics and integrators.
@@ -81,6 +83,7 @@ pub mod calibration;
 pub mod cantilever;
 pub mod chain;
 pub mod constant_curvature;
+pub mod contact;
 pub mod cup;
 pub mod dynamics;
 pub mod error;
@@ -96,6 +99,7 @@ pub mod robot;
 pub mod root;
 pub mod scene;
 pub mod stance;
+pub mod stance3;
 pub mod statics;
 pub mod stride;
 pub mod sweep;

@@ -4,13 +4,13 @@
 
 use std::path::Path;
 
-use leech::body3::place3::{first_inside, hold_points, plate_frame_from_angles};
 use leech::body3::Body3;
 use leech::error::{within, Num};
 use leech::hold::{AsBuilt, Hold3, Pose3};
 use leech::prelude::*;
 use leech::scene::{is_scene3, Scene, SceneFile3, BUILTIN_SCENES, MAX_COORDINATE_M, ON_SURFACE_M};
 use leech::stance::{self, Hold, Pose};
+use leech::stance3::place3::{first_inside, hold_points, plate_frame_from_angles};
 
 use crate::failure::Failure;
 use crate::flags::{self, Hold3Arg, HoldArg, Model3Arg, ModelArg};

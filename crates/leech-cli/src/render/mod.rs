@@ -10,7 +10,7 @@ mod text;
 use std::path::Path;
 
 use anyhow::Context;
-use leech::body3::{ConstantCurvature3, Held3};
+use leech::body3::ConstantCurvature3;
 use leech::budget::Halt;
 use leech::calibration::{Calibration, ShapeComparison};
 use leech::constant_curvature::PlanarBody;
@@ -23,6 +23,7 @@ use leech::report::{
 };
 use leech::scene::Scene;
 use leech::stance::{Held, TubeHeld};
+use leech::stance3::Held3;
 use leech::stride::{Plan, Scenario, SidewaysPlan, Status};
 use leech::sweep::{Model, Sweep};
 use leech_plot::figures::Output;
@@ -248,7 +249,7 @@ pub fn climb(out: &mut String, a: &Climb, plan: &Plan, elapsed_s: f64) -> Result
 pub fn sideways(out: &mut String, a: &ClimbSideways, plan: &SidewaysPlan) -> Result<(), Failure> {
     let s = &a.scenario;
     if a.json {
-        let cup = |c: &Option<leech::body3::CupState3>| serde_json::to_value(c).unwrap_or_default();
+        let cup = |c: &Option<leech::stance3::CupState3>| serde_json::to_value(c).unwrap_or_default();
         let steps: Vec<_> = plan
             .steps
             .iter()

@@ -274,7 +274,7 @@ pub fn sideways(out: &mut String, a: &crate::args::ClimbSideways, plan: &leech::
     let s = &a.scenario;
     say!(out, "{} ({}): {} m sideways within {} m", s.name, a.robot.name, s.lateral_m, s.tolerance_m);
     say!(out, "stride  phase          L1/L2/L3 (mm)          rear cup y, z (mm)  SF     front cup y, z (mm)  SF");
-    let cup = |c: &Option<leech::body3::CupState3>| match c {
+    let cup = |c: &Option<leech::stance3::CupState3>| match c {
         Some(c) => {
             format!(
                 "({:7.1}, {:7.1})  {:>5}",

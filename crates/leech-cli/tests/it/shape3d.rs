@@ -1,8 +1,9 @@
 //! `leech shape3d`: the three-tube body in 3D as a user meets it, against
 //! the library, the planar `leech shape`, and its mirror image.
 
-use leech::body3::{planar, Body3};
+use leech::body3::Body3;
 use leech::prelude::*;
+use leech::stance3::planar;
 use serde_json::Value;
 
 use super::{json_of, leech, not_converged, rejected};
@@ -205,8 +206,8 @@ fn cup_factor(v: &Value, cup: &str) -> f64 {
 
 #[test]
 fn holds_report_their_cups_as_the_library_solves_them() {
-    use leech::body3::place3::plate_frame_from_angles;
     use leech::hold::{AsBuilt, Hold3, Pose3};
+    use leech::stance3::place3::plate_frame_from_angles;
     let robot = Robot::builtin();
     let body = Body3::from_robot(&robot, [0.25, 0.25, 0.25]).unwrap();
     let solver = Solver::default();

@@ -66,11 +66,11 @@ impl std::ops::Deref for Frames {
 pub(crate) struct Param {
     pub load: f64,
     pub scale: [f64; 3],
-    /// Hanging from the front cup: gravity as [`super::held3`] writes it
+    /// Hanging from the front cup: gravity as [`crate::stance3::held3`] writes it
     /// (turning with the plate), in place of the fixed unit's.
     pub hang: Option<crate::hold::front3::Hanging>,
     /// Both cups holding: the front hold's target (tube 1's tip and the
-    /// plate's frame), whose six rows follow the weld's 12 ([`super::held3`]).
+    /// plate's frame), whose six rows follow the weld's 12 ([`crate::stance3::held3`]).
     pub front: Option<crate::hold::front3::FrontTarget>,
 }
 
@@ -190,7 +190,7 @@ impl Body3 {
     /// coordinates reach each chain's last block only (tube 1's last joint,
     /// the weld's rotation rows) and so do a side tube's rotation rows. A
     /// body `hanging` from the front cup couples the plate with every link
-    /// (gravity turns with the plate: [`super::held3`]), so there the
+    /// (gravity turns with the plate: [`crate::stance3::held3`]), so there the
     /// plate's coordinates reach every block.
     /// A contact row reaches one link only, but is declared on every block
     /// (the pattern is made once per active set, not per link). The

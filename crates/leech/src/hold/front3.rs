@@ -4,7 +4,7 @@
 //! a compliance that starts the both cups' path), and the solver's picture
 //! of a front hold (`FrontHold`: the driving unit kept fixed, the world
 //! turning with the plate). The equations of the picture are
-//! [`crate::body3::held3`]'s, which solves the holds.
+//! [`crate::stance3::held3`]'s, which solves the holds.
 
 use crate::geom3::{apply, axpy, exp, log, mul, mul_tn, scale, transpose, Mat3, Vec3};
 use crate::scene::Plane3;

@@ -23,7 +23,7 @@
 //! at points of the plane, whose moments are all normal to it: the moment
 //! about the face's normal is zero at every shape, so the joint never turns
 //! and [`Hold::FrontPivot`] holds a planar body exactly as [`Hold::Front`]
-//! does. In 3D the swing it allows is solved ([`crate::body3::held3`]).
+//! does. In 3D the swing it allows is solved ([`crate::stance3::held3`]).
 //!
 //! The 3D front hold's equations (gravity turning with the plate, the front
 //! target's rows) are in [`front3`].

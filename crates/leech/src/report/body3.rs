@@ -6,14 +6,16 @@ use serde::Serialize;
 
 use super::Solution;
 use crate::body::Body;
-use crate::body3::planar::{compare, compare_points, PlanarDifference};
-use crate::body3::{Body3, Contact3, CupState3, Equilibrium3, Held3};
+use crate::body3::Body3;
+use crate::contact::space::Contact3;
 use crate::cup::CupVerdict;
 use crate::geom3::{Mat3, Vec3};
 use crate::hold::{AsBuilt, Hold3, Pose3};
 use crate::robot::Robot;
 use crate::scene::SceneFile3;
 use crate::stance::{self, Held, Hold, Pose};
+use crate::stance3::planar::{compare, compare_points, PlanarDifference};
+use crate::stance3::{CupState3, Equilibrium3, Held3};
 use crate::statics::{Equilibrium, Solver};
 
 /// How far a held plate may be from the x-y plane's frames and its tip from

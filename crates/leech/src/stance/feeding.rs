@@ -2,9 +2,9 @@
 //! robot's own tubes follow, shared by the two-tube body and the single
 //! clamped tube ([`Fed`]).
 
-use super::contact::{self, ContactRow, Touching};
 use super::scene_solve::{self, Pushing};
 use super::StanceError;
+use crate::contact::planar::{self as contact, ContactRow, Touching};
 use crate::error::InputError;
 use crate::scene::Scene;
 use crate::statics::{Equilibrium, SolveError, Solver};

@@ -1,10 +1,10 @@
 //! The body with a floating driving unit: the chains' angles plus the
 //! unit's pose `(p0, phi0)`, under the weld and the holds.
 
-use super::contact::{chain_terms, ContactRow, Touching, FRONT_CUP, REAR_CUP};
 use crate::body::{Body, WELD_ROWS};
 use crate::cantilever::start_compliance;
 use crate::chain::Chain;
+use crate::contact::planar::{chain_terms, ContactRow, Touching, FRONT_CUP, REAR_CUP};
 use crate::geom::{dot, right_normal, unit, Vec2};
 use crate::hold::{Hold, Pose};
 use crate::statics::{Constraints, Evaluation, Path, PathTerms, Potential, Row, RowKind, Stage, StaticSystem};

@@ -62,7 +62,7 @@
 //!   residual, never a stretched body.
 
 pub mod census;
-mod contact;
+
 mod feeding;
 mod floating;
 mod phases;
@@ -71,9 +71,11 @@ mod scene_solve;
 pub mod tube;
 
 pub use crate::cantilever::{start_compliance, START_SOFTNESS};
+pub use crate::contact::planar::{
+    detect, penetration, swept_clear, ContactOptions, ContactRow, Touching, FRONT_CUP, REAR_CUP,
+};
 pub use crate::error::StanceError;
 pub use crate::hold::{Hold, Pose};
-pub use contact::{detect, penetration, swept_clear, ContactOptions, ContactRow, Touching, FRONT_CUP, REAR_CUP};
 pub use feeding::{FALLBACK_STEP_M, FEED_STEP_M, MIN_FEED_STEP_M};
 pub use floating::{Approach, CupFaces, FloatingBody, FREE, HOLD_ROWS};
 pub use phases::{solve_after, RELEASE_SPAN_M};
@@ -533,7 +535,7 @@ impl Held {
         let contacts = scene_solve::contact_forces(floating, &equilibrium, |c| match c {
             0 => "a",
             1 => "b",
-            contact::REAR_CUP => "rear_cup",
+            REAR_CUP => "rear_cup",
             _ => "front_cup",
         });
         Held {

@@ -2,9 +2,11 @@
 //! scene's solids: the load (or the front hold's approach) applied in
 //! stages, the contact rows refreshed at each until they settle.
 
-use super::contact::{self, detect, displacement, on_cup, penetration, ContactOptions, ContactRow, Touching};
 use super::floating::FloatingBody;
 use super::{ContactForce, Held, StanceError};
+use crate::contact::planar::{
+    self as contact, detect, displacement, on_cup, penetration, ContactOptions, ContactRow, Touching,
+};
 use crate::geom::dot;
 use crate::scene::Scene;
 use crate::statics::{Equilibrium, Event, Iterate, Scratch, SolveError, Solver, StopReason};
@@ -342,7 +344,7 @@ const SHORTEST_DESCENT_STEP_RAD: f64 = 1e-6;
 /// settled, a stable equilibrium reached through free space, reported as an
 /// [`Event::Snap`] at `t = 1` with the largest angle change.
 ///
-/// [`contact::swept_clear`]: super::contact::swept_clear
+/// [`contact::swept_clear`]: crate::contact::planar::swept_clear
 pub(super) fn descended<S: Touching>(
     system: S,
     q: Vec<f64>,

@@ -47,11 +47,11 @@
 //! length in the adaptive steps of the two-tube body's feed, the contact
 //! rows refreshed at every step.
 
-use super::contact::{chain_terms, penetration, ContactRow, Touching};
 use super::feeding::{Fed, Feeding};
 use super::scene_solve;
 use super::{ContactForce, Reaction, StanceError};
 use crate::cantilever::{Cantilever, CantileverSpec};
+use crate::contact::planar::{chain_terms, penetration, ContactRow, Touching};
 use crate::error::{positive, InputError};
 use crate::geom::{cross, dot, Vec2};
 use crate::scene::Scene;

@@ -70,14 +70,15 @@ use serde::Deserialize;
 
 use super::machine::Phase;
 use super::plan::Status;
-use crate::body3::place3::front_tip;
-use crate::body3::{Body3, Held3};
+use crate::body3::Body3;
 use crate::error::{within, InputError};
 use crate::geom3::{axpy, column, cross, dot, exp, mul, scale, Mat3, Vec3};
 use crate::hold::{AsBuilt, Hold3, Pose3};
 use crate::robot::Robot;
 use crate::scene::file::parse_bounded;
 use crate::scene::MAX_COORDINATE_M;
+use crate::stance3::place3::front_tip;
+use crate::stance3::Held3;
 use crate::statics::Solver;
 
 /// The wall's outward normal `n_w` (free space at `x < x_w`).
@@ -464,7 +465,7 @@ impl<'a> Planner<'a> {
     }
 
     /// The safety factor of a cup that must hold.
-    fn holding(&self, what: &str, held: &Held3, cup: Option<&crate::body3::CupState3>) -> Result<f64, Blocked> {
+    fn holding(&self, what: &str, held: &Held3, cup: Option<&crate::stance3::CupState3>) -> Result<f64, Blocked> {
         let Some(cup) = cup else {
             return Err(format!("the {what} cup does not hold in {:?}", held.hold));
         };

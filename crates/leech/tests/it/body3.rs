@@ -2,10 +2,10 @@
 //! the reduction to the planar model, the mirror symmetry, the difference
 //! from the planar model where `b != c`.
 
-use leech::body3::planar::{compare, planar_difference};
 use leech::body3::Body3;
 use leech::geom3::rot_z;
 use leech::prelude::*;
+use leech::stance3::planar::{compare, planar_difference};
 use leech::statics::Stage;
 
 fn planar_frames(body3: &Body3, body: &leech::body::Body, q: &[f64]) -> leech::body3::Frames {
@@ -367,24 +367,11 @@ fn robot_files_take_the_torsional_stiffness() {
     assert!(err.contains("model.discretization"), "{err}");
 }
 
-/// The body's files in the order the module doc gives (`body3::mod`,
-/// "Layout"): each imports only files before it, so none imports another
-/// in a circle.
-#[test]
-fn body3_files_import_only_earlier_ones() {
-    let order = [
-        "tube3",
-        "body3",
-        "contact3",
-        "equilibrium3",
-        "system3",
-        "solve",
-        "place3",
-        "held3",
-        "planar",
-        "constant_curvature3",
-    ];
-    let dir = format!("{}/src/body3", env!("CARGO_MANIFEST_DIR"));
+/// The files of `dir` (under `src/`) in `order`, the order its module doc
+/// gives ("Layout"): each imports only files before it, so none imports
+/// another in a circle.
+fn files_import_only_earlier_ones(dir: &str, order: &[&str]) {
+    let dir = format!("{}/src/{dir}", env!("CARGO_MANIFEST_DIR"));
     let mut files: Vec<String> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().into_string().unwrap())
@@ -394,7 +381,7 @@ fn body3_files_import_only_earlier_ones() {
     files.sort();
     let mut listed: Vec<String> = order.iter().map(|s| s.to_string()).collect();
     listed.sort();
-    assert_eq!(files, listed, "every file of body3/ has its place in the order");
+    assert_eq!(files, listed, "every file of {dir} has its place in the order");
     for (at, file) in order.iter().enumerate() {
         let text = std::fs::read_to_string(format!("{dir}/{file}.rs")).unwrap();
         // The module's own code: its tests may use anything.
@@ -404,4 +391,39 @@ fn body3_files_import_only_earlier_ones() {
             assert!(!used || place < at, "{file} uses {other}, which comes after it");
         }
     }
+}
+
+#[test]
+fn body3_and_stance3_files_import_only_earlier_ones() {
+    files_import_only_earlier_ones("body3", &["tube3", "body3", "constant_curvature3"]);
+    files_import_only_earlier_ones("stance3", &["equilibrium3", "system3", "solve", "place3", "held3", "planar"]);
+}
+
+/// The modules of the layers the holds, the contacts and the 3D body sit
+/// in import only modules above them (ARCHITECTURE.md): the body knows no
+/// hold solve or contact, the contact rows no situation, the holds' vocabulary
+/// no body.
+#[test]
+fn holds_and_contacts_are_composed_onto_the_bodies() {
+    let below = |module: &str, forbidden: &[&str]| {
+        let dir = format!("{}/src/{module}", env!("CARGO_MANIFEST_DIR"));
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            let text = std::fs::read_to_string(&path).unwrap();
+            let code = text.split("#[cfg(test)]").next().unwrap();
+            for other in forbidden {
+                // Doc links may name a later module; code may not use one.
+                let uses = code
+                    .lines()
+                    .filter(|l| !l.trim_start().starts_with("//"))
+                    .any(|l| l.contains(&format!("crate::{other}::")));
+                assert!(!uses, "{} uses {other}", path.display());
+            }
+        }
+    };
+    below("hold", &["body3", "contact", "stance", "stance3", "stride"]);
+    below("body3", &["contact", "stance", "stance3", "stride"]);
+    below("contact", &["stance", "stance3", "stride"]);
+    below("stance3", &["stance", "stride"]);
+    below("stance", &["stance3", "stride"]);
 }

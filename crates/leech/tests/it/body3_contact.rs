@@ -1,14 +1,15 @@
-//! The 3D body among a scene's solids (leech::body3::contact3): the planar
+//! The 3D body among a scene's solids (leech::contact::space): the planar
 //! stance on a floor reproduced in the plane, and a turning body resting on
 //! a floor checked by balance and complementarity.
 
-use leech::body3::place3::front_tip;
-use leech::body3::{Body3, Held3};
+use leech::body3::Body3;
 use leech::geom3::{axpy, cross, dot, scale, Vec3};
 use leech::hold::{AsBuilt, Hold3, Pose3};
 use leech::prelude::*;
 use leech::scene::{Scene3, Solid3};
 use leech::stance::{self, Hold, Pose};
+use leech::stance3::place3::front_tip;
+use leech::stance3::Held3;
 
 /// The built-in robot with its driving unit along a floor (clamp angle 0).
 fn flat() -> Robot {

@@ -2,17 +2,18 @@
 //! balance, against the planar stance where the body is planar, and the 3D
 //! cup verdict.
 
-use leech::body3::place3::front_tip;
-use leech::body3::{verdict3, Body3, Held3};
+use leech::body3::Body3;
 use leech::geom3::{axpy, cross, dot, exp, mul, rot_z, scale};
 use leech::hold::{AsBuilt, Hold3, Pose3};
 use leech::prelude::*;
 use leech::stance::{Hold, Pose};
+use leech::stance3::place3::front_tip;
+use leech::stance3::{verdict3, Held3};
 
 /// The whole body's balance: weight `(0, g M, 0)` and, about `c`, the
 /// moment `(X - M c) x (0, g, 0)` with `X` the first moment of every mass
 /// (links, payload, driving unit): no multiplier and no spring enters it.
-fn balance(body: &Body3, eq: &leech::body3::Equilibrium3, unit_mass: f64, c: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+fn balance(body: &Body3, eq: &leech::stance3::Equilibrium3, unit_mass: f64, c: [f64; 3]) -> ([f64; 3], [f64; 3]) {
     let g = body.gravity();
     let (mass, first) = body.first_moment(&eq.frames, unit_mass);
     ([0.0, g * mass, 0.0], cross(axpy(-mass, c, first), [0.0, g, 0.0]))
@@ -61,7 +62,7 @@ fn rear_cup_equals_the_planar_stance() {
         let held = leech::stance::solve(&robot, [l1, l23], Hold::Rear(pose), &solver).unwrap();
         // The rear hold's path is the clamped body's.
         let planar_eq = held.body.solve(&solver).unwrap();
-        let d = leech::body3::planar::compare(&body, &eq, &held.body, &planar_eq);
+        let d = leech::stance3::planar::compare(&body, &eq, &held.body, &planar_eq);
         assert!(d.max_point_m < 1e-9, "{angle}: not the planar shape {d:?}");
         let cup = body.rear_cup(&robot, &eq).unwrap();
         let planar = held.cups(&robot).unwrap().0.unwrap();
@@ -118,7 +119,7 @@ fn the_3d_verdict_reduces_to_the_planar_one() {
 /// reaction from the roots' forces and spring moments, less the front cup's
 /// force, which reaches the unit through tube 1's root (tube 1's balance).
 /// Zero when the unit hangs free.
-pub(crate) fn unit_imbalance(held: &leech::body3::Held3, unit_mass: f64) -> ([f64; 3], [f64; 3]) {
+pub(crate) fn unit_imbalance(held: &leech::stance3::Held3, unit_mass: f64) -> ([f64; 3], [f64; 3]) {
     let about = held.body.unit_centre();
     let rear = held.body.rear_reaction(&held.equilibrium, unit_mass, about);
     let front = held.front.as_ref().unwrap().reaction.force_n;
@@ -386,7 +387,7 @@ fn both_holds_equal_the_planar_stance() {
         // The planar chains' angles, without the driving unit's pose.
         let mut chains = planar.equilibrium.clone();
         chains.q.truncate(planar.body.dim());
-        let d = leech::body3::planar::compare(&held.body, &held.equilibrium, &planar.body, &chains);
+        let d = leech::stance3::planar::compare(&held.body, &held.equilibrium, &planar.body, &chains);
         assert!(d.max_point_m < 1e-9 && d.out_of_plane_m < 1e-12, "{angle}: not the planar shape {d:?}");
         let (rear_flat, front_flat) = planar.cups(&robot).unwrap();
         for (cup, flat) in [(&held.rear, rear_flat), (&held.front, front_flat)] {

@@ -22,7 +22,7 @@
 //! `-R0 e_y`; the front cup's `c + front_offset` from tube 1's tip along
 //! `-R_f e_y` (docs/model3d.md section 8).
 
-use super::body3::{triangle, Body3};
+use crate::body3::body3::{triangle, Body3};
 use crate::geom3::{apply, axpy, column, exp, mul, rot_z, Mat3, Vec3};
 use crate::hold::{AsBuilt, Hold3, Pose3};
 use crate::robot::Robot;

@@ -40,7 +40,7 @@
 //! there so that its points are world points).
 //!
 //! The front cup carries the whole robot but what a scene's solids carry
-//! ([`super::contact3`]: in this picture the solids turn with the plate
+//! ([`crate::contact::space`]: in this picture the solids turn with the plate
 //! too): by the whole body's balance, with contact forces `f_c = mu_c n_c`
 //! at the points `p_c`, about the face's centre `c`,
 //!
@@ -72,7 +72,7 @@
 //! ```
 //!
 //! and no second derivative couples two links: the rows are a contact's
-//! rows ([`super::contact3`]) with the normals `e_x, e_y, e_z`, bilateral.
+//! rows ([`crate::contact::space`]) with the normals `e_x, e_y, e_z`, bilateral.
 //! `C_ori` is a relative term (section 4) with the fixed `R_f` in place of
 //! the first frame, so only the plate moves it:
 //!
@@ -139,7 +139,7 @@
 //! ```
 //!
 //! (the sum over the tube's contacts with a scene's solids, forces `mu_c`
-//! along their planes' normals `n_c`, [`super::contact3`]; `mu_tip` the
+//! along their planes' normals `n_c`, [`crate::contact::space`]; `mu_tip` the
 //! front hold's force on tube 1's tip when both cups hold, else 0; the
 //! spring's moment on the tube's first link: `-dE/ddelta` in the link's
 //! frame, turned to the world). The unit is in balance under the
@@ -167,10 +167,10 @@
 //! lip (`|M . n| / R`: the ring's friction force carrying the moment about
 //! its axis), and the peel moment `|M - (M . n) n|` (tilting the cup). With
 //! an in-plane load the twist is zero and the verdict the planar one.
-use super::body3::{Body3, Derivatives, Frames, Param, Terms3, PLATE_ROWS};
-use super::contact3::{row_sink, ContactRow3};
 use super::equilibrium3::Equilibrium3;
 use super::place3::{first_inside, front_cup_centre, hold_points};
+use crate::body3::body3::{Body3, Derivatives, Frames, Param, Terms3, PLATE_ROWS};
+use crate::contact::space::{row_sink, ContactRow3};
 use crate::cup::{Cup, CupVerdict};
 use crate::error::StanceError;
 use crate::error::{InputError, Num};
@@ -388,7 +388,7 @@ impl Body3 {
 
     /// The terms of `f = (R_P u) . (K + sum_ij c_ij R_ij e_x)` (module doc:
     /// the hanging gravity over `g`, and a contact's gap under the front
-    /// hold, [`super::contact3`]), `R_P` the plate's frame, `u` a vector in
+    /// hold, [`crate::contact::space`]), `R_P` the plate's frame, `u` a vector in
     /// it, `K` a constant vector and `c_ij = coefficient(i, j)` (m, or kg m
     /// for gravity). Calls `link(u, df/ddelta_u, d2f/ddelta_u^2,
     /// d2f/ddelta_P ddelta_u)` for every link but the plate with `c_ij != 0`
@@ -465,7 +465,7 @@ impl Body3 {
 
     /// [`Body3::solve_held`], among `scene`'s solids with the tubes' centre
     /// lines `clearance` (m) from them when `scene` is `Some((scene,
-    /// clearance))` ([`super::contact3`]).
+    /// clearance))` ([`crate::contact::space`]).
     pub(crate) fn held_among(
         &self,
         robot: &Robot,

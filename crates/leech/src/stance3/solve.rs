@@ -18,11 +18,11 @@
 //!
 //! [`Tuning::active_set_changes_per_row`]: crate::statics::Tuning::active_set_changes_per_row
 
-use super::body3::{Body3, Frames, Param, PLATE_ROWS};
-use super::contact3::{Contact3, ContactRow3, HeldAt};
 use super::equilibrium3::Equilibrium3;
 use super::system3::System3;
+use crate::body3::body3::{Body3, Frames, Param, PLATE_ROWS};
 use crate::cantilever::start_compliance;
+use crate::contact::space::{Contact3, ContactRow3, HeldAt};
 use crate::error::{InputError, StanceError};
 use crate::geom3::dot;
 use crate::hold::front3::{FrontHold, FrontTarget, Hanging, FRONT_ROWS};
@@ -96,7 +96,7 @@ impl Body3 {
     }
 
     /// [`Body3::solve`], hanging from the front cup when `hang` says so
-    /// ([`super::hold3`]: gravity raised on the hanging body).
+    /// ([`crate::hold::front3`]: gravity raised on the hanging body).
     pub(crate) fn solve_on(&self, solver: &Solver, hang: Option<Hanging>) -> Result<Equilibrium3, SolveError> {
         let (state, residual) = self.loaded(solver, hang)?;
         Ok(self.finish(solver, state, residual, Param { hang, ..Param::FULL }))
@@ -190,7 +190,7 @@ impl Body3 {
     /// The equilibrium among `scene`'s solids, the driving unit fixed (the
     /// rear hold): the tubes fed at `g = 0`, then gravity raised in
     /// [`LOAD_STAGES`] stages, each settled with the contact
-    /// rows' active set ([`super::contact3`]). Its `contacts` are the rows that push
+    /// rows' active set ([`crate::contact::space`]). Its `contacts` are the rows that push
     /// at the end, with their forces (N).
     /// The tubes' centre lines keep `clearance` (m, their radius) from the solids.
     /// A clearance that is not a finite length of at least 0 is refused.
@@ -205,7 +205,7 @@ impl Body3 {
     /// tubes fed at `g = 0` as [`Body3::solve`] does, then gravity raised
     /// in [`LOAD_STAGES`] stages, each settled with the contact rows'
     /// active set ([`Body3::settle_among`]); held at the front when `front`
-    /// says so (the picture of [`super::hold3`]).
+    /// says so (the picture of [`crate::hold::front3`]).
     pub(crate) fn solve_among_on(
         &self,
         solver: &Solver,

@@ -13,13 +13,13 @@
 //! ```
 //!
 //! so the gradient and Hessian are those of the pullback at `delta = 0`
-//! ([`super::body3`]). The distance of two points is the largest angle
+//! ([`crate::body3::body3`]). The distance of two points is the largest angle
 //! between their frames, `|Log(A_u^T B_u)|` (rad). A plain Newton step turns
 //! no frame by more than [`RETRACTION_LIMIT`], within the exponential map's
 //! good range.
 //!
 //! The rows are the weld's 12, then the front hold's six when both cups
-//! hold ([`super::held3`]), then the contact rows ([`super::contact3`]), all
+//! hold ([`super::held3`]), then the contact rows ([`crate::contact::space`]), all
 //! equalities: the contacts' active set is kept by the solves among solids
 //! ([`super::solve`]). The rows' Hessians couple frames, so the
 //! evaluation writes the Lagrangian's Hessian itself.
@@ -34,8 +34,8 @@
 
 use std::cell::RefCell;
 
-use super::body3::{angle_between, retract, within, Body3, Param, PLATE_ROWS};
-use super::contact3::ContactRow3;
+use crate::body3::body3::{angle_between, retract, within, Body3, Param, PLATE_ROWS};
+use crate::contact::space::ContactRow3;
 use crate::geom3::{apply, axpy, column, cross, dot, Mat3};
 use crate::hold::front3::FRONT_ROWS;
 use crate::linalg::Pattern;

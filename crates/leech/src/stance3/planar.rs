@@ -8,9 +8,9 @@
 //! twist), which the planar model leaves out: [`PlanarDifference`] measures
 //! what that changes, point by point (m) and link frame by link frame (rad).
 
-use super::body3::{angle_between, Body3};
 use super::equilibrium3::Equilibrium3;
 use crate::body::Body;
+use crate::body3::body3::{angle_between, Body3};
 use crate::geom::Vec2;
 use crate::geom3::{axpy, dot, rot_z, scale, Vec3};
 use crate::statics::{Equilibrium, SolveError, Solver};

@@ -3,8 +3,8 @@
 //! hold's multipliers. The type every solve of the body returns, below the
 //! solver and the holds that make it.
 
-use super::body3::Frames;
-use super::contact3::Contact3;
+use crate::body3::body3::Frames;
+use crate::contact::space::Contact3;
 use crate::hold::front3::FRONT_ROWS;
 use crate::statics::Equilibrium;
 

@@ -57,7 +57,7 @@
 //! # Systems
 //!
 //! Everything here works on any [`Touching`] system: the two-tube body
-//! ([`super::FloatingBody`]) and the single clamped tube ([`super::Tube`]).
+//! ([`crate::stance::FloatingBody`]) and the single clamped tube ([`crate::stance::Tube`]).
 
 use crate::chain::Chain;
 use crate::geom::{dot, norm, sub, Vec2};
@@ -158,7 +158,7 @@ pub struct ContactRow {
 /// so `dC/dphi_j = lever_j n . e'(phi_j)` and `d2C/dphi_j^2 = -lever_j n . e(phi_j)`
 /// (diagonal). Returns `x` (m); the caller writes the row's value and any
 /// other coordinates' terms.
-pub(super) fn chain_terms(
+pub(crate) fn chain_terms(
     chain: &Chain,
     first: usize,
     start: Vec2,
@@ -349,7 +349,7 @@ pub fn penetration<S: Touching>(body: &S, q: &[f64], scene: &Scene, radius: f64)
 
 /// The farthest any node or free cup's rim of `body` moved between `a` and
 /// `b` (m).
-pub(super) fn displacement<S: Touching>(body: &S, a: &[f64], b: &[f64]) -> f64 {
+pub(crate) fn displacement<S: Touching>(body: &S, a: &[f64], b: &[f64]) -> f64 {
     let far = |x: &[Vec2], y: &[Vec2]| x.iter().zip(y).fold(0.0f64, |m, (p, r)| m.max(norm(sub(*p, *r))));
     let chains = (0..body.chain_count()).map(|c| far(&body.chain_points(a, c), &body.chain_points(b, c)));
     let rims = body.free_cup_rims(a).into_iter().zip(body.free_cup_rims(b)).map(|((_, x), (_, y))| far(&x, &y));

@@ -3,7 +3,7 @@
 //! planar stance uses its points), each against the plane of a solid within
 //! reach (a tip in a corner gets a row for each solid; frozen while the row
 //! is active) moved out by the tube's radius (the clearance the centre line
-//! keeps), under any of the holds of [`super::hold3`].
+//! keeps), under any of the holds of [`crate::hold::front3`].
 //! [`Body3::solve_held_among`] is the entry point:
 //!
 //! ```
@@ -51,7 +51,7 @@
 //! # Under the front hold
 //!
 //! Held at the front, the solver keeps the driving unit fixed and turns the
-//! world with the plate ([`super::held3`]): a picture's point `x'` is at
+//! world with the plate ([`crate::stance3::held3`]): a picture's point `x'` is at
 //! `x = G (x' - x'_tip) + P_f`, `G = R_f R'_P^T`, with `R'_P` unknown. So
 //! the solids move with the plate, and the gap of the same tip is
 //!
@@ -64,7 +64,7 @@
 //!
 //! (the tip `x'_tip` is tube 1's: every link of tube 1 beyond the point
 //! enters, and for a point on tube 2 or 3 all of them). It is the hanging
-//! gravity's form (`V_g / g`, [`super::held3`] module doc) with `u = nu`,
+//! gravity's form (`V_g / g`, [`crate::stance3::held3`] module doc) with `u = nu`,
 //! and `Body3::plate_bilinear` gives both. With `s = R'_P nu`,
 //! `w_k = R'_k^T s` and `W = R'_P^T (K + sum_k c_k R'_k e_x)`:
 //!
@@ -97,9 +97,9 @@
 //! On a free front joint each turn of the swing is settled so from the last
 //! turn's shape and rows (a warm start at full gravity). The rear cup's
 //! reaction takes the contact forces off the tubes' root forces; the front
-//! cup's, off the whole body's weight and moment ([`super::held3`]).
+//! cup's, off the whole body's weight and moment ([`crate::stance3::held3`]).
 
-use super::body3::{Body3, Param, Terms3, PLATE_ROWS};
+use crate::body3::body3::{Body3, Param, Terms3, PLATE_ROWS};
 use crate::geom3::{apply, apply_t, axpy, dot, linear_terms, scale, scale_mat, Mat3, Vec3};
 use crate::hold::front3::{FrontHold, FRONT_ROWS};
 use crate::scene::{Plane3, Scene3};
@@ -243,7 +243,7 @@ impl Body3 {
     /// [`Body3::contact_terms`] of any row `n . p` (m) on the tip `p` of
     /// link `link` of tube `tube`, `n` a fixed unit vector, its multiplier
     /// `force` (N): a contact's row, or one of the front hold's tip rows
-    /// ([`super::held3`]).
+    /// ([`crate::stance3::held3`]).
     pub(crate) fn point_terms(
         &self,
         frames: &[Mat3],
