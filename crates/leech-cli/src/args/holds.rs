@@ -75,11 +75,9 @@ pub(super) fn situation3(
                 "--front: got {given} with the rear hold, expected --hold front, front-pivot or both with it"
             )));
         }
-        (Hold3Arg::Front, Some((tip_m, plate))) => Hold3::Front(Pose3 { point_m: tip_m, frame: plate }),
-        (Hold3Arg::FrontPivot, Some((tip_m, plate))) => Hold3::FrontPivot(Pose3 { point_m: tip_m, frame: plate }),
-        (Hold3Arg::Both, Some((tip_m, plate))) => {
-            Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: tip_m, frame: plate } }
-        }
+        (Hold3Arg::Front, Some(pose)) => Hold3::Front(pose),
+        (Hold3Arg::FrontPivot, Some(pose)) => Hold3::FrontPivot(pose),
+        (Hold3Arg::Both, Some(pose)) => Hold3::Both { rear: AsBuilt, front: pose },
         (held, None) => {
             let name = match held {
                 Hold3Arg::Front => "front",
@@ -112,14 +110,14 @@ pub(super) fn situation3(
 /// `--front X,Y,Z,DEG,YAW_DEG,ROLL_DEG`: tube 1's tip within the scenes'
 /// bounds and the plate's frame (`place3::plate_frame_from_angles`), the
 /// tangent angle within +-720 deg as `shape --front`, the turns within +-360 deg.
-fn front3([x, y, z, deg, yaw, roll]: [f64; 6]) -> Result<([f64; 3], leech::geom3::Mat3), InputError> {
+fn front3([x, y, z, deg, yaw, roll]: [f64; 6]) -> Result<Pose3, InputError> {
     let m = MAX_COORDINATE_M;
     let tip =
         [within("--front x (m)", x, -m, m)?, within("--front y (m)", y, -m, m)?, within("--front z (m)", z, -m, m)?];
     let angle = within("--front angle (deg)", deg, -720.0, 720.0)?;
     let yaw = within("--front yaw (deg)", yaw, -360.0, 360.0)?;
     let roll = within("--front roll (deg)", roll, -360.0, 360.0)?;
-    Ok((tip, plate_frame_from_angles(angle.to_radians(), yaw.to_radians(), roll.to_radians())))
+    Ok(Pose3 { point_m: tip, frame: plate_frame_from_angles(angle.to_radians(), yaw.to_radians(), roll.to_radians()) })
 }
 
 /// A pose from `X,Y,DEG`: coordinates within the scenes' bounds, the angle within `+-max_deg`.

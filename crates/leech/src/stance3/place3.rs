@@ -24,7 +24,7 @@
 
 use crate::body3::body3::{triangle, Body3};
 use crate::geom3::{apply, axpy, column, exp, mul, rot_z, Mat3, Vec3};
-use crate::hold::{AsBuilt, Hold3, Pose3};
+use crate::hold::{Hold3, Pose3};
 use crate::robot::Robot;
 use crate::scene::{Scene3, ON_SURFACE_M};
 
@@ -77,16 +77,11 @@ pub fn hold_points(robot: &Robot, body: &Body3, hold: &Hold3) -> Vec<HoldPoint> 
     let pressed = ON_SURFACE_M + robot.cup.preload_m;
     let on = |what, point_m| HoldPoint { what, point_m, depth_m: ON_SURFACE_M };
     let mut points = Vec::new();
-    if matches!(hold, Hold3::Rear(AsBuilt) | Hold3::Both { .. }) {
+    if hold.rear().is_some() {
         points.extend((0..3).map(|i| on("the driving unit", body.tube(i).root())));
         points.push(HoldPoint { depth_m: pressed, ..on("the rear cup's centre", body.rear_cup_centre(robot)) });
     }
-    let (tip, plate) = match hold {
-        Hold3::Rear(AsBuilt) => return points,
-        Hold3::Front(Pose3 { point_m: tip_m, frame: plate })
-        | Hold3::FrontPivot(Pose3 { point_m: tip_m, frame: plate })
-        | Hold3::Both { front: Pose3 { point_m: tip_m, frame: plate }, .. } => (*tip_m, *plate),
-    };
+    let Some(Pose3 { point_m: tip, frame: plate }) = hold.front() else { return points };
     let corners = triangle(robot.body.tip_spacing_m / 1.5);
     points.extend(
         corners.iter().map(|v| on("the endpoint plate", axpy(1.0, apply(&plate, axpy(-1.0, corners[0], *v)), tip))),
@@ -144,7 +139,7 @@ mod tests {
         let base = body.base_frame();
         let up = column(&base, 1);
         let over = Solid3::HalfSpace { point_m: axpy(0.01, up, body.tube(0).root()), normal: up };
-        let held = hold_points(&robot, &body, &Hold3::Rear(AsBuilt));
+        let held = hold_points(&robot, &body, &Hold3::Rear(crate::hold::AsBuilt));
         assert_eq!(held.len(), 4);
         let inside = first_inside(&Scene3::new("s", vec![over]).unwrap(), &held).map(|p| p.what);
         assert_eq!(inside, Some("the driving unit"));

@@ -72,7 +72,7 @@ use super::machine::Phase;
 use super::plan::Status;
 use crate::body3::Body3;
 use crate::error::{within, InputError};
-use crate::geom3::{axpy, column, cross, dot, exp, mul, scale, Mat3, Vec3};
+use crate::geom3::{column, cross, dot, exp, mul, scale, Mat3, Vec3};
 use crate::hold::{AsBuilt, Hold3, Pose3};
 use crate::robot::Robot;
 use crate::scene::file::parse_bounded;
@@ -438,9 +438,10 @@ impl<'a> Planner<'a> {
     /// driving unit where it is, its front cup's face centre at `centre`
     /// with the plate's frame `plate`; each cup must hold.
     fn both(&self, body: &Body3, lengths: [f64; 3], centre: Vec3, plate: &Mat3) -> Result<Held3, Blocked> {
-        let d = self.robot.body.tip_spacing_m + self.robot.cup.front_offset_m;
-        let hold =
-            Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: axpy(d, column(plate, 1), centre), frame: *plate } };
+        let hold = Hold3::Both {
+            rear: AsBuilt,
+            front: Pose3 { point_m: front_tip(&self.robot, centre, plate), frame: *plate },
+        };
         let held = self.solve(body, hold, lengths)?;
         self.holding("rear (both holding)", &held, held.rear.as_ref())?;
         self.holding("front (both holding)", &held, held.front.as_ref())?;
@@ -710,6 +711,7 @@ fn fill(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geom3::axpy;
 
     fn scenario(lateral_m: f64) -> SidewaysScenario {
         SidewaysScenario {
