@@ -19,6 +19,7 @@ use leech::inverse_statics::Reacher;
 use leech::prelude::*;
 use leech::report::{PlanarCounterpart, SolveTiming};
 use leech::stance;
+use leech::stance3;
 
 use args::{Args, Shape};
 use failure::Failure;
@@ -189,8 +190,8 @@ fn run(args: Args, out: &mut String) -> Result<(), Failure> {
                 return render::constant_curvature3(out, &a, &cc);
             };
             let held = match &a.scene {
-                Some(file) => a.body.solve_held_among(&a.robot, hold, &file.scene, &a.solver)?,
-                None => a.body.solve_held(&a.robot, hold, &a.solver)?,
+                Some(file) => stance3::solve_in(&a.robot, &a.body, hold, &file.scene, &a.solver)?,
+                None => stance3::solve(&a.robot, &a.body, hold, &a.solver)?,
             };
             let planar = PlanarCounterpart::held(&a.robot, &a.body, &hold, a.scene.as_ref(), &a.solver);
             render::shape3d(out, &a, &held, &planar)

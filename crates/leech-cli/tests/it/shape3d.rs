@@ -3,6 +3,7 @@
 
 use leech::body3::Body3;
 use leech::prelude::*;
+use leech::stance3;
 use leech::stance3::planar;
 use serde_json::Value;
 
@@ -214,7 +215,7 @@ fn holds_report_their_cups_as_the_library_solves_them() {
     // The default: the rear cup holds, the front cup is free.
     let v = json_of(&["shape3d", "--lengths", "0.25,0.25,0.25"]);
     assert_eq!((v["hold"].as_str(), v["front_cup"].is_null()), (Some("rear"), true));
-    let rear = body.solve_held(&robot, Hold3::Rear(AsBuilt), &solver).unwrap().rear.unwrap();
+    let rear = stance3::solve(&robot, &body, Hold3::Rear(AsBuilt), &solver).unwrap().rear.unwrap();
     assert!((cup_factor(&v, "rear_cup") - rear.verdict.safety_factor).abs() < 1e-9);
     assert!(distance(&vector(&v["rear_cup"]["force_n"]), &rear.reaction.force_n) < 1e-9);
     // The front hold up a wall, turned 15 deg about the face's normal: out of the plane, no planar model.
@@ -222,7 +223,7 @@ fn holds_report_their_cups_as_the_library_solves_them() {
     let v = json_of(&args);
     let plate = plate_frame_from_angles(90f64.to_radians(), 15f64.to_radians(), 0.0);
     let held =
-        body.solve_held(&robot, Hold3::Front(Pose3 { point_m: [0.0, 0.3, 0.0], frame: plate }), &solver).unwrap();
+        stance3::solve(&robot, &body, Hold3::Front(Pose3 { point_m: [0.0, 0.3, 0.0], frame: plate }), &solver).unwrap();
     let front = held.front.unwrap();
     assert!(v["rear_cup"].is_null() && (cup_factor(&v, "front_cup") - front.verdict.safety_factor).abs() < 1e-9);
     assert!(distance(&vector(&v["front_cup"]["moment_nm"]), &front.reaction.moment_nm) < 1e-9);

@@ -4,20 +4,21 @@
 //! reach (a tip in a corner gets a row for each solid; frozen while the row
 //! is active) moved out by the tube's radius (the clearance the centre line
 //! keeps), under any of the holds of [`crate::hold::front3`].
-//! [`Body3::solve_held_among`] is the entry point:
+//! [`crate::stance3::solve_in`] is the entry point:
 //!
 //! ```
 //! use leech::body3::Body3;
 //! use leech::hold::{AsBuilt, Hold3, Pose3};
 //! use leech::prelude::*;
 //! use leech::scene::{Scene3, Solid3};
+//! use leech::stance3;
 //! let mut robot = Robot::builtin();
 //! robot.world.base_angle_deg = 0.0; // the driving unit along a floor
 //! let body = Body3::from_robot(&robot, [0.34, 0.36, 0.28]).unwrap();
 //! // The floor under the rear cup's face.
 //! let floor = Solid3::HalfSpace { point_m: body.rear_cup_centre(&robot), normal: [0.0, 1.0, 0.0] };
 //! let scene = Scene3::new("floor", vec![floor]).unwrap();
-//! let held = body.solve_held_among(&robot, Hold3::Rear(AsBuilt), &scene, &Solver::default()).unwrap();
+//! let held = stance3::solve_in(&robot, &body, Hold3::Rear(AsBuilt), &scene, &Solver::default()).unwrap();
 //! assert!(held.equilibrium.contacts.iter().all(|c| c.force_n >= 0.0));
 //! ```
 //!

@@ -1,7 +1,8 @@
 //! Holds in 3D: the rear cup (the driving unit fixed), the front cup (the
 //! plate fixed, the driving unit hanging from it) or both (a closed loop),
 //! each holding cup's reaction as a 6-vector and its verdict
-//! (docs/model3d.md section 8). [`Body3::solve_held`] is the entry point.
+//! (docs/model3d.md section 8). [`solve`] and
+//! [`solve_in`] are the entry points.
 //!
 //! # The front hold: gravity turning with the plate
 //!
@@ -359,6 +360,87 @@ impl Body3 {
     }
 }
 
+/// `body` (built from `robot`: its driving unit's mass and cups) held by
+/// `hold`, on the hold's path (module doc), with each holding cup's
+/// reaction and verdict: the three-tube body's [`crate::stance::solve`]. A
+/// plate frame that is not a rotation or a tip that is not finite is
+/// refused, naming the field.
+pub fn solve(robot: &Robot, body: &Body3, hold: Hold3, solver: &Solver) -> Result<Held3, StanceError> {
+    held(robot, body, hold, solver, None)
+}
+
+/// `body` of `robot` held by `hold` among `scene`'s solids, with the
+/// holding cup's reaction (the contacts' forces taken off it) and verdict:
+/// the rear hold, the front hold (the scene turning with the plate in the
+/// solver's picture, module doc), both cups and the free front joint (each
+/// turn of the swing solved among the solids). The tubes keep their radius
+/// from the solids. Bad input is refused as [`solve`] refuses it; so is a
+/// hold that puts a cup, the plate or the unit inside a solid.
+pub fn solve_in(
+    robot: &Robot,
+    body: &Body3,
+    hold: Hold3,
+    scene: &Scene3,
+    solver: &Solver,
+) -> Result<Held3, StanceError> {
+    held(robot, body, hold, solver, Some((scene, 0.5 * robot.tube.outer_diameter_m)))
+}
+
+/// [`solve`], among `scene`'s solids with the tubes' centre
+/// lines `clearance` (m) from them when `scene` is `Some((scene,
+/// clearance))` ([`crate::contact::space`]).
+fn held(
+    robot: &Robot,
+    body: &Body3,
+    hold: Hold3,
+    solver: &Solver,
+    scene: Option<(&Scene3, f64)>,
+) -> Result<Held3, StanceError> {
+    let md = robot.driving_unit.mass_kg;
+    hold.checked()?;
+    if let Some((solids, _)) = scene {
+        // A cup or the plate inside a solid has no equilibrium to find.
+        if let Some(p) = first_inside(solids, &hold_points(robot, body, &hold)) {
+            let [x, y, z] = p.point_m.map(|c| Num(c).to_string());
+            return Err(InputError::Invalid {
+                field: "hold".into(),
+                value: format!("{} at ({x}, {y}, {z}) m", p.what),
+                allowed:
+                    "a hold that leaves the driving unit, the plate and the holding cups in free space or on a surface"
+                        .into(),
+            }
+            .into());
+        }
+    }
+    match hold {
+        Hold3::Rear(AsBuilt) => {
+            let equilibrium = body.picture(solver, None, scene)?;
+            let rear = Some(body.rear_cup(robot, &equilibrium)?);
+            Ok(Held3 { hold, body: body.clone(), equilibrium, rear, front: None, pivot_turn_rad: None })
+        }
+        Hold3::Front(Pose3 { point_m: tip_m, frame: plate }) => {
+            let held = FrontHold { tip: tip_m, plate, unit_mass_kg: md };
+            let picture = body.picture(solver, Some(&held), scene)?;
+            let (hung, equilibrium) = body.hung(&picture, &held);
+            let front = Some(hung.front_cup(robot, &equilibrium, md)?);
+            Ok(Held3 { hold, body: hung, equilibrium, rear: None, front, pivot_turn_rad: None })
+        }
+        Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: tip_m, frame: plate } } => {
+            let equilibrium = body
+                .solve_both_on(solver, FrontTarget { tip: tip_m, plate, compliance: [0.0; 2] }, scene)
+                .map_err(|source| body.beyond_reach(source, tip_m))?;
+            let rear = Some(body.rear_cup(robot, &equilibrium)?);
+            let (centre, normal) = body.front_face(robot, &equilibrium.frames);
+            let reaction = body.front_hold_reaction(&equilibrium, &plate, centre);
+            let front = Some(cup_state(robot, centre, normal, reaction)?);
+            Ok(Held3 { hold, body: body.clone(), equilibrium, rear, front, pivot_turn_rad: None })
+        }
+        Hold3::FrontPivot(Pose3 { point_m: tip_m, frame: plate }) => {
+            body.swing(robot, hold, tip_m, &plate, solver, scene)
+        }
+    }
+}
+
 impl Body3 {
     /// The hanging gravity of [`Hanging`] at `param` into `ev` (module doc):
     /// `g` times the bilinear term of [`Body3::plate_bilinear`] with `u` up
@@ -437,85 +519,9 @@ impl Body3 {
     pub fn hanging_derivatives(&self, frames: &[Mat3], lambda: &[f64; PLATE_ROWS], hang: Hanging) -> Derivatives {
         self.derivatives_at(frames, lambda, Param { hang: Some(hang), ..Param::FULL })
     }
+}
 
-    /// The body of `robot` (the robot it was built from: its driving unit's
-    /// mass and cups) held by `hold`, on the hold's path (module doc), with
-    /// each holding cup's reaction and verdict. A plate frame that is not a
-    /// rotation or a tip that is not finite is refused, naming the field.
-    pub fn solve_held(&self, robot: &Robot, hold: Hold3, solver: &Solver) -> Result<Held3, StanceError> {
-        self.held_among(robot, hold, solver, None)
-    }
-
-    /// The body of `robot` held by `hold` among `scene`'s solids, with the
-    /// holding cup's reaction (the contacts' forces taken off it) and
-    /// verdict: the rear hold, the front hold (the scene turning with the
-    /// plate in the solver's picture, module doc) and the free front joint
-    /// (each turn of the swing solved among the solids). The tubes keep
-    /// their radius from the solids. Bad input is refused as
-    /// [`Body3::solve_held`] refuses it.
-    pub fn solve_held_among(
-        &self,
-        robot: &Robot,
-        hold: Hold3,
-        scene: &Scene3,
-        solver: &Solver,
-    ) -> Result<Held3, StanceError> {
-        self.held_among(robot, hold, solver, Some((scene, 0.5 * robot.tube.outer_diameter_m)))
-    }
-
-    /// [`Body3::solve_held`], among `scene`'s solids with the tubes' centre
-    /// lines `clearance` (m) from them when `scene` is `Some((scene,
-    /// clearance))` ([`crate::contact::space`]).
-    pub(crate) fn held_among(
-        &self,
-        robot: &Robot,
-        hold: Hold3,
-        solver: &Solver,
-        scene: Option<(&Scene3, f64)>,
-    ) -> Result<Held3, StanceError> {
-        let md = robot.driving_unit.mass_kg;
-        hold.checked()?;
-        if let Some((solids, _)) = scene {
-            // A cup or the plate inside a solid has no equilibrium to find.
-            if let Some(p) = first_inside(solids, &hold_points(robot, self, &hold)) {
-                let [x, y, z] = p.point_m.map(|c| Num(c).to_string());
-                return Err(InputError::Invalid {
-                    field: "hold".into(),
-                    value: format!("{} at ({x}, {y}, {z}) m", p.what),
-                    allowed: "a hold that leaves the driving unit, the plate and the holding cups in free space or on a surface".into(),
-                }
-                .into());
-            }
-        }
-        match hold {
-            Hold3::Rear(AsBuilt) => {
-                let equilibrium = self.picture(solver, None, scene)?;
-                let rear = Some(self.rear_cup(robot, &equilibrium)?);
-                Ok(Held3 { hold, body: self.clone(), equilibrium, rear, front: None, pivot_turn_rad: None })
-            }
-            Hold3::Front(Pose3 { point_m: tip_m, frame: plate }) => {
-                let held = FrontHold { tip: tip_m, plate, unit_mass_kg: md };
-                let picture = self.picture(solver, Some(&held), scene)?;
-                let (body, equilibrium) = self.hung(&picture, &held);
-                let front = Some(body.front_cup(robot, &equilibrium, md)?);
-                Ok(Held3 { hold, body, equilibrium, rear: None, front, pivot_turn_rad: None })
-            }
-            Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: tip_m, frame: plate } } => {
-                let equilibrium = self
-                    .solve_both_on(solver, FrontTarget { tip: tip_m, plate, compliance: [0.0; 2] }, scene)
-                    .map_err(|source| self.beyond_reach(source, tip_m))?;
-                let rear = Some(self.rear_cup(robot, &equilibrium)?);
-                let (centre, normal) = self.front_face(robot, &equilibrium.frames);
-                let reaction = self.front_hold_reaction(&equilibrium, &plate, centre);
-                let front = Some(cup_state(robot, centre, normal, reaction)?);
-                Ok(Held3 { hold, body: self.clone(), equilibrium, rear, front, pivot_turn_rad: None })
-            }
-            Hold3::FrontPivot(Pose3 { point_m: tip_m, frame: plate }) => {
-                self.swing(robot, hold, tip_m, &plate, solver, scene)
-            }
-        }
-    }
-
+impl Body3 {
     /// The equilibrium on the hold's path in the solver's picture: the rear
     /// hold's (`front` none) or the front hold's, among the solids of
     /// `scene` when there is one.

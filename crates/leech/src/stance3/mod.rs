@@ -21,7 +21,7 @@
 //! # Holds
 //!
 //! The body as built has its driving unit fixed: the rear cup holds.
-//! [`Body3::solve_held`](crate::body3::Body3::solve_held) solves it held by the rear cup, by the front cup
+//! [`solve`](fn@solve) solves it held by the rear cup, by the front cup
 //! (the driving unit hanging: gravity turns with the plate, no unknown
 //! added), by both cups (a closed loop: six rows on tube 1's tip and the
 //! plate) or by the front cup on a free joint about its face's normal (the
@@ -34,14 +34,15 @@
 //! use leech::hold::{AsBuilt, Hold3, Pose3};
 //! use leech::geom3::rot_z;
 //! use leech::prelude::*;
+//! use leech::stance3;
 //! let robot = Robot::builtin();
 //! let body = Body3::from_robot(&robot, [0.25, 0.28, 0.22]).unwrap();
 //! let solver = Solver::default();
-//! let rear = body.solve_held(&robot, Hold3::Rear(AsBuilt), &solver).unwrap();
+//! let rear = stance3::solve(&robot, &body, Hold3::Rear(AsBuilt), &solver).unwrap();
 //! assert!(rear.rear.unwrap().verdict.holds);
 //! // Held at the front, the plate along +y (up a wall), the unit below.
 //! let hold = Hold3::Front(Pose3 { point_m: [0.0, 0.5, 0.0], frame: rot_z(std::f64::consts::FRAC_PI_2) });
-//! let front = body.solve_held(&robot, hold, &solver).unwrap();
+//! let front = stance3::solve(&robot, &body, hold, &solver).unwrap();
 //! assert!(front.body.tube(0).root()[1] < 0.5);
 //! ```
 //!
@@ -50,8 +51,7 @@
 //! Among a [`crate::scene::Scene3`]'s solids (planes, boxes, planar scenes
 //! as prisms) the link tips keep the tube's radius from the solids:
 //! unilateral rows, one more border row each, with an active set
-//! ([`crate::contact::space`]); [`Body3::solve_held_among`](crate::body3::Body3::solve_held_among) solves the rear hold among
-//! them (the front holds and both cups holding are not yet among solids).
+//! ([`crate::contact::space`]); [`solve_in`] solves every hold among them.
 
 //! # Layout
 //!
@@ -72,4 +72,4 @@ pub mod solve;
 pub mod system3;
 
 pub use equilibrium3::Equilibrium3;
-pub use held3::{verdict3, CupState3, Held3, Wrench};
+pub use held3::{solve, solve_in, verdict3, CupState3, Held3, Wrench};

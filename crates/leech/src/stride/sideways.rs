@@ -78,7 +78,7 @@ use crate::robot::Robot;
 use crate::scene::file::parse_bounded;
 use crate::scene::MAX_COORDINATE_M;
 use crate::stance3::place3::front_tip;
-use crate::stance3::Held3;
+use crate::stance3::{self, Held3};
 use crate::statics::Solver;
 
 /// The wall's outward normal `n_w` (free space at `x < x_w`).
@@ -351,7 +351,7 @@ impl<'a> Planner<'a> {
     }
 
     fn solve(&self, body: &Body3, hold: Hold3, lengths: [f64; 3]) -> Result<Held3, Blocked> {
-        body.solve_held(&self.robot, hold, self.solver)
+        stance3::solve(&self.robot, &body, hold, self.solver)
             .map_err(|e| format!("the 3D solve at lengths {} failed: {e}", show(lengths)))
     }
 

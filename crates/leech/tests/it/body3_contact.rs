@@ -8,6 +8,7 @@ use leech::hold::{AsBuilt, Hold3, Pose3};
 use leech::prelude::*;
 use leech::scene::{Scene3, Solid3};
 use leech::stance::{self, Hold, Pose};
+use leech::stance3;
 use leech::stance3::place3::front_tip;
 use leech::stance3::Held3;
 
@@ -29,7 +30,7 @@ fn floor_under(body: &Body3, robot: &Robot) -> Scene3 {
 fn on_floor(robot: &Robot, lengths: [f64; 3]) -> (Held3, Scene3) {
     let body = Body3::from_robot(robot, lengths).unwrap();
     let floor = floor_under(&body, robot);
-    let held = body.solve_held_among(robot, Hold3::Rear(AsBuilt), &floor, &Solver::default()).unwrap();
+    let held = stance3::solve_in(robot, &body, Hold3::Rear(AsBuilt), &floor, &Solver::default()).unwrap();
     (held, floor)
 }
 
@@ -152,15 +153,15 @@ fn a_bad_clearance_or_hold_is_refused() {
     assert!(e.starts_with("clearance (m)"), "{e}");
     let plate = [[1.0, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, 0.0, 1.0]];
     let hold = Hold3::Front(Pose3 { point_m: [0.3, 0.0, 0.0], frame: plate });
-    let e = body.solve_held_among(&robot, hold, &floor, &Solver::default()).unwrap_err().to_string();
+    let e = stance3::solve_in(&robot, &body, hold, &floor, &Solver::default()).unwrap_err().to_string();
     assert!(e.starts_with("front hold plate frame"), "{e}");
     let hold = Hold3::FrontPivot(Pose3 { point_m: [f64::NAN, 0.0, 0.0], frame: body.base_frame() });
-    let e = body.solve_held_among(&robot, hold, &floor, &Solver::default()).unwrap_err().to_string();
+    let e = stance3::solve_in(&robot, &body, hold, &floor, &Solver::default()).unwrap_err().to_string();
     assert!(e.starts_with("front pivot tip (m)"), "{e}");
     // The clamp points up, so the rear cup's surface is a wall on the +x
     // side (the unit's y axis its outward normal): a plate 0.2 m into it.
     let hold = Hold3::Front(Pose3 { point_m: [0.2, 0.1, 0.0], frame: body.base_frame() });
-    let e = body.solve_held_among(&robot, hold, &floor, &Solver::default()).unwrap_err().to_string();
+    let e = stance3::solve_in(&robot, &body, hold, &floor, &Solver::default()).unwrap_err().to_string();
     assert!(e.starts_with("hold: ") && e.contains("the endpoint plate at (") && !e.contains('\n'), "{e}");
 }
 
@@ -185,8 +186,9 @@ fn a_body_held_on_a_wall_rests_on_the_floor() {
     let tip = axpy(robot.body.tip_spacing_m + robot.cup.front_offset_m, [0.0, 0.0, 1.0], centre);
     for lengths in [[0.25, 0.25, 0.25], [0.25, 0.22, 0.27]] {
         let body = Body3::from_robot(&robot, lengths).unwrap();
-        let held = body.solve_held_among(
+        let held = stance3::solve_in(
             &robot,
+            &body,
             Hold3::Front(Pose3 { point_m: tip, frame: plate }),
             &scene,
             &Solver::default(),
@@ -206,7 +208,8 @@ fn a_body_held_on_a_wall_rests_on_the_floor() {
         );
         // Without the floor it hangs lower: the floor holds it up.
         let free =
-            body.solve_held(&robot, Hold3::Front(Pose3 { point_m: tip, frame: plate }), &Solver::default()).unwrap();
+            stance3::solve(&robot, &body, Hold3::Front(Pose3 { point_m: tip, frame: plate }), &Solver::default())
+                .unwrap();
         let low = |h: &Held3| {
             (0..3).flat_map(|i| h.body.points(&h.equilibrium.frames, i)).fold(f64::INFINITY, |m, p| m.min(p[1]))
         };
@@ -229,8 +232,8 @@ fn far_solids_change_nothing_under_the_front_holds() {
         (Hold3::Front(Pose3 { point_m: tip, frame: plate }), 1e-12),
         (Hold3::FrontPivot(Pose3 { point_m: tip, frame: plate }), 1e-12),
     ] {
-        let alone = body.solve_held(&robot, hold, &solver).unwrap();
-        let among = body.solve_held_among(&robot, hold, &far, &solver).unwrap();
+        let alone = stance3::solve(&robot, &body, hold, &solver).unwrap();
+        let among = stance3::solve_in(&robot, &body, hold, &far, &solver).unwrap();
         assert!(among.equilibrium.contacts.is_empty());
         let mut apart = 0.0f64;
         for i in 0..3 {
@@ -262,7 +265,7 @@ fn the_front_hold_on_a_floor_is_the_planar_stance() {
     let planar = stance::solve_in(&robot, [l1, l23], Hold::Front(pose), &planar_floor, &solver).unwrap();
     let body = Body3::from_robot(&robot, [l1, l23, l23]).unwrap();
     let hold = Hold3::Front(Pose3 { point_m: [0.5, height, 0.0], frame: leech::geom3::rot_z(0.0) });
-    let held = body.solve_held_among(&robot, hold, &floor, &solver).unwrap();
+    let held = stance3::solve_in(&robot, &body, hold, &floor, &solver).unwrap();
     check(&robot, &held, &floor);
     let eq = &held.equilibrium;
     assert!(!eq.contacts.is_empty() && !planar.contacts.is_empty(), "the body does not reach the floor");
@@ -299,7 +302,7 @@ fn the_swing_on_a_free_front_joint_ends_on_the_floor() {
     let (scene, plate, centre) = wall_and_floor(0.12);
     let body = Body3::from_robot(&robot, [0.25, 0.22, 0.27]).unwrap();
     let hold = Hold3::FrontPivot(Pose3 { point_m: front_tip(&robot, centre, &plate), frame: plate });
-    let held = body.solve_held_among(&robot, hold, &scene, &Solver::default()).unwrap();
+    let held = stance3::solve_in(&robot, &body, hold, &scene, &Solver::default()).unwrap();
     check(&robot, &held, &scene);
     let eq = &held.equilibrium;
     assert!(eq.contacts.iter().any(|c| c.row.solid == 1), "nothing rests on the floor");
@@ -331,7 +334,7 @@ fn a_turning_body_rests_on_a_box_on_the_floor() {
         frame: leech::geom3::exp([0.0, 0.2, 0.0]),
     };
     let scene = Scene3::new("floor and block", vec![floor.solids[0].clone(), block]).unwrap();
-    let held = body.solve_held_among(&robot, Hold3::Rear(AsBuilt), &scene, &Solver::default()).unwrap();
+    let held = stance3::solve_in(&robot, &body, Hold3::Rear(AsBuilt), &scene, &Solver::default()).unwrap();
     check(&robot, &held, &scene);
     assert!(held.equilibrium.contacts.iter().any(|c| c.row.solid == 1), "nothing rests on the block");
 }
@@ -354,7 +357,7 @@ fn both_cups_hold_a_body_resting_on_a_floor() {
         let lift = robot.body.tip_spacing_m + robot.cup.front_offset_m;
         let tip_m = [end[0] - 0.03, rear.body.rear_cup_centre(&robot)[1] + lift, 0.0];
         let hold = Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: tip_m, frame: rear.body.base_frame() } };
-        let held = rear.body.solve_held_among(&robot, hold, &floor, &solver).unwrap();
+        let held = stance3::solve_in(&robot, &rear.body, hold, &floor, &solver).unwrap();
         check(&robot, &held, &floor);
         let eq = &held.equilibrium;
         assert!(!eq.contacts.is_empty(), "{lengths:?}: the loop does not rest on the floor");
@@ -369,8 +372,8 @@ fn both_cups_hold_a_body_resting_on_a_floor() {
             front.verdict.safety_factor
         );
         let far = Scene3::new("far", vec![Solid3::HalfSpace { point_m: [0.0, -50.0, 0.0], normal: [0.0, 1.0, 0.0] }]);
-        let among = rear.body.solve_held_among(&robot, hold, &far.unwrap(), &solver).unwrap();
-        let alone = rear.body.solve_held(&robot, hold, &solver).unwrap();
+        let among = stance3::solve_in(&robot, &rear.body, hold, &far.unwrap(), &solver).unwrap();
+        let alone = stance3::solve(&robot, &rear.body, hold, &solver).unwrap();
         assert!(among.equilibrium.contacts.is_empty());
         for i in 0..3 {
             let a = alone.body.points(&alone.equilibrium.frames, i);

@@ -7,6 +7,7 @@ use leech::geom3::{axpy, cross, dot, exp, mul, rot_z, scale};
 use leech::hold::{AsBuilt, Hold3, Pose3};
 use leech::prelude::*;
 use leech::stance::{Hold, Pose};
+use leech::stance3;
 use leech::stance3::place3::front_tip;
 use leech::stance3::{verdict3, Held3};
 
@@ -144,7 +145,7 @@ proptest::proptest! {
         let norm = (axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]).sqrt().max(1e-3);
         let plate = leech::geom3::exp(scale(turn / norm, [axis[0], axis[1], axis[2]]));
         let tip = [0.3, -0.1, 0.2];
-        let held = body.solve_held(&robot, Hold3::Front(Pose3 { point_m: tip, frame: plate }), &Solver::default()).unwrap();
+        let held = stance3::solve(&robot, &body, Hold3::Front(Pose3 { point_m: tip, frame: plate }), &Solver::default()).unwrap();
         let eq = &held.equilibrium;
         proptest::prop_assert!(eq.stable && eq.residual < 1e-10 && held.rear.is_none());
         let end = held.body.endpoint(&eq.frames);
@@ -185,7 +186,7 @@ fn front_hold_equals_the_planar_stance() {
         let planar = leech::stance::solve(&robot, [l1, l23], Hold::Front(pose), &solver).unwrap();
         let body = Body3::from_robot(&robot, [l1, l23, l23]).unwrap();
         let hold = Hold3::Front(Pose3 { point_m: [point[0], point[1], 0.0], frame: rot_z(pose.angle_rad) });
-        let held = body.solve_held(&robot, hold, &solver).unwrap();
+        let held = stance3::solve(&robot, &body, hold, &solver).unwrap();
         let root = held.body.tube(0).root();
         let base = held.body.base_frame();
         let unit_angle = base[1][0].atan2(base[0][0]);
@@ -224,13 +225,13 @@ fn the_body_swings_below_a_free_front_joint() {
     let centre = [0.5, 1.0, 0.0];
     for lengths in [[0.20, 0.20, 0.20], [0.25, 0.22, 0.27]] {
         let body = Body3::from_robot(&robot, lengths).unwrap();
-        let held = body
-            .solve_held(
-                &robot,
-                Hold3::FrontPivot(Pose3 { point_m: front_tip(&robot, centre, &plate), frame: plate }),
-                &solver,
-            )
-            .unwrap();
+        let held = stance3::solve(
+            &robot,
+            &body,
+            Hold3::FrontPivot(Pose3 { point_m: front_tip(&robot, centre, &plate), frame: plate }),
+            &solver,
+        )
+        .unwrap();
         let eq = &held.equilibrium;
         assert!(eq.stable && eq.residual < 1e-10, "{lengths:?}");
         let cup = held.front.clone().unwrap();
@@ -247,7 +248,7 @@ fn the_body_swings_below_a_free_front_joint() {
         // front hold without the joint, where it started, is higher.
         let turn = held.pivot_turn_rad.unwrap();
         let tip = axpy(robot.body.tip_spacing_m + robot.cup.front_offset_m, [0.0, 0.0, 1.0], centre);
-        let start = body.solve_held(&robot, Hold3::Front(Pose3 { point_m: tip, frame: plate }), &solver).unwrap();
+        let start = stance3::solve(&robot, &body, Hold3::Front(Pose3 { point_m: tip, frame: plate }), &solver).unwrap();
         assert!(
             turn > 0.0 && eq.energy < start.equilibrium.energy,
             "{lengths:?}: turned {turn}, {} vs {}",
@@ -258,15 +259,15 @@ fn the_body_swings_below_a_free_front_joint() {
         assert!(force.iter().chain(&moment).all(|x| x.abs() < 1e-8 * w), "{force:?} {moment:?}");
     }
     let skew = [[1.0, 0.1, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    let err = Body3::from_robot(&robot, [0.2; 3])
-        .unwrap()
-        .solve_held(
-            &robot,
-            Hold3::FrontPivot(Pose3 { point_m: front_tip(&robot, centre, &skew), frame: skew }),
-            &solver,
-        )
-        .unwrap_err()
-        .to_string();
+    let body = Body3::from_robot(&robot, [0.2; 3]).unwrap();
+    let err = stance3::solve(
+        &robot,
+        &body,
+        Hold3::FrontPivot(Pose3 { point_m: front_tip(&robot, centre, &skew), frame: skew }),
+        &solver,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(err.contains("front pivot plate frame"), "{err}");
 }
 
@@ -282,7 +283,7 @@ fn both_from_rear(
     turn: [f64; 3],
 ) -> (Body3, Held3, Hold3) {
     let body = Body3::from_robot(robot, lengths).unwrap();
-    let rear = body.solve_held(robot, Hold3::Rear(AsBuilt), &Solver::default()).unwrap();
+    let rear = stance3::solve(robot, &body, Hold3::Rear(AsBuilt), &Solver::default()).unwrap();
     let frames = &rear.equilibrium.frames;
     let end = body.endpoint(frames);
     let chord = axpy(-1.0, body.tube(0).root(), end);
@@ -307,7 +308,7 @@ proptest::proptest! {
         let robot = Robot::builtin().with_base_angle(angle).unwrap();
         let (shift, turn) = ([shift[0], shift[1], shift[2]], [turn[0], turn[1], turn[2]]);
         let (body, _, hold) = both_from_rear(&robot, [l1, l2, l3], inward, shift, turn);
-        let held = body.solve_held(&robot, hold, &Solver::default()).unwrap();
+        let held = stance3::solve(&robot, &body, hold, &Solver::default()).unwrap();
         let Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: tip_m, frame: plate } } = hold else { unreachable!() };
         let eq = &held.equilibrium;
         proptest::prop_assert!(eq.stable && eq.residual < 1e-10, "{} {}", eq.stable, eq.residual);
@@ -340,7 +341,7 @@ fn both_holds_at_the_free_endpoint_change_nothing() {
     let robot = Robot::builtin();
     for lengths in [[0.25, 0.28, 0.22], [0.18, 0.18, 0.18]] {
         let (body, rear, hold) = both_from_rear(&robot, lengths, 0.0, [0.0; 3], [0.0; 3]);
-        let held = body.solve_held(&robot, hold, &Solver::default()).unwrap();
+        let held = stance3::solve(&robot, &body, hold, &Solver::default()).unwrap();
         for i in 0..3 {
             for (p, q) in
                 held.body.points(&held.equilibrium.frames, i).iter().zip(body.points(&rear.equilibrium.frames, i))
@@ -378,7 +379,7 @@ fn both_holds_equal_the_planar_stance() {
         let (body, rear3, hold) =
             both_from_rear(&robot, [l1, l23, l23], inward, [shift[0], shift[1], 0.0], [0.0, 0.0, turn]);
         let Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: tip_m, frame: plate } } = hold else { unreachable!() };
-        let held = body.solve_held(&robot, hold, &solver).unwrap();
+        let held = stance3::solve(&robot, &body, hold, &solver).unwrap();
         let root = body.tube(0).root();
         let rear = Pose { point_m: [root[0], root[1]], angle_rad: f64::to_radians(angle) };
         let front = Pose { point_m: [tip_m[0], tip_m[1]], angle_rad: plate[1][0].atan2(plate[0][0]) };
@@ -451,13 +452,13 @@ fn held_both(robot: &Robot, lengths: [f64; 3], tip_m: [f64; 3], degrees: f64) ->
     let body = Body3::from_robot(robot, lengths).unwrap();
     let plate = rot_z(f64::to_radians(degrees));
     let case = format!("{lengths:?} {:?}, {tip_m:?} at {degrees} deg", robot.body);
-    let held = body
-        .solve_held(
-            robot,
-            Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: tip_m, frame: plate } },
-            &Solver::default(),
-        )
-        .expect(&case);
+    let held = stance3::solve(
+        robot,
+        &body,
+        Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: tip_m, frame: plate } },
+        &Solver::default(),
+    )
+    .expect(&case);
     let eq = &held.equilibrium;
     assert!(eq.stable && eq.residual < 1e-10, "{case}: {} {}", eq.stable, eq.residual);
     let end = held.body.endpoint(&eq.frames);
@@ -489,23 +490,23 @@ fn both_holds_refuse_what_cannot_be_held() {
         rear: AsBuilt,
         front: Pose3 { point_m: [0.0, 0.3, 0.0], frame: rot_z(std::f64::consts::FRAC_PI_2) },
     };
-    match body.solve_held(&robot, far, &solver) {
+    match stance3::solve(&robot, &body, far, &solver) {
         Err(leech::stance::StanceError::OutOfReach { distance_m, reach_m, .. }) => {
             assert!(distance_m > reach_m && (reach_m - 0.2).abs() < 1e-12, "{distance_m} {reach_m}")
         }
         other => panic!("{other:?}"),
     }
     let skew = [[1.0, 0.1, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    let err = body
-        .solve_held(
-            &robot,
-            Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: [0.0, 0.1, 0.0], frame: skew } },
-            &solver,
-        )
-        .unwrap_err();
+    let err = stance3::solve(
+        &robot,
+        &body,
+        Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: [0.0, 0.1, 0.0], frame: skew } },
+        &solver,
+    )
+    .unwrap_err();
     let err = err.to_string();
     assert!(err.contains("both holds: front plate frame") && !err.contains('\n'), "{err}");
     let nan = Hold3::Both { rear: AsBuilt, front: Pose3 { point_m: [0.0, f64::NAN, 0.0], frame: rot_z(0.0) } };
-    let err = body.solve_held(&robot, nan, &solver).unwrap_err().to_string();
+    let err = stance3::solve(&robot, &body, nan, &solver).unwrap_err().to_string();
     assert!(err.contains("both holds: front tip (m)") && err.contains("NaN"), "{err}");
 }
