@@ -351,7 +351,7 @@ impl<'a> Planner<'a> {
     }
 
     fn solve(&self, body: &Body3, hold: Hold3, lengths: [f64; 3]) -> Result<Held3, Blocked> {
-        stance3::solve(&self.robot, &body, hold, self.solver)
+        stance3::solve(&self.robot, body, hold, self.solver)
             .map_err(|e| format!("the 3D solve at lengths {} failed: {e}", show(lengths)))
     }
 
