@@ -519,9 +519,7 @@ impl Body3 {
     pub fn hanging_derivatives(&self, frames: &[Mat3], lambda: &[f64; PLATE_ROWS], hang: Hanging) -> Derivatives {
         self.derivatives_at(frames, lambda, Param { hang: Some(hang), ..Param::FULL })
     }
-}
 
-impl Body3 {
     /// The equilibrium on the hold's path in the solver's picture: the rear
     /// hold's (`front` none) or the front hold's, among the solids of
     /// `scene` when there is one.
