@@ -1,7 +1,7 @@
 """Same answers: a before/after regression harness for the `leech` CLI.
 
 Runs two `leech` binaries (say, one built before a change and one after it)
-on the same corpus of about 330 command lines and reports whether they give
+on the same corpus of 334 command lines and reports whether they give
 the same answers. The corpus, generated here, follows the contact census
 (crates/leech/src/stance/census.rs): the built-in robot's rear cup on a floor
 (driving unit at 0.25, 0.032 m, clamp direction 0 deg) fed against a wall
