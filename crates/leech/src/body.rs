@@ -257,9 +257,36 @@ impl Body {
     /// from the fed state (of this body, or of one differing only in `k`,
     /// carried over by [`Fed::for_stiffness`]).
     pub fn load_in(&self, solver: &Solver, fed: Fed, ws: &mut Scratch) -> Result<Equilibrium, SolveError> {
+        self.load_through(solver, fed, &[], ws, &mut |_, _| {})
+    }
+
+    /// [`Body::load_in`] that also hands over, on the way, the loaded states
+    /// of bodies differing from this one only in `k`: a body whose joint
+    /// stiffnesses are `1 / s` times this one's (`s <= 1`, so stiffer) has the
+    /// potential `(k / s) V + g U = (1 / s) (k V + s g U)`, the same
+    /// equilibria as this body at the gravity fraction `s`, its multipliers
+    /// `1 / s` times larger. Each fraction in `stops` (ascending, in `(0, 1]`)
+    /// is landed on and passed to `at_stop(index, angles)`; then this body's
+    /// own loaded equilibrium is returned. Only the step sizes differ from
+    /// loading each body itself, so the states agree where the load path is
+    /// smooth (to the tolerance). Past a fold each path settles from its own
+    /// bracket of it, as close as `SolverOptions::min_step`; the sweep's
+    /// fresh check measures how little that moves the states
+    /// ([`crate::sweep`]).
+    pub fn load_through(
+        &self,
+        solver: &Solver,
+        fed: Fed,
+        stops: &[f64],
+        ws: &mut Scratch,
+        at_stop: &mut dyn FnMut(usize, &[f64]),
+    ) -> Result<Equilibrium, SolveError> {
         let Fed { mut state, mut residual, .. } = fed;
-        if self.gravity != 0.0 {
-            residual = solver.continuation(self, &mut state, 0.0, Stage::Load, ws)?;
+        if self.gravity == 0.0 {
+            (0..stops.len()).for_each(|i| at_stop(i, &state.q));
+        } else {
+            let mut hand = |i: usize, it: &Iterate, _: f64| at_stop(i, &it.q);
+            residual = solver.continuation_through(self, &mut state, 0.0, stops, Stage::Load, ws, &mut hand)?;
         }
         Ok(solver.finish(self, state, residual, ws))
     }

@@ -34,13 +34,24 @@
 //! (forces) proportional to it. So each grid point is fed once, with the
 //! first shape parameter's robot, and that state, its multipliers scaled by
 //! the ratio of the stiffnesses ([`crate::body::Fed::for_stiffness`]), is
-//! loaded by each robot. The load stage then takes the same Newton iterations
-//! and steps as the robot's own default solve; only the rounding of the fed
-//! state differs (about 1e-15 rad, so endpoints agree to about 1e-14 m: on
-//! the paper's Fig. 12 grid every flag and count is the same as feeding each
-//! robot itself, and `fresh_difference_m` moves by at most 3.4e-15 m). The
-//! feed costs the same at every Pi; the load stage grows as Pi falls (on the
-//! 5 mm grid, one core: feed 60 ms, load 13 ms at Pi 10000, 307 ms at Pi 300).
+//! the fed state of each robot.
+//!
+//! Nor is the load stage repeated: with gravity on, the potential is
+//! `k V(q) + g U(q)`, so a robot of stiffness `k` at full gravity has the
+//! equilibria of the softest robot (`k_min`) at the gravity fraction
+//! `k_min / k`. The softest robot's load is followed once and lands on each
+//! of those fractions on its way to full gravity ([`Body::load_through`]);
+//! only a robot whose fraction it did not reach (the softest failed first)
+//! is loaded by itself. Only the steps' sizes differ from each robot's own
+//! default solve: the states agree to the tolerance where the path is
+//! smooth, and past a fold each path settles from its own bracket of it. On
+//! the paper's Fig. 12 grid (5 mm and 2 mm, Pi 300 to 10000), Pi 100 to 400,
+//! Pi 500, 510, 520 and 5097, and Pi 200 and 20000 with `LA >= LB` (about
+//! 140 000 points) every flag and count is the same as loading each robot
+//! itself, and `fresh_difference_m` moves by at most 3.1e-12 m. The feed
+//! costs the same at every Pi; the load grows as Pi falls (on the 5 mm grid,
+//! one core: feed 0.16 s, each robot's own load 0.03 s at Pi 10000 to 0.67 s
+//! at Pi 300, 1.3 s for the five; the shared load 0.68 s).
 //!
 //! # Time and size
 //!
@@ -496,10 +507,9 @@ pub(crate) fn solve_body(
 /// Fills in `fresh_difference_m` of the warm-started points of every shape
 /// parameter (`points[k]` walked with `robots[k]`, which differ only in the
 /// joint stiffness): at each grid point the tubes are fed at `g = 0` once,
-/// with `robots[0]`, and that fed state, carried over to each stiffness
-/// ([`crate::body::Fed::for_stiffness`]), is loaded with each robot's gravity (see the
-/// module doc). Grid points in parallel; one progress unit per point
-/// (checked or not).
+/// with `robots[0]`, and the softest robot's load from that fed state
+/// passes through every other robot's loaded state (see the module doc).
+/// Grid points in parallel; one progress unit per point (checked or not).
 fn check_fresh(robots: &[Robot], points: &mut [Vec<Point>], solver: &Solver, progress: &(dyn Fn(usize) + Sync)) {
     let (models, per) = (points.len(), points.first().map_or(0, Vec::len));
     let mut fresh = vec![f64::NAN; models * per];
@@ -540,17 +550,33 @@ fn fresh_differences(
     let [la, lb] = points[0][g].lengths_m;
     let Ok(first) = robots[0].valid_body(la, lb) else { return out.fill(f64::INFINITY) };
     let scratch = Scratch::fitted(ws, &first);
-    let fed = first.feed_in(solver, scratch);
-    for (k, robot) in robots.iter().enumerate().filter(|(k, _)| unchecked(*k)) {
-        let fresh = match (&fed, robot.valid_body(la, lb)) {
-            (Ok(fed), Ok(body)) => body
-                .load_in(solver, fed.for_stiffness(body.moment_scale()), scratch)
-                .ok()
-                .map(|eq| body.endpoint(&eq.q)),
-            _ => None,
-        };
-        let p = &points[k][g].endpoint_m;
-        out[k] = match fresh {
+    out.fill(f64::INFINITY);
+    let Ok(fed) = first.feed_in(solver, scratch) else { return };
+    // The robots to check, stiffest first: the softest one's load passes
+    // through the others' loaded states ([`Body::load_through`]).
+    let mut bodies: Vec<(usize, Body)> = (0..robots.len())
+        .filter(|k| unchecked(*k))
+        .filter_map(|k| robots[k].valid_body(la, lb).ok().map(|b| (k, b)))
+        .collect();
+    bodies.sort_by(|x, y| y.1.moment_scale().total_cmp(&x.1.moment_scale()));
+    let Some((_, softest)) = bodies.last() else { return };
+    let stops: Vec<f64> = bodies.iter().map(|(_, b)| softest.moment_scale() / b.moment_scale()).collect();
+    let mut landed: Vec<Option<[f64; 2]>> = vec![None; bodies.len()];
+    // Equal stiffnesses give equal stops: one landing serves them all.
+    let (distinct, first_of) = distinct_stops(&stops);
+    let _ = softest.load_through(solver, fed.for_stiffness(softest.moment_scale()), &distinct, scratch, &mut |i, q| {
+        for j in first_of[i]..first_of.get(i + 1).copied().unwrap_or(bodies.len()) {
+            landed[j] = Some(softest.endpoint(q));
+        }
+    });
+    // A body whose stop the softest load did not reach (it failed on the
+    // way) is loaded by itself.
+    for (j, (k, body)) in bodies.iter().enumerate() {
+        let endpoint = landed[j].or_else(|| {
+            body.load_in(solver, fed.for_stiffness(body.moment_scale()), scratch).ok().map(|eq| body.endpoint(&eq.q))
+        });
+        let p = &points[*k][g].endpoint_m;
+        out[*k] = match endpoint {
             Some(e) => {
                 let d = (e[0] - p[0]).hypot(e[1] - p[1]);
                 if d <= FRESH_TOLERANCE_M {
@@ -562,6 +588,18 @@ fn fresh_differences(
             None => f64::INFINITY,
         };
     }
+}
+
+/// The distinct values of ascending `stops`, and where each starts in them.
+fn distinct_stops(stops: &[f64]) -> (Vec<f64>, Vec<usize>) {
+    let (mut distinct, mut first_of) = (Vec::new(), Vec::new());
+    for (j, s) in stops.iter().enumerate() {
+        if distinct.last() != Some(s) {
+            distinct.push(*s);
+            first_of.push(j);
+        }
+    }
+    (distinct, first_of)
 }
 
 /// A grid point's equilibrium: the body and its angles.

@@ -46,7 +46,35 @@ impl Solver {
         stage: Stage,
         ws: &mut Scratch,
     ) -> Result<f64, SolveError> {
+        self.continuation_through(sys, it, from, &[], stage, ws, &mut |_, _, _| {})
+    }
+
+    /// [`Solver::continuation`] that also lands on each of `stops`
+    /// (ascending, in `(from, 1]`; the path goes on to `1` after the last),
+    /// converged there to the final tolerance as at `t = 1`, and hands each
+    /// landing to `at_stop(index, iterate, scaled residual)` before going on.
+    /// The steps between stops are those of a path that ends at the stop, so
+    /// with no stops this is [`Solver::continuation`] step for step. A
+    /// family whose members at the stops are other problems' end points
+    /// (the load path of the softest of several bodies that differ only in
+    /// stiffness passes through the others' loaded states) is followed once
+    /// for all of them.
+    #[allow(clippy::too_many_arguments)]
+    pub fn continuation_through<S: Path + ?Sized>(
+        &self,
+        sys: &S,
+        it: &mut Iterate,
+        from: f64,
+        stops: &[f64],
+        stage: Stage,
+        ws: &mut Scratch,
+        at_stop: &mut dyn FnMut(usize, &Iterate, f64),
+    ) -> Result<f64, SolveError> {
         assert!(ws.fits(sys), "scratch sized for another system");
+        assert!(stops.windows(2).all(|w| w[0] < w[1]), "stops ascending");
+        // The stop the path is heading for (1 once the listed ones are passed).
+        let mut next = 0;
+        let target = |next: usize| stops.get(next).copied().unwrap_or(1.0).min(1.0);
         // Converge at the start and get factors for the first tangent.
         let mut residual = self.minimize(sys, it, from, stage, ws)?;
         let mut t = from;
@@ -64,12 +92,17 @@ impl Solver {
             if steps > self.options.max_steps {
                 return Err(self.fail(stage, it, residual, StopReason::StepLimit));
             }
-            dt = dt.min(1.0 - t);
-            let out = self.corrector(sys, it, t, dt, ws);
+            let stop = target(next);
+            dt = dt.min(stop - t);
+            let out = self.corrector(sys, it, t, dt, stop, ws);
             if out.stable() && sys.within(&it.q, &ws.q_predicted, self.options.jump_tolerance) {
-                t = if dt >= 1.0 - t { 1.0 } else { t + dt };
+                t = if dt >= stop - t { stop } else { t + dt };
                 it.steps += 1;
                 residual = out.residual;
+                if t == stop && next < stops.len() {
+                    at_stop(next, it, residual);
+                    next += 1;
+                }
                 if t < 1.0 {
                     self.tangent(sys, it, t, ws);
                 }
@@ -94,7 +127,11 @@ impl Solver {
                 self.tangent(sys, it, t, ws);
                 continue;
             }
-            (t, residual) = self.cross(sys, it, t, dt, stage, ws)?;
+            (t, residual) = self.cross(sys, it, t, dt, stop, stage, ws)?;
+            if t == stop && next < stops.len() {
+                at_stop(next, it, residual);
+                next += 1;
+            }
             dt = self.options.tuning.step_after_event;
             if t < 1.0 {
                 self.tangent(sys, it, t, ws);
@@ -111,6 +148,7 @@ impl Solver {
         it: &mut Iterate,
         t: f64,
         dt: f64,
+        stop: f64,
         ws: &mut Scratch,
     ) -> super::newton::Newton {
         ws.q_saved.copy_from_slice(&it.q);
@@ -120,7 +158,7 @@ impl Solver {
             *l += dt * d;
         }
         ws.q_predicted.copy_from_slice(&it.q);
-        let tolerance = if t + dt >= 1.0 { self.options.tolerance } else { self.options.path_tolerance };
+        let tolerance = if t + dt >= stop { self.options.tolerance } else { self.options.path_tolerance };
         let budget =
             Budget { max_iter: self.options.max_corrector_iterations, tolerance, leash: self.options.jump_tolerance };
         self.newton(sys, it, t + dt, budget, ws)
@@ -130,17 +168,19 @@ impl Solver {
     /// unstable here. Settles from the last stable state at the new
     /// parameter, as damped dynamics would: leaving an unstable symmetric
     /// state is a pitchfork, a large jump a snap at a fold. Returns the new
-    /// parameter and residual.
+    /// parameter (at most `stop`) and residual.
+    #[allow(clippy::too_many_arguments)]
     fn cross<S: Path + ?Sized>(
         &self,
         sys: &S,
         it: &mut Iterate,
         at: f64,
         dt: f64,
+        stop: f64,
         stage: Stage,
         ws: &mut Scratch,
     ) -> Result<(f64, f64), SolveError> {
-        let t = (at + dt).min(1.0);
+        let t = (at + dt).min(stop);
         let (residual, escaped) = self.settle(sys, it, t, stage, ws)?;
         let jump_rad = sys.distance(&it.q, &ws.q_saved);
         // A settle that stays close was a hard step, not a snap.

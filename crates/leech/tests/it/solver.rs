@@ -89,6 +89,38 @@ fn a_fed_state_carries_over_to_another_stiffness() {
     }
 }
 
+/// The softest robot's load passes through the stiffer robots' loaded
+/// states (`k V + g U` at full gravity is `k_min V + (k_min / k) g U` scaled):
+/// landed on at their gravity fractions, in order, each is the stiffer
+/// robot's own default solve to the tolerance, and the load still ends on
+/// the softest robot's own.
+#[test]
+fn the_softest_load_passes_through_the_stiffer_ones() {
+    let solver = Solver::default();
+    let pis = [10000.0, 1000.0, 300.0];
+    let robots: Vec<Robot> = pis.iter().map(|pi| Robot::builtin().with_shape_parameter(*pi).unwrap()).collect();
+    for (la, lb) in [(0.30, 0.20), (0.12, 0.25), (0.2, 0.2), (0.25, 0.24)] {
+        let bodies: Vec<_> = robots.iter().map(|r| r.body(la, lb).unwrap()).collect();
+        let softest = &bodies[2];
+        let mut ws = Scratch::for_system(softest);
+        let own: Vec<_> = bodies.iter().map(|b| b.solve_in(&solver, &mut ws).unwrap()).collect();
+        let stops: Vec<f64> = bodies.iter().map(|b| softest.moment_scale() / b.moment_scale()).collect();
+        assert!(stops[0] < stops[1] && stops[2] == 1.0);
+        let fed = softest.feed_in(&solver, &mut ws).unwrap();
+        let mut landed = Vec::new();
+        let last = softest
+            .load_through(&solver, fed, &stops, &mut ws, &mut |i, q| landed.push((i, q.to_vec())))
+            .unwrap();
+        assert_eq!(landed.iter().map(|(i, _)| *i).collect::<Vec<_>>(), [0, 1, 2], "at {la}, {lb}");
+        for ((i, q), own) in landed.iter().zip(&own) {
+            let worst = q.iter().zip(&own.q).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            assert!(worst < 1e-9, "Pi {} at {la}, {lb}: {worst:e} rad", pis[*i]);
+        }
+        assert_eq!(last.q, landed[2].1);
+        assert!(last.stable);
+    }
+}
+
 #[test]
 fn bad_warm_start_is_rejected() {
     let body = Robot::builtin().body(0.1, 0.1).unwrap();
