@@ -456,13 +456,7 @@ impl Planner<'_> {
                 at: None,
             }
         } else if self.out_of_time() {
-            let halt = self.options.deadline.check().map_or_else(String::new, |h| h.to_string());
-            Rejection {
-                blocking: Blocking::TimeLimit,
-                phase: Phase::Push,
-                detail: format!("the search stopped ({halt}) before reaching the goal"),
-                at: None,
-            }
+            self.time_limit(Phase::Push)
         } else {
             last_reason.unwrap_or(Rejection {
                 blocking: Blocking::Reach,
@@ -486,7 +480,26 @@ impl Planner<'_> {
         })
     }
 
+    /// The rejection of a search its deadline stopped in `phase`.
+    fn time_limit(&self, phase: Phase) -> Rejection {
+        let halt = self.options.deadline.check().map_or_else(String::new, |h| h.to_string());
+        Rejection {
+            blocking: Blocking::TimeLimit,
+            phase,
+            detail: format!("the search stopped ({halt}) before reaching the goal"),
+            at: None,
+        }
+    }
+
     fn impossible(&self, reason: Rejection, steps: Vec<Step>, strides: usize) -> Plan {
+        // A solve the deadline cut short (a snap, a failed solve) proves
+        // nothing about the body: past the deadline every rejection is the
+        // time limit's.
+        let reason = if self.out_of_time() && reason.blocking != Blocking::TimeLimit {
+            self.time_limit(reason.phase)
+        } else {
+            reason
+        };
         // Running out of time is no proof that the climb cannot be made.
         let status = if reason.blocking == Blocking::TimeLimit { Status::Stopped } else { Status::Impossible };
         Plan { status, reason: Some(reason), strides, steps, solves: self.solves }
@@ -690,12 +703,7 @@ impl Planner<'_> {
         let mut last = now.clone();
         for k in 1..samples {
             if self.out_of_time() {
-                return Err(Rejection {
-                    blocking: Blocking::TimeLimit,
-                    phase,
-                    detail: "the search ran out of its time limit".into(),
-                    at: None,
-                });
+                return Err(self.time_limit(phase));
             }
             let t = k as f64 / samples as f64;
             let at = [from[0] + t * (to[0] - from[0]), from[1] + t * (to[1] - from[1])];

@@ -144,18 +144,22 @@ points_m = [[0.62, -0.2], [2.0, -0.2], [2.0, 0.0], [0.62, 0.0]]
     assert!(rear[0] < 0.12, "{rear:?}");
 }
 
-/// A search cut short by its time limit says so, not that the climb is impossible for a physical reason.
+/// A search cut short by its time limit says so, not that the climb is
+/// impossible for a physical reason, wherever the deadline falls: before the
+/// first solve (it used to fail the start phase as a snap), inside a solve,
+/// or between strides.
 #[test]
 fn a_search_out_of_time_says_so() {
     let robot = Robot::builtin();
     let floor = Scene::builtin("floor").unwrap();
     let start = Foothold { centre_m: [0.0, 0.0], direction_rad: 0.0 };
     let goal = Goal { point_m: [2.0, 0.0], tolerance_m: 0.03 };
-    let options =
-        PlanOptions { deadline: Deadline::after(std::time::Duration::from_millis(100)), ..PlanOptions::default() };
-    let plan = stride::plan(&robot, &floor, start, goal, &options).unwrap();
-    assert_eq!(plan.status, Status::Stopped);
-    assert_eq!(plan.reason.unwrap().blocking, stride::Blocking::TimeLimit);
+    for us in [0, 200, 1_000, 5_000, 20_000, 100_000] {
+        let deadline = Deadline::after(std::time::Duration::from_micros(us));
+        let plan = stride::plan(&robot, &floor, start, goal, &PlanOptions { deadline, ..PlanOptions::default() }).unwrap();
+        assert_eq!(plan.status, Status::Stopped, "{us} us: {:?}", plan.reason);
+        assert_eq!(plan.reason.unwrap().blocking, stride::Blocking::TimeLimit, "{us} us");
+    }
 }
 
 /// Every built-in scenario the planner reaches, replayed step by step.
