@@ -172,6 +172,9 @@ def compare(a, b, tol, path="", key="", found=None):
                 compare(a[k], b[k], tol, f"{path}/{k}", unit_key(k, a[k]), found)
             elif tolerance(k, tol) is None and not isinstance(a.get(k, b.get(k)), (dict, list)):
                 found["ignored"].add(f"{k} (only in {'before' if k in a else 'after'})")
+            elif a.get(k, b.get(k)) in ([], {}):
+                # A field one side added and left empty says nothing the other does not.
+                found["ignored"].add(f"{k} (empty, only in {'before' if k in a else 'after'})")
             else:
                 differ(math.inf, math.inf, f"{path}/{k} (only in {'before' if k in a else 'after'})")
     elif isinstance(a, list) and isinstance(b, list):

@@ -56,6 +56,7 @@
 //! * [`constant_curvature`]: the kinematic constant-curvature model, planar and tri-tube.
 //! * [`cup`]: whether a suction cup holds under a hold's reaction: pull-off, peel, slip.
 //! * [`hold`]: which cups hold a body and where (rear, front, both, a free front joint), planar and 3D.
+//! * [`hose`]: the hose's stop, a joint limit at its minimum bend radius, composed onto a body among solids.
 //! * [`contact`]: contact rows between a body and a scene's solids, planar and 3D.
 //! * [`stance3`]: the three-tube body held by its cups and among solids; each cup's reaction and verdict.
 //! * [`stance`]: the body held by its rear cup, its front cup or both; the reactions on the cups.
@@ -91,6 +92,7 @@ pub mod files;
 pub mod geom;
 pub mod geom3;
 pub mod hold;
+pub mod hose;
 pub mod inverse_statics;
 pub mod least_squares;
 pub mod linalg;

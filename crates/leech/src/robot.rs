@@ -73,16 +73,34 @@ pub struct Tube {
     /// estimated as `k / 1.3` ([`Tube::torsion_stiffness`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub torsion_stiffness_nm_per_rad: Option<f64>,
+    /// Stiffness of one joint locked at the hose's stop (N m/rad,
+    /// [`crate::hose`]); `None`: not measured, estimated as
+    /// [`STOP_PER_JOINT_STIFFNESS`] times `k` ([`Tube::stop_stiffness`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stop_stiffness_nm_per_rad: Option<f64>,
 }
 
 /// `k / kt` assumed while a tube's torsional stiffness is not measured
 /// (a thin tube's `GJ / EI = 1 / (1 + nu)` with Poisson's ratio 0.3).
 pub const BENDING_PER_TORSION: f64 = 1.3;
 
+/// The locked hose's stiffness per joint over the free tube's `k`, assumed
+/// while it is not measured (an ESTIMATE: a stripwound hose at its stop is
+/// a chain of interlocked steel strip, far stiffer than the free tubes; two
+/// orders of magnitude keep a locked joint within about 1 % of its stop
+/// under the robot's own weight).
+pub const STOP_PER_JOINT_STIFFNESS: f64 = 100.0;
+
 impl Tube {
     /// Torsional stiffness of one joint `kt` (N m/rad): the file's value, else `k / 1.3`.
     pub fn torsion_stiffness(&self) -> f64 {
         self.torsion_stiffness_nm_per_rad.unwrap_or(self.joint_stiffness_nm_per_rad / BENDING_PER_TORSION)
+    }
+
+    /// The stiffness of a joint locked at the hose's stop (N m/rad): as
+    /// given, or [`STOP_PER_JOINT_STIFFNESS`] times `k`.
+    pub fn stop_stiffness(&self) -> f64 {
+        self.stop_stiffness_nm_per_rad.unwrap_or(self.joint_stiffness_nm_per_rad * STOP_PER_JOINT_STIFFNESS)
     }
 }
 
@@ -354,6 +372,7 @@ struct RawTube {
     min_bend_radius_m: Option<f64>,
     outer_diameter_m: Option<f64>,
     torsion_stiffness_nm_per_rad: Option<f64>,
+    stop_stiffness_nm_per_rad: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -429,6 +448,7 @@ impl Robot {
                 min_bend_radius_m: raw.tube.min_bend_radius_m.unwrap_or(DEFAULT_MIN_BEND_RADIUS_M),
                 outer_diameter_m: raw.tube.outer_diameter_m.unwrap_or(DEFAULT_TUBE_OUTER_DIAMETER_M),
                 torsion_stiffness_nm_per_rad: raw.tube.torsion_stiffness_nm_per_rad,
+                stop_stiffness_nm_per_rad: raw.tube.stop_stiffness_nm_per_rad,
             },
             body: raw.body,
             world: raw.world,
@@ -458,6 +478,9 @@ impl Robot {
         within("tube.outer_diameter_m", self.tube.outer_diameter_m, OUTER_DIAMETER_M.0, OUTER_DIAMETER_M.1)?;
         if let Some(kt) = self.tube.torsion_stiffness_nm_per_rad {
             positive("tube.torsion_stiffness_nm_per_rad", kt)?;
+        }
+        if let Some(ks) = self.tube.stop_stiffness_nm_per_rad {
+            positive("tube.stop_stiffness_nm_per_rad", ks)?;
         }
         non_negative("driving_unit.mass_kg", self.driving_unit.mass_kg)?;
         self.cup.validate()?;
@@ -613,8 +636,10 @@ impl Robot {
             robot.tube.element_length_m *= s;
             robot.tube.element_mass_kg *= s;
             robot.tube.joint_stiffness_nm_per_rad *= s * s;
-            if let Some(kt) = &mut robot.tube.torsion_stiffness_nm_per_rad {
-                *kt *= s * s;
+            for stiffness in [&mut robot.tube.torsion_stiffness_nm_per_rad, &mut robot.tube.stop_stiffness_nm_per_rad] {
+                if let Some(k) = stiffness {
+                    *k *= s * s;
+                }
             }
             robot.tube.joint_damping_nms_per_rad *= s * s * s.sqrt();
             robot.tube.min_bend_radius_m *= s;

@@ -61,6 +61,7 @@
 
 use crate::chain::Chain;
 use crate::geom::{dot, norm, sub, Vec2};
+use crate::hose::{Stop, StopRow};
 use crate::scene::{Scene, Solid};
 use crate::statics::{Evaluation, Stage, StaticSystem};
 
@@ -113,6 +114,36 @@ pub trait Touching: StaticSystem + Sized + Clone {
     /// The first contact row's index.
     fn contact_row(&self) -> usize {
         self.rows() - self.contacts().len()
+    }
+
+    /// The hose's stop of chain `c`'s joints ([`crate::hose`]); `None`, the
+    /// default, where the chain has no stop.
+    fn stop(&self, _c: usize) -> Option<Stop> {
+        None
+    }
+
+    /// Chain `c`'s joint turns at `q` into `out` (rad, cleared first; 0 at
+    /// the clamp), where [`Touching::stop`] gives a stop.
+    fn joint_turns(&self, _q: &[f64], _c: usize, out: &mut Vec<f64>) {
+        out.clear();
+    }
+
+    /// The hose's stop rows, just before the contact rows. None by default.
+    fn stops(&self) -> &[StopRow] {
+        &[]
+    }
+
+    /// The same system with these stop rows (replacing any it had). A
+    /// system without a stop ([`Touching::stop`]) is given none.
+    fn with_stops(self, stops: Vec<StopRow>) -> Self {
+        assert!(stops.is_empty(), "stop rows for a system without a hose stop");
+        self
+    }
+
+    /// The first stop row's index: the rows before it (the weld's, the
+    /// holds') are the system's own.
+    fn stop_row(&self) -> usize {
+        self.contact_row() - self.stops().len()
     }
 
     /// Where contact row `contact` touches (m).

@@ -9,7 +9,7 @@ use crate::cup::CupVerdict;
 use crate::geom::Vec2;
 use crate::robot::Robot;
 use crate::scene::{Scene, Solid};
-use crate::stance::{ContactForce, CupState, Held, Reaction};
+use crate::stance::{ContactForce, CupState, Held, Reaction, StopMoment};
 
 /// The rear and the front cup as [`Held::cups`] judges them.
 pub type Cups = (Option<CupState>, Option<CupState>);
@@ -86,6 +86,9 @@ pub struct StanceReport {
     pub holds: Holds,
     /// The surfaces pushing on the tubes (none without a scene).
     pub contacts: Vec<ContactForce>,
+    /// The joints locked at the hose's stop and the moments it carries
+    /// there (among solids; none in free space).
+    pub hose_stops: Vec<StopMoment>,
     /// Where the rear cup's face is, holding or not (m).
     pub rear_cup_m: Vec2,
     /// Where the front cup's face is, holding or not (m).
@@ -115,6 +118,7 @@ impl StanceReport {
             driving_unit_angle_rad: held.unit.angle_rad,
             holds: Holds { rear: hold(&held.rear, &cups.0), front: hold(&held.front, &cups.1) },
             contacts: held.contacts.clone(),
+            hose_stops: held.stops.clone(),
             rear_cup_m: held.rear_cup_m(robot),
             front_cup_m: held.front_cup_m(robot),
             penetration_m: scene.map_or(0.0, |s| held.penetration_m(robot, s)),

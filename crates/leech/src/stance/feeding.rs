@@ -6,6 +6,7 @@ use super::scene_solve::{self, Pushing};
 use super::StanceError;
 use crate::contact::planar::{self as contact, ContactRow, Touching};
 use crate::error::InputError;
+use crate::hose::StopRow;
 use crate::scene::Scene;
 use crate::statics::{Equilibrium, SolveError, Solver};
 
@@ -66,11 +67,32 @@ pub(super) struct Feeding<'a, F> {
 }
 
 /// Where a feed ends: the shape at the end, its settled equilibrium and the
-/// contact rows it settled with (the system's last rows).
+/// rows it settled with: the hose's stop rows, then the contact rows (the
+/// system's last rows).
 pub(super) struct FedEnd<S> {
     pub shape: S,
     pub equilibrium: Equilibrium,
+    pub stops: Vec<StopRow>,
     pub contacts: Vec<ContactRow>,
+}
+
+/// A step's settled solve, as the feed goes on from it.
+struct Accepted {
+    pushing: Vec<Pushing>,
+    stops: Vec<StopRow>,
+    contacts: Vec<ContactRow>,
+    equilibrium: Equilibrium,
+}
+
+impl Accepted {
+    fn new<S: Touching>(settled: scene_solve::Settled<S>) -> Accepted {
+        Accepted {
+            pushing: settled.pushing(),
+            stops: settled.system.stops().to_vec(),
+            contacts: settled.system.contacts().to_vec(),
+            equilibrium: settled.equilibrium,
+        }
+    }
 }
 
 impl<F: Fed> Feeding<'_, F> {
@@ -130,11 +152,7 @@ impl<F: Fed> Feeding<'_, F> {
                         self.radius,
                         self.solver,
                     )?;
-                    Ok::<_, StanceError>(Some((
-                        snapped.pushing(),
-                        snapped.system.contacts().to_vec(),
-                        snapped.equilibrium,
-                    )))
+                    Ok::<_, StanceError>(Some(Accepted::new(snapped)))
                 };
                 match outcome {
                     Ok(settled) => {
@@ -142,7 +160,7 @@ impl<F: Fed> Feeding<'_, F> {
                         let clear = contact::swept_clear((&before, &q), end, self.scene);
                         let eq = &settled.equilibrium;
                         if clear && (last_chance || eq.stable) {
-                            Some((settled.pushing(), settled.system.contacts().to_vec(), settled.equilibrium))
+                            Some(Accepted::new(settled))
                         } else if last_chance && !clear {
                             // Even the shortest step jumps through a solid:
                             // the branch ended (a fold), and the settle leapt
@@ -172,11 +190,11 @@ impl<F: Fed> Feeding<'_, F> {
                 }
             };
             match accepted {
-                Some((now_pushing, contacts, mut equilibrium)) => {
+                Some(Accepted { pushing: now_pushing, stops, contacts, mut equilibrium }) => {
                     events.append(&mut equilibrium.events);
                     if next_fraction >= 1.0 {
                         equilibrium.events = events;
-                        return Ok(FedEnd { shape: next, equilibrium, contacts });
+                        return Ok(FedEnd { shape: next, equilibrium, stops, contacts });
                     }
                     if equilibrium.iterations <= EASY_ITERATIONS {
                         step = (2.0 * step).min(FEED_STEP_M);

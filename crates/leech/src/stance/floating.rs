@@ -7,6 +7,7 @@ use crate::chain::Chain;
 use crate::contact::planar::{chain_terms, ContactRow, Touching, FRONT_CUP, REAR_CUP};
 use crate::geom::{dot, right_normal, unit, Vec2};
 use crate::hold::{Hold, Pose};
+use crate::hose::{Stop, StopRow};
 use crate::statics::{Constraints, Evaluation, Path, PathTerms, Potential, Row, RowKind, Stage, StaticSystem};
 
 /// Free coordinates: `p0` (x, y; m) and `phi0` (rad), after the chains' angles.
@@ -57,6 +58,9 @@ pub struct FloatingBody<'a> {
     approach: Approach,
     contacts: Vec<ContactRow>,
     faces: Option<CupFaces>,
+    /// The hose's minimum bend radius (m) and locked stiffness (N m/rad), where it stops the joints.
+    hose: Option<(f64, f64)>,
+    stops: Vec<StopRow>,
 }
 
 /// Where the cups' faces sit, for a body whose free cups rest on surfaces:
@@ -117,7 +121,27 @@ impl<'a> FloatingBody<'a> {
     /// pose: A's clamp point and direction), with base spacing `b` (m), the
     /// driving unit's mass (kg) at the midpoint of the clamps, and `hold`.
     pub fn new(body: &'a Body, base_spacing: f64, unit_mass: f64, hold: Hold, approach: Approach) -> FloatingBody<'a> {
-        FloatingBody { body, base_spacing, unit_mass, hold, approach, contacts: Vec::new(), faces: None }
+        FloatingBody {
+            body,
+            base_spacing,
+            unit_mass,
+            hold,
+            approach,
+            contacts: Vec::new(),
+            faces: None,
+            hose: None,
+            stops: Vec::new(),
+        }
+    }
+
+    /// The same body with the hose's stop at `min_bend_radius` (m),
+    /// `stiffness` (N m/rad) stiff there ([`crate::hose`]): its stop rows,
+    /// found at each solved shape, keep every joint within
+    /// `l / min_bend_radius` but for the give of the locked hose. No stop
+    /// for a radius of 0.
+    pub fn with_hose_stop(mut self, min_bend_radius: f64, stiffness: f64) -> Self {
+        self.hose = (min_bend_radius > 0.0).then_some((min_bend_radius, stiffness));
+        self
     }
 
     /// The same body with the cups' faces in the world: a cup that does not
@@ -421,12 +445,15 @@ impl Potential for FloatingBody<'_> {
 impl Constraints for FloatingBody<'_> {
     fn rows(&self) -> usize {
         let (rear, front) = (self.hold.rear().is_some(), self.hold.front().is_some());
-        WELD_ROWS + HOLD_ROWS * (usize::from(rear) + usize::from(front)) + self.contacts.len()
+        WELD_ROWS + HOLD_ROWS * (usize::from(rear) + usize::from(front)) + self.stops.len() + self.contacts.len()
     }
 
     fn row(&self, r: usize) -> Row {
         if r >= self.contact_row() {
             return Row { kind: RowKind::Inequality, scale: self.body.row(0).scale };
+        }
+        if r >= Touching::stop_row(self) {
+            return Row { kind: RowKind::Inequality, scale: 1.0 };
         }
         // Positions in element lengths, angles in radians, as the weld.
         let position = (r - WELD_ROWS.min(r)) % HOLD_ROWS < 2;
@@ -467,6 +494,10 @@ impl Constraints for FloatingBody<'_> {
             self.front_rows(q, row, pose, &oa, ev);
             ev.compliance[row..row + HOLD_ROWS].copy_from_slice(&self.front_softness(t).0);
         }
+        let stop_row = Touching::stop_row(self);
+        for (i, stop) in self.stops.iter().enumerate() {
+            self.stop_terms(q, stop_row + i, stop, ev);
+        }
         let first = self.contact_row();
         for (i, contact) in self.contacts.iter().enumerate() {
             match contact.chain {
@@ -506,6 +537,18 @@ impl FloatingBody<'_> {
 }
 
 impl FloatingBody<'_> {
+    /// A stop row `beta_max - s (phi_j - phi_(j-1))` at `row`, the joint at
+    /// the clamp turning from the driving unit's angle `phi0`.
+    fn stop_terms(&self, q: &[f64], row: usize, stop: &StopRow, ev: &mut Evaluation) {
+        let (n, m) = (self.chains(), ev.rows());
+        let at = self.attachments()[stop.chain].first + stop.joint;
+        let before = if stop.joint == 0 { n + 2 } else { at - 1 };
+        ev.constraints[row] = stop.value(q[at] - q[before]);
+        ev.jacobian[at * m + row] = -stop.sign;
+        ev.jacobian[before * m + row] = stop.sign;
+        ev.compliance[row] = stop.stop.compliance;
+    }
+
     /// A contact row `n . x - h` at `row`: `x` moves with the links before
     /// it, its own link by the fraction, and the driving unit's pose.
     fn contact_terms(&self, q: &[f64], row: usize, contact: &ContactRow, ev: &mut Evaluation) {
@@ -574,6 +617,33 @@ impl Touching for FloatingBody<'_> {
 
     fn with_contacts(self, contacts: Vec<ContactRow>) -> Self {
         FloatingBody::with_contacts(self, contacts)
+    }
+
+    fn stop(&self, c: usize) -> Option<Stop> {
+        let (radius, stiffness) = self.hose?;
+        Stop::new(self.attachments()[c].chain.element_length(), radius, stiffness)
+    }
+
+    fn joint_turns(&self, q: &[f64], c: usize, out: &mut Vec<f64>) {
+        let att = &self.attachments()[c];
+        let angles = &q[att.first..att.first + att.chain.len()];
+        let mut before = q[self.chains() + 2];
+        out.clear();
+        out.extend(angles.iter().map(|phi| {
+            let turn = phi - before;
+            before = *phi;
+            turn
+        }));
+    }
+
+    fn stops(&self) -> &[StopRow] {
+        &self.stops
+    }
+
+    fn with_stops(mut self, stops: Vec<StopRow>) -> Self {
+        assert!(stops.is_empty() || self.hose.is_some(), "stop rows for a body without a hose stop");
+        self.stops = stops;
+        self
     }
 
     /// With the front cup holding, the plate's pose fixes each chain's last

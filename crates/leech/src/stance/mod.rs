@@ -76,6 +76,7 @@ pub use crate::contact::planar::{
 };
 pub use crate::error::StanceError;
 pub use crate::hold::{Hold, Pose};
+pub use crate::hose::{StopMoment, StopRow};
 pub use feeding::{FALLBACK_STEP_M, FEED_STEP_M, MIN_FEED_STEP_M};
 pub use floating::{Approach, CupFaces, FloatingBody, FREE, HOLD_ROWS};
 pub use phases::{solve_after, RELEASE_SPAN_M};
@@ -84,6 +85,7 @@ pub use tube::{tube_in, Tube, TubeHeld, TUBE_FEED_START_M};
 use crate::body::{Body, WELD_ROWS};
 use crate::error::InputError;
 use crate::geom::{rotate, sub, Vec2};
+use crate::hose;
 use crate::robot::Robot;
 use crate::scene::Scene;
 use crate::statics::{Equilibrium, Iterate, Potential, Scratch, SolveError, Solver, Stage};
@@ -126,6 +128,12 @@ pub struct Held {
     /// rows, in the order of the multipliers): what a phase that continues
     /// from it starts resting on ([`solve_after`]).
     pub contact_rows: Vec<ContactRow>,
+    /// The joints locked at the hose's stop (a moment above zero;
+    /// [`crate::hose`]).
+    pub stops: Vec<StopMoment>,
+    /// The stop rows the equilibrium was solved with (just before the
+    /// contact rows, in the order of the multipliers).
+    pub stop_rows: Vec<StopRow>,
 }
 
 /// A surface pushing on a tube, or on the face of a cup that does not hold.
@@ -321,8 +329,10 @@ pub enum FreeCups {
 }
 
 impl FreeCups {
-    /// `floating` with `robot`'s cup faces when they rest on the solids.
+    /// `floating` as it is among solids: with `robot`'s hose stop, and its
+    /// cup faces when they rest on the solids.
     fn on<'a>(self, robot: &Robot, floating: FloatingBody<'a>) -> FloatingBody<'a> {
+        let floating = floating.with_hose_stop(robot.tube.min_bend_radius_m, robot.tube.stop_stiffness());
         match self {
             FreeCups::Rest => floating.with_cup_faces(cup_faces(robot)),
             FreeCups::PassThrough => floating,
@@ -378,8 +388,10 @@ pub fn solve_among(
 /// The held body where a feed (or a release) ended, `hold` holding it.
 fn fed_end(robot: &Robot, end: feeding::FedEnd<Body>, hold: Hold, cups: FreeCups) -> Held {
     let (b, unit_mass) = (robot.body.base_spacing_m, robot.driving_unit.mass_kg);
-    let floating =
-        cups.on(robot, FloatingBody::new(&end.shape, b, unit_mass, hold, Approach::Load)).with_contacts(end.contacts);
+    let floating = cups
+        .on(robot, FloatingBody::new(&end.shape, b, unit_mass, hold, Approach::Load))
+        .with_stops(end.stops)
+        .with_contacts(end.contacts);
     Held::settled(scene_solve::Settled { system: floating, equilibrium: end.equilibrium })
 }
 
@@ -523,6 +535,18 @@ impl Held {
         self.body.chain_a().min_bend_radius_from(angle, qa).min(self.body.chain_b().min_bend_radius_from(angle, qb))
     }
 
+    /// Whether no joint of `robot`'s tubes is turned past the hose's stop
+    /// (`[tube] min_bend_radius_m`) but by what its locked moment takes up
+    /// ([`hose::overturn`]): always so for a solve among solids, which
+    /// locks the joints there; a shape solved in free space may not be.
+    pub fn within_stop(&self, robot: &Robot) -> bool {
+        let floating = FloatingBody::new(&self.body, robot.body.base_spacing_m, 0.0, self.hold, Approach::Load)
+            .with_hose_stop(robot.tube.min_bend_radius_m, robot.tube.stop_stiffness())
+            .with_stops(self.stop_rows.clone());
+        let first = Touching::stop_row(&floating);
+        hose::overturn(&floating, &self.equilibrium.q, &self.equilibrium.multipliers[first..]) <= hose::AT_STOP_RAD
+    }
+
     fn new(floating: &FloatingBody<'_>, equilibrium: Equilibrium) -> Held {
         let hold = floating.hold();
         let reaction = |row: usize| Reaction {
@@ -538,9 +562,29 @@ impl Held {
             REAR_CUP => "rear_cup",
             _ => "front_cup",
         });
+        let first_stop = Touching::stop_row(floating);
+        let stops = floating
+            .stops()
+            .iter()
+            .zip(&equilibrium.multipliers[first_stop..])
+            .filter(|(_, moment)| **moment > 0.0)
+            .map(|(stop, moment)| {
+                let points = floating.chain_points(&equilibrium.q, stop.chain);
+                let joint = points.len() - floating.chain_len(stop.chain) - 1 + stop.joint;
+                StopMoment {
+                    chain: ["a", "b"][stop.chain],
+                    joint: stop.joint,
+                    point_m: points[joint],
+                    sign: stop.sign,
+                    moment_nm: *moment,
+                }
+            })
+            .collect();
         Held {
             contacts,
             contact_rows: floating.contacts().to_vec(),
+            stops,
+            stop_rows: floating.stops().to_vec(),
             hold,
             body: floating.body().clone(),
             unit: floating.unit_pose(&equilibrium.q),

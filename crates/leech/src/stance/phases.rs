@@ -40,6 +40,7 @@ use super::feeding::{Fed, FedEnd, Feeding, FEED_STEP_M};
 use super::scene_solve::{Pushing, Settled, APPROACH_STAGES};
 use super::{fed_end, front_attached, Approach, BodyFeed, FloatingBody, FreeCups, Held, Hold, StanceError};
 use crate::body::Body;
+use crate::contact::planar::Touching;
 use crate::error::InputError;
 use crate::robot::Robot;
 use crate::scene::Scene;
@@ -104,7 +105,9 @@ pub fn solve_after(
 
 /// The contacts `held` rests on, as a feed carries them from step to step.
 fn resting(robot: &Robot, held: &Held, cups: FreeCups) -> Vec<Pushing> {
-    let system = system(robot, &held.body, held.hold, Approach::Load, cups).with_contacts(held.contact_rows.clone());
+    let system = system(robot, &held.body, held.hold, Approach::Load, cups)
+        .with_stops(held.stop_rows.clone())
+        .with_contacts(held.contact_rows.clone());
     Settled { system, equilibrium: held.equilibrium.clone() }.pushing()
 }
 
@@ -153,7 +156,7 @@ fn handed_over(
         from.equilibrium.q.clone(),
         resting(robot, from, cups),
     )?;
-    let end = FedEnd { shape: end.shape.body, equilibrium: end.equilibrium, contacts: end.contacts };
+    let end = FedEnd { shape: end.shape.body, equilibrium: end.equilibrium, stops: end.stops, contacts: end.contacts };
     Ok(fed_end(robot, end, hold, cups))
 }
 

@@ -8,6 +8,7 @@ use crate::contact::planar::{
     self as contact, detect, displacement, on_cup, penetration, ContactOptions, ContactRow, Touching,
 };
 use crate::geom::dot;
+use crate::hose::{self, StopRow};
 use crate::scene::Scene;
 use crate::statics::{Equilibrium, Event, Iterate, Scratch, SolveError, Solver, StopReason};
 
@@ -236,7 +237,7 @@ fn settle_rounds<S: Touching>(
     // their closest surfaces, no guards, no restarts.
     let thorough = solver.options.tuning.block_at_rows;
     let options = &ContactOptions { whole_faces: thorough, ..*options };
-    let mut rows = Vec::new();
+    let (mut rows, mut stops) = (Vec::new(), Vec::new());
     let mut iterations = settled.equilibrium.iterations;
     let mut events = std::mem::take(&mut settled.equilibrium.events);
     let mut solved = false;
@@ -256,8 +257,13 @@ fn settle_rounds<S: Touching>(
         if solved && moved.is_some_and(|d| d > options.margin) {
             guard(&settled, &mut rows, options);
         }
+        hose::detect(&settled.system, &settled.equilibrium.q, &mut stops);
         let deep = penetration(&settled.system, &settled.equilibrium.q, scene, radius);
-        if solved && deep <= options.penetration_tolerance && still_settled(&settled, &rows, options) {
+        if solved
+            && deep <= options.penetration_tolerance
+            && still_settled(&settled, &rows, options)
+            && stops_settled(&settled, &stops)
+        {
             settled.equilibrium.iterations = iterations;
             settled.equilibrium.events = events;
             return Ok(settled);
@@ -280,12 +286,16 @@ fn settle_rounds<S: Touching>(
             }
             settled.equilibrium = Equilibrium { iterations: settled.equilibrium.iterations, ..start };
             pushing = start_pushing;
+            // The joints near their stops at the start too.
+            let mut near_start = Vec::new();
+            hose::detect(&settled.system, &settled.equilibrium.q, &mut near_start);
+            merge_stops(&mut stops, near_start);
         } else if thorough && deep <= options.penetration_tolerance {
             // Only the blocking pass goes back to a start: the plain one
             // keeps no copy of it.
             from = Some((settled.equilibrium.clone(), pushing.clone(), rows.clone()));
         }
-        let system = settled.system.with_contacts(rows.clone());
+        let system = settled.system.with_contacts(rows.clone()).with_stops(stops.clone());
         let mut it = warm_iterate(&system, &settled.equilibrium, &pushing);
         let equilibrium = Scratch::with_spare(&system, |ws| {
             let residual = solver.minimize(&system, &mut it, t, stage, ws)?;
@@ -358,7 +368,7 @@ pub(super) fn descended<S: Touching>(
     let start_q = q.clone();
     let mut current = Settled { equilibrium: start(&system, q), system };
     let mut pushing = pushing.to_vec();
-    let mut rows = Vec::new();
+    let (mut rows, mut stops) = (Vec::new(), Vec::new());
     let mut descent = solver.clone();
     descent.options.tuning.block_at_rows = true;
     descent.options.max_minimization_iterations = DESCENT_ITERATIONS;
@@ -369,7 +379,8 @@ pub(super) fn descended<S: Touching>(
     for _ in 0..DESCENT_ROUNDS {
         detect(&current.system, &current.equilibrium.q, scene, radius, &options, &mut rows);
         carry(&current.system, &pushing, &mut rows);
-        if converged && still_settled(&current, &rows, &options) {
+        hose::detect(&current.system, &current.equilibrium.q, &mut stops);
+        if converged && still_settled(&current, &rows, &options) && stops_settled(&current, &stops) {
             current.equilibrium.iterations = iterations;
             let jump_rad = sup_distance(&start_q, &current.equilibrium.q);
             current.equilibrium.events.push(Event::Snap { stage, at: 1.0, jump_rad });
@@ -377,7 +388,7 @@ pub(super) fn descended<S: Touching>(
         }
         descent.options.trust_radius = step;
         // A copy: a leg that sweeps through a solid is taken again from here.
-        let system = current.system.clone().with_contacts(rows.clone());
+        let system = current.system.clone().with_contacts(rows.clone()).with_stops(stops.clone());
         let mut it = warm_iterate(&system, &current.equilibrium, &pushing);
         let leg = Scratch::with_spare(&system, |ws| descent.descend(&system, &mut it, 1.0, stage, ws));
         let (residual, verdict) = match leg {
@@ -454,12 +465,24 @@ fn sup_distance(a: &[f64], b: &[f64]) -> f64 {
 /// fall through what holds it; violated rows join one at a time.
 fn warm_iterate<S: Touching>(system: &S, previous: &Equilibrium, pushing: &[Pushing]) -> Iterate {
     let mut it = Iterate::new(previous.q.clone());
-    let first = system.contact_row();
+    let own = system.stop_row();
     let rows = system.rows();
     it.lambda = vec![0.0; rows];
     it.active = vec![false; rows];
-    it.active[..first].fill(true);
-    it.lambda[..first].copy_from_slice(&previous.multipliers[..first]);
+    it.active[..own].fill(true);
+    it.lambda[..own].copy_from_slice(&previous.multipliers[..own]);
+    // A joint at its stop starts locked, its moment coming with the first
+    // step; one turned past it too (a solve that ran past a joint it had no
+    // row for), which the first step takes back to the stop: the row is
+    // linear.
+    let mut turns = Vec::new();
+    for chain in 0..system.chain_count() {
+        system.joint_turns(&previous.q, chain, &mut turns);
+        for (i, stop) in system.stops().iter().enumerate().filter(|(_, s)| s.chain == chain) {
+            it.active[own + i] = stop.reached(turns[stop.joint]);
+        }
+    }
+    let first = system.contact_row();
     for (i, row) in system.contacts().iter().enumerate() {
         if let Some(known) = pushing.iter().find(|p| p.matches(system, row)) {
             it.lambda[first + i] = known.force;
@@ -484,6 +507,26 @@ fn still_settled<S: Touching>(settled: &Settled<S>, rows: &[ContactRow], options
     let clear = |r: &ContactRow| dot(r.normal, system.contact_point(q, r)) - r.offset >= -options.penetration_tolerance;
     pushing_rows(system, &settled.equilibrium).all(|(p, _)| rows.iter().any(|r| same_row(p, r)))
         && rows.iter().all(clear)
+}
+
+/// Whether the settled equilibrium keeps the hose's stops for the freshly
+/// detected `stops` too: every locked joint (a moment above zero) is among
+/// them, and no joint is turned past its stop.
+fn stops_settled<S: Touching>(settled: &Settled<S>, stops: &[StopRow]) -> bool {
+    let (system, eq) = (&settled.system, &settled.equilibrium);
+    let first = system.stop_row();
+    let locked = system.stops().iter().zip(&eq.multipliers[first..]).filter(|(_, moment)| **moment > 0.0);
+    locked.into_iter().all(|(s, _)| stops.iter().any(|f| f.same_joint(s)))
+        && hose::overturn(system, &eq.q, &eq.multipliers[first..]) <= hose::AT_STOP_RAD
+}
+
+/// Adds to `stops` the rows of `more` for joints it has no row for.
+fn merge_stops(stops: &mut Vec<StopRow>, more: Vec<StopRow>) {
+    for stop in more {
+        if !stops.iter().any(|s| s.same_joint(&stop)) {
+            stops.push(stop);
+        }
+    }
 }
 
 /// Adds to the fresh `rows` the last solve's rows that did not push and are

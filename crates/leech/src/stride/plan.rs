@@ -840,8 +840,8 @@ impl Planner<'_> {
                 at: None,
             });
         }
-        let radius = step.held.min_bend_radius();
-        if !(radius >= self.robot.tube.min_bend_radius_m) {
+        if !step.held.within_stop(self.robot) {
+            let radius = step.held.min_bend_radius();
             return Err(Rejection {
                 blocking: Blocking::BendRadius,
                 phase,
@@ -967,7 +967,7 @@ impl Planner<'_> {
                     continue;
                 }
                 let Some((centre, angle, held)) = self.face_held(holding, moving, lengths) else { continue };
-                if !self.flush(centre, angle) || !(held.min_bend_radius() >= self.robot.tube.min_bend_radius_m) {
+                if !self.flush(centre, angle) || !held.within_stop(self.robot) {
                     continue;
                 }
                 if let Some((on, direction)) = self.scene.surface_frame(centre) {
