@@ -73,7 +73,8 @@ impl Stop {
     /// `min_bend_radius` (m) and locked stiffness `stiffness` (N m/rad);
     /// `None` without a stop (`min_bend_radius` 0).
     pub fn new(element_length: f64, min_bend_radius: f64, stiffness: f64) -> Option<Stop> {
-        (min_bend_radius > 0.0).then(|| Stop { limit_rad: element_length / min_bend_radius, compliance: 1.0 / stiffness })
+        (min_bend_radius > 0.0)
+            .then(|| Stop { limit_rad: element_length / min_bend_radius, compliance: 1.0 / stiffness })
     }
 }
 
@@ -143,9 +144,11 @@ pub fn overturn<S: Touching>(system: &S, q: &[f64], moments: &[f64]) -> f64 {
         let Some(stop) = system.stop(chain) else { continue };
         system.joint_turns(q, chain, &mut turned);
         for (joint, beta) in turned.iter().enumerate() {
-            let held = system.stops().iter().zip(moments).find(|(s, _)| {
-                s.chain == chain && s.joint == joint && s.sign == beta.signum()
-            });
+            let held = system
+                .stops()
+                .iter()
+                .zip(moments)
+                .find(|(s, _)| s.chain == chain && s.joint == joint && s.sign == beta.signum());
             let give = held.map_or(0.0, |(s, moment)| s.stop.compliance * moment.max(0.0));
             deepest = deepest.max(beta.abs() - stop.limit_rad - give);
         }
@@ -174,9 +177,10 @@ mod tests {
 
     #[test]
     fn a_row_is_zero_at_its_stop_and_positive_short_of_it() {
-        let stop = Stop::new(0.01, 0.025, 50.0).unwrap();
-        assert_eq!(stop, Stop { limit_rad: 0.4, compliance: 0.02 });
+        let made = Stop::new(0.01, 0.025, 50.0).unwrap();
+        assert!((made.limit_rad - 0.4).abs() < 1e-15 && made.compliance == 0.02, "{made:?}");
         assert_eq!(Stop::new(0.01, 0.0, 50.0), None);
+        let stop = Stop { limit_rad: 0.4, compliance: 0.02 };
         let row = StopRow { chain: 0, joint: 3, sign: -1.0, stop };
         assert_eq!(row.value(-0.4), 0.0);
         assert!(row.reached(-0.4 + 0.5 * AT_STOP_RAD) && row.reached(-0.5) && !row.reached(-0.39));

@@ -63,7 +63,9 @@ pub struct Tube {
     pub joint_stiffness_nm_per_rad: f64,
     /// Joint damping `d` (N m s/rad).
     pub joint_damping_nms_per_rad: f64,
-    /// Tightest bend the real tube takes (m); sweeps mark tighter shapes infeasible.
+    /// Tightest bend the real tube takes (m): the hose's stop, where joints
+    /// lock among solids ([`crate::hose`]); free-space sweeps mark tighter
+    /// shapes infeasible. 0: no stop.
     pub min_bend_radius_m: f64,
     /// The tube's outer diameter (m): contacts with a surface keep a tube's
     /// axis at least its radius away.
@@ -83,6 +85,10 @@ pub struct Tube {
 /// `k / kt` assumed while a tube's torsional stiffness is not measured
 /// (a thin tube's `GJ / EI = 1 / (1 + nu)` with Poisson's ratio 0.3).
 pub const BENDING_PER_TORSION: f64 = 1.3;
+
+/// The tubes each chain of the planar body stands for: chain A the centre
+/// tube, chain B the side pair lumped (twice the stiffness and mass).
+pub const TUBES_PER_CHAIN: [f64; 2] = [1.0, 2.0];
 
 /// The locked hose's stiffness per joint over the free tube's `k`, assumed
 /// while it is not measured (an ESTIMATE: a stripwound hose at its stop is
@@ -476,6 +482,20 @@ impl Robot {
         within("world.gravity_m_per_s2", self.world.gravity_m_per_s2, 0.0, 1e3)?;
         within("world.base_angle_deg", self.world.base_angle_deg, -360.0, 360.0)?;
         within("tube.outer_diameter_m", self.tube.outer_diameter_m, OUTER_DIAMETER_M.0, OUTER_DIAMETER_M.1)?;
+        // A stop no joint can reach: tighter than the hose's own radius, or
+        // than the l / pi of a joint turned right back on itself.
+        let tightest = (0.5 * self.tube.outer_diameter_m).max(self.tube.element_length_m / std::f64::consts::PI);
+        let stop = self.tube.min_bend_radius_m;
+        if stop != 0.0 && stop < tightest {
+            return Err(InputError::invalid(
+                "tube.min_bend_radius_m",
+                stop,
+                format!(
+                    "0 (no stop) or at least {} m: the tube's radius, or l / pi where that is more (a stop tighter is never reached)",
+                    Num(tightest)
+                ),
+            ));
+        }
         if let Some(kt) = self.tube.torsion_stiffness_nm_per_rad {
             positive("tube.torsion_stiffness_nm_per_rad", kt)?;
         }
@@ -728,8 +748,9 @@ impl Robot {
         }
         let nu = right_normal(self.world.base_angle_deg.to_radians());
         let b = self.body.base_spacing_m;
-        let a = Chain::new(&self.spec(la, 1.0, 0.0, [0.0, 0.0]));
-        let chain_b = Chain::new(&self.spec(lb, 2.0, self.body.payload_kg, [b * nu[0], b * nu[1]]));
+        let [one, two] = TUBES_PER_CHAIN;
+        let a = Chain::new(&self.spec(la, one, 0.0, [0.0, 0.0]));
+        let chain_b = Chain::new(&self.spec(lb, two, self.body.payload_kg, [b * nu[0], b * nu[1]]));
         Ok(Body::new(a, chain_b, self.body.tip_spacing_m, self.world.gravity_m_per_s2))
     }
 

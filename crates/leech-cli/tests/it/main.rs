@@ -147,6 +147,30 @@ fn malformed_robot_files_exit_2() {
         let e = rejected(&["shape", "--lengths", "0.2,0.2", "--robot", path.to_str().unwrap()]);
         assert!(e.contains(name), "names the file: {e}");
     }
+    // The hose's stop: one no joint can reach, a stiffness that is no stiffness.
+    for (name, text, field) in [
+        (
+            "tight.toml",
+            builtin.replace("min_bend_radius_m = 0.025", "min_bend_radius_m = 0.004"),
+            "tube.min_bend_radius_m",
+        ),
+        (
+            "soft_stop.toml",
+            builtin.replace("# stop_stiffness_nm_per_rad = 50", "stop_stiffness_nm_per_rad = -50"),
+            "tube.stop_stiffness_nm_per_rad",
+        ),
+        (
+            "nan_stop.toml",
+            builtin.replace("min_bend_radius_m = 0.025", "min_bend_radius_m = nan"),
+            "tube.min_bend_radius_m",
+        ),
+    ] {
+        assert_ne!(text, builtin, "{name}");
+        let path = dir.join(name);
+        std::fs::write(&path, text).unwrap();
+        let e = rejected(&["shape", "--lengths", "0.2,0.2", "--robot", path.to_str().unwrap()]);
+        assert!(e.contains(field) && e.contains(name), "names the file and the field: {e}");
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -58,8 +58,9 @@ pub struct FloatingBody<'a> {
     approach: Approach,
     contacts: Vec<ContactRow>,
     faces: Option<CupFaces>,
-    /// The hose's minimum bend radius (m) and locked stiffness (N m/rad), where it stops the joints.
-    hose: Option<(f64, f64)>,
+    /// The hose's minimum bend radius (m) and each chain's locked
+    /// stiffness (N m/rad), where it stops the joints.
+    hose: Option<(f64, [f64; 2])>,
     stops: Vec<StopRow>,
 }
 
@@ -134,12 +135,12 @@ impl<'a> FloatingBody<'a> {
         }
     }
 
-    /// The same body with the hose's stop at `min_bend_radius` (m),
-    /// `stiffness` (N m/rad) stiff there ([`crate::hose`]): its stop rows,
+    /// The same body with the hose's stop at `min_bend_radius` (m), each
+    /// chain `stiffness` (N m/rad) stiff there ([`crate::hose`]): its stop rows,
     /// found at each solved shape, keep every joint within
     /// `l / min_bend_radius` but for the give of the locked hose. No stop
     /// for a radius of 0.
-    pub fn with_hose_stop(mut self, min_bend_radius: f64, stiffness: f64) -> Self {
+    pub fn with_hose_stop(mut self, min_bend_radius: f64, stiffness: [f64; 2]) -> Self {
         self.hose = (min_bend_radius > 0.0).then_some((min_bend_radius, stiffness));
         self
     }
@@ -621,7 +622,7 @@ impl Touching for FloatingBody<'_> {
 
     fn stop(&self, c: usize) -> Option<Stop> {
         let (radius, stiffness) = self.hose?;
-        Stop::new(self.attachments()[c].chain.element_length(), radius, stiffness)
+        Stop::new(self.attachments()[c].chain.element_length(), radius, stiffness[c])
     }
 
     fn joint_turns(&self, q: &[f64], c: usize, out: &mut Vec<f64>) {

@@ -316,6 +316,12 @@ pub fn front_cup_centre(robot: &Robot, endpoint: Pose) -> Vec2 {
     crate::geom::add_scaled(endpoint.point_m, d, crate::geom::right_normal(endpoint.angle_rad))
 }
 
+/// Each chain's stiffness at the hose's stop (N m/rad): the tube's times
+/// the tubes the chain stands for.
+fn hose_stiffness(robot: &Robot) -> [f64; 2] {
+    crate::robot::TUBES_PER_CHAIN.map(|tubes| tubes * robot.tube.stop_stiffness())
+}
+
 /// What besides the tubes touches a scene's solids.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum FreeCups {
@@ -332,7 +338,7 @@ impl FreeCups {
     /// `floating` as it is among solids: with `robot`'s hose stop, and its
     /// cup faces when they rest on the solids.
     fn on<'a>(self, robot: &Robot, floating: FloatingBody<'a>) -> FloatingBody<'a> {
-        let floating = floating.with_hose_stop(robot.tube.min_bend_radius_m, robot.tube.stop_stiffness());
+        let floating = floating.with_hose_stop(robot.tube.min_bend_radius_m, hose_stiffness(robot));
         match self {
             FreeCups::Rest => floating.with_cup_faces(cup_faces(robot)),
             FreeCups::PassThrough => floating,
@@ -541,7 +547,7 @@ impl Held {
     /// locks the joints there; a shape solved in free space may not be.
     pub fn within_stop(&self, robot: &Robot) -> bool {
         let floating = FloatingBody::new(&self.body, robot.body.base_spacing_m, 0.0, self.hold, Approach::Load)
-            .with_hose_stop(robot.tube.min_bend_radius_m, robot.tube.stop_stiffness())
+            .with_hose_stop(robot.tube.min_bend_radius_m, hose_stiffness(robot))
             .with_stops(self.stop_rows.clone());
         let first = Touching::stop_row(&floating);
         hose::overturn(&floating, &self.equilibrium.q, &self.equilibrium.multipliers[first..]) <= hose::AT_STOP_RAD

@@ -156,7 +156,8 @@ fn a_search_out_of_time_says_so() {
     let goal = Goal { point_m: [2.0, 0.0], tolerance_m: 0.03 };
     for us in [0, 200, 1_000, 5_000, 20_000, 100_000] {
         let deadline = Deadline::after(std::time::Duration::from_micros(us));
-        let plan = stride::plan(&robot, &floor, start, goal, &PlanOptions { deadline, ..PlanOptions::default() }).unwrap();
+        let plan =
+            stride::plan(&robot, &floor, start, goal, &PlanOptions { deadline, ..PlanOptions::default() }).unwrap();
         assert_eq!(plan.status, Status::Stopped, "{us} us: {:?}", plan.reason);
         assert_eq!(plan.reason.unwrap().blocking, stride::Blocking::TimeLimit, "{us} us");
     }

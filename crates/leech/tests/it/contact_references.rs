@@ -33,7 +33,7 @@ fn free_cups(case: &Value) -> FreeCups {
 }
 
 /// The case solved as `leech shape --scene ... --rear X,Y,DEG [--free-cups rest]` does.
-fn solve(case: &Value) -> Result<Held, StanceError> {
+pub(crate) fn solve(case: &Value) -> Result<Held, StanceError> {
     let name = case["name"].as_str().unwrap();
     let robot = Robot::builtin().with_discretization(discretization(case));
     let text = case["scene_toml"].as_str().unwrap_or_else(|| panic!("{name}: no scene"));
@@ -44,7 +44,7 @@ fn solve(case: &Value) -> Result<Held, StanceError> {
 
 /// The reference is sound: Newton converged, stable, balanced, clear of the solids, the forces
 /// push, and SLSQP along its own path agrees.
-fn check_reference(case: &Value) {
+pub(crate) fn check_reference(case: &Value) {
     let name = super::holds_references::reference_converged(case);
     assert!(num(&case["penetration_m"]) < 1e-12, "{name}: reference penetrates");
     let slsqp = &case["agreement"]["slsqp_vs_newton"];
@@ -62,7 +62,7 @@ fn check_reference(case: &Value) {
 }
 
 /// Solves one case with leech and compares: what differs (joined), or the error.
-fn outcome(case: &Value) -> Result<(), String> {
+pub(crate) fn outcome(case: &Value) -> Result<(), String> {
     let name = case["name"].as_str().unwrap();
     let held = solve(case).map_err(|e| format!("error: {e}"))?;
     let mut comparison: Comparison = differences(case, &held);

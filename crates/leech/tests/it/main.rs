@@ -16,6 +16,7 @@ mod cup;
 mod derivatives;
 mod dynamics;
 mod holds_references;
+mod hose_references;
 mod inverse_statics;
 mod limits;
 mod linalg;

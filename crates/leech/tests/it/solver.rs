@@ -108,9 +108,8 @@ fn the_softest_load_passes_through_the_stiffer_ones() {
         assert!(stops[0] < stops[1] && stops[2] == 1.0);
         let fed = softest.feed_in(&solver, &mut ws).unwrap();
         let mut landed = Vec::new();
-        let last = softest
-            .load_through(&solver, fed, &stops, &mut ws, &mut |i, q| landed.push((i, q.to_vec())))
-            .unwrap();
+        let last =
+            softest.load_through(&solver, fed, &stops, &mut ws, &mut |i, q| landed.push((i, q.to_vec()))).unwrap();
         assert_eq!(landed.iter().map(|(i, _)| *i).collect::<Vec<_>>(), [0, 1, 2], "at {la}, {lb}");
         for ((i, q), own) in landed.iter().zip(&own) {
             let worst = q.iter().zip(&own.q).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
