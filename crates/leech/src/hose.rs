@@ -41,9 +41,13 @@
 //! # Limits
 //!
 //! The stop acts on each joint separately, as a linear spring past it; the
-//! hose turns freely up to it (its own bending stiffness is in `k`). It acts
-//! in the solves among solids (the staged feeds of [`crate::stance`], the
-//! planner); the clamped body in free space (`leech shape` without a scene,
+//! hose turns freely up to it (its own bending stiffness is in `k`). Every
+//! joint takes the limit of a whole element `l`, the short last element of
+//! a tube that is not a whole number of elements too (as
+//! [`Chain::min_bend_radius`](crate::chain::Chain::min_bend_radius) measures it). It acts
+//! in the two-tube body's solves among solids (the staged feeds of
+//! [`crate::stance`], the planner; not the single clamped tube of
+//! [`crate::stance::tube_in`], which is one tube without its hose); the clamped body in free space (`leech shape` without a scene,
 //! the paper's Fig. 12 sweep) marks shapes past it infeasible instead.
 //! `R_min = 0` leaves the stop out.
 
@@ -55,12 +59,20 @@ use crate::contact::planar::Touching;
 /// straight body carries no rows.
 pub const CANDIDATE_FRACTION: f64 = 0.8;
 
+/// How far past its stop (a fraction of `beta_max`) a locked joint may give
+/// in a shape the planner takes ([`crate::stance::Held::within_stop`]):
+/// under the robot's weight a joint locks within about 1 % of its stop;
+/// one that gives more is a hose crushed by lengths that ask the body for
+/// more turn than its locked joints allow, or a shape solved in free space
+/// that bends past the stop.
+pub const GIVE_FRACTION: f64 = 0.05;
+
 /// Turns closer to the stop than this (rad) count as at it, or short of it:
 /// rounding.
 pub const AT_STOP_RAD: f64 = 1e-9;
 
 /// The stop of one chain's joints.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Stop {
     /// `beta_max = l / R_min` (rad).
     pub limit_rad: f64,
@@ -80,7 +92,7 @@ impl Stop {
 
 /// One stop row: joint `joint` of chain `chain` held at or short of its stop
 /// on the side `sign`.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StopRow {
     /// The chain: 0 for A, 1 for B.
     pub chain: usize,
@@ -108,13 +120,6 @@ impl StopRow {
     pub fn same_joint(&self, other: &StopRow) -> bool {
         self.chain == other.chain && self.joint == other.joint && self.sign == other.sign
     }
-}
-
-/// The joint turns of chain `c` of `system` at `q` (rad), from the clamp.
-pub fn turns<S: Touching>(system: &S, q: &[f64], c: usize) -> Vec<f64> {
-    let mut out = Vec::new();
-    system.joint_turns(q, c, &mut out);
-    out
 }
 
 /// The stop rows of `system` at `q` into `out` (cleared first): every joint

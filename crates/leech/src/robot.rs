@@ -482,8 +482,8 @@ impl Robot {
         within("world.gravity_m_per_s2", self.world.gravity_m_per_s2, 0.0, 1e3)?;
         within("world.base_angle_deg", self.world.base_angle_deg, -360.0, 360.0)?;
         within("tube.outer_diameter_m", self.tube.outer_diameter_m, OUTER_DIAMETER_M.0, OUTER_DIAMETER_M.1)?;
-        // A stop no joint can reach: tighter than the hose's own radius, or
-        // than the l / pi of a joint turned right back on itself.
+        // A stop the robot cannot have or reach: tighter than the hose's own
+        // radius, or than the l / pi of a joint turned right back on itself.
         let tightest = (0.5 * self.tube.outer_diameter_m).max(self.tube.element_length_m / std::f64::consts::PI);
         let stop = self.tube.min_bend_radius_m;
         if stop != 0.0 && stop < tightest {
@@ -491,7 +491,7 @@ impl Robot {
                 "tube.min_bend_radius_m",
                 stop,
                 format!(
-                    "0 (no stop) or at least {} m: the tube's radius, or l / pi where that is more (a stop tighter is never reached)",
+                    "0 (no stop) or at least {} m: no hose bends tighter than its own radius, and no joint tighter than l / pi",
                     Num(tightest)
                 ),
             ));

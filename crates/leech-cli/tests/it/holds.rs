@@ -35,8 +35,8 @@ fn default_shape_keeps_its_keys_first_and_adds_the_rear_hold() {
     let text = String::from_utf8(out.stdout).unwrap();
     let before = "model status stable iterations residual steps events robot lengths_m links shape_parameter \
                   endpoint_m endpoint_angle_rad energy_j chains";
-    let added = "driving_unit_m driving_unit_angle_rad holds contacts rear_cup_m front_cup_m penetration_m weight_n \
-                 hold scene centre_of_mass_m";
+    let added = "driving_unit_m driving_unit_angle_rad holds contacts hose_stops rear_cup_m front_cup_m penetration_m \
+                 weight_n hold scene centre_of_mass_m";
     assert_eq!(key_order(&text).join(" "), format!("{before} {added}"));
     let v: Value = serde_json::from_str(&text).unwrap();
     assert_eq!(pair(&v["driving_unit_m"]), [0.0, 0.0]);

@@ -541,13 +541,20 @@ impl FloatingBody<'_> {
     /// A stop row `beta_max - s (phi_j - phi_(j-1))` at `row`, the joint at
     /// the clamp turning from the driving unit's angle `phi0`.
     fn stop_terms(&self, q: &[f64], row: usize, stop: &StopRow, ev: &mut Evaluation) {
-        let (n, m) = (self.chains(), ev.rows());
-        let at = self.attachments()[stop.chain].first + stop.joint;
-        let before = if stop.joint == 0 { n + 2 } else { at - 1 };
+        let m = ev.rows();
+        let (at, before) = self.joint_coordinates(stop.chain, stop.joint);
         ev.constraints[row] = stop.value(q[at] - q[before]);
         ev.jacobian[at * m + row] = -stop.sign;
         ev.jacobian[before * m + row] = stop.sign;
         ev.compliance[row] = stop.stop.compliance;
+    }
+
+    /// The coordinates of the two angles joint `joint` of chain `c` turns
+    /// between: its link's, and the link's before it or, at the clamp, the
+    /// driving unit's `phi0`.
+    fn joint_coordinates(&self, c: usize, joint: usize) -> (usize, usize) {
+        let at = self.attachments()[c].first + joint;
+        (at, if joint == 0 { self.chains() + 2 } else { at - 1 })
     }
 
     /// A contact row `n . x - h` at `row`: `x` moves with the links before
@@ -626,14 +633,10 @@ impl Touching for FloatingBody<'_> {
     }
 
     fn joint_turns(&self, q: &[f64], c: usize, out: &mut Vec<f64>) {
-        let att = &self.attachments()[c];
-        let angles = &q[att.first..att.first + att.chain.len()];
-        let mut before = q[self.chains() + 2];
         out.clear();
-        out.extend(angles.iter().map(|phi| {
-            let turn = phi - before;
-            before = *phi;
-            turn
+        out.extend((0..self.attachments()[c].chain.len()).map(|j| {
+            let (at, before) = self.joint_coordinates(c, j);
+            q[at] - q[before]
         }));
     }
 
@@ -641,8 +644,9 @@ impl Touching for FloatingBody<'_> {
         &self.stops
     }
 
+    /// Each row carries its stop: rows found with another body's hose (a
+    /// phase continued from a held body) keep their own limits.
     fn with_stops(mut self, stops: Vec<StopRow>) -> Self {
-        assert!(stops.is_empty() || self.hose.is_some(), "stop rows for a body without a hose stop");
         self.stops = stops;
         self
     }

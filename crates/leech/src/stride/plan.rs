@@ -494,9 +494,14 @@ impl Planner<'_> {
     fn impossible(&self, reason: Rejection, steps: Vec<Step>, strides: usize) -> Plan {
         // A solve the deadline cut short (a snap, a failed solve) proves
         // nothing about the body: past the deadline every rejection is the
-        // time limit's.
+        // time limit's, the one last met said beside it.
         let reason = if self.out_of_time() && reason.blocking != Blocking::TimeLimit {
-            self.time_limit(reason.phase)
+            let stopped = self.time_limit(reason.phase);
+            Rejection {
+                detail: format!("{}; last met: {}: {}", stopped.detail, reason.blocking.name(), reason.detail),
+                at: reason.at,
+                ..stopped
+            }
         } else {
             reason
         };

@@ -61,8 +61,8 @@ pub(crate) fn check_reference(case: &Value) {
     assert_eq!(case["hold"], "rear", "{name}");
 }
 
-/// Solves one case with leech and compares: what differs (joined), or the error.
-pub(crate) fn outcome(case: &Value) -> Result<(), String> {
+/// Solves one case with leech and compares: the held body, or what differs (joined) or the error.
+pub(crate) fn outcome(case: &Value) -> Result<Held, String> {
     let name = case["name"].as_str().unwrap();
     let held = solve(case).map_err(|e| format!("error: {e}"))?;
     let mut comparison: Comparison = differences(case, &held);
@@ -73,7 +73,7 @@ pub(crate) fn outcome(case: &Value) -> Result<(), String> {
     let largest: Vec<String> = comparison.largest.iter().map(|(k, v)| format!("{k} {v:.1e}")).collect();
     println!("{name}: largest differences {}", largest.join(", "));
     if comparison.failures.is_empty() {
-        Ok(())
+        Ok(held)
     } else {
         Err(comparison.failures.join("; "))
     }

@@ -301,7 +301,9 @@ proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
 
     /// The floating body under every kind of hold, with contact rows at
-    /// nodes and between nodes, along every approach.
+    /// nodes and between nodes and the hose's stop rows (at chain A's
+    /// clamp, turning from the driving unit's angle, and inside chain B),
+    /// along every approach.
     #[test]
     fn floating_body_derivatives(
         la in 0.03f64..0.075,
@@ -314,7 +316,8 @@ proptest! {
         t in 0.1f64..1.0,
         fraction in 0.1f64..1.0,
     ) {
-        use leech::stance::{Approach, ContactRow, FloatingBody, Hold, Pose};
+        use leech::hose::{Stop, StopRow};
+        use leech::stance::{Approach, ContactRow, FloatingBody, Hold, Pose, Touching};
         let robot = Robot::builtin().with_base_angle(clamp_deg).unwrap().with_discretization(d);
         let body = robot.body(la, lb).unwrap();
         let rear = Pose { point_m: [pose[0], pose[1]], angle_rad: pose[2] };
@@ -330,7 +333,13 @@ proptest! {
             ContactRow { chain: 0, link: 1, fraction: 1.0, normal: [0.6, 0.8], offset: 0.01 },
             ContactRow { chain: 1, link: 2, fraction, normal: [-0.8, 0.6], offset: -0.02 },
         ];
-        let floating = FloatingBody::new(&body, 0.017, 0.25, hold, approach).with_contacts(contacts);
+        let stop = Stop { limit_rad: 0.4, compliance: 0.02 };
+        let stops = vec![
+            StopRow { chain: 0, joint: 0, sign: 1.0, stop },
+            StopRow { chain: 1, joint: 2, sign: -1.0, stop },
+        ];
+        let floating =
+            FloatingBody::new(&body, 0.017, 0.25, hold, approach).with_stops(stops).with_contacts(contacts);
         let n = body.dim();
         let mut q: Vec<f64> = seed[..n].to_vec();
         q.extend([pose[0] + 0.1, pose[1] - 0.05, pose[2] + 0.2]);
