@@ -703,17 +703,27 @@ def main(argv):
             else:
                 done[case["name"]] = out
     cases = [done[c["name"]] for c in case_list() if c["name"] in done]
-    doc = dict(
-        generator=GENERATOR,
+    write_fixture(OUT, GENERATOR, __doc__, robot, (), cases, (t_all, left_out))
+
+
+ROBOT_KEYS = ("l", "m", "k", "r", "b", "c", "ms", "g", "Md", "rear_offset", "front_offset", "cup_diameter",
+              "tube_length_min")
+
+
+def write_fixture(out, generator, doc, robot, more_keys, cases, timing):
+    """Writes a fixture of `cases` for `robot` (its ROBOT_KEYS and `more_keys`) to `out`, as
+    made by `generator` (whose docstring `doc` describes it), and says so."""
+    t_all, left_out = timing
+    text = dict(
+        generator=generator,
         versions={"python": sys.version.split()[0], "numpy": np.__version__, "scipy": scipy.__version__},
-        robot={k: robot[k] for k in ("l", "m", "k", "r", "b", "c", "ms", "g", "Md", "rear_offset", "front_offset",
-                                      "cup_diameter", "tube_length_min")},
-        description=__doc__.strip().splitlines()[0],
+        robot={k: robot[k] for k in ROBOT_KEYS + tuple(more_keys)},
+        description=doc.strip().splitlines()[0],
         seconds=sum(c["seconds"] for c in cases),
         cases=cases,
     )
-    OUT.write_text(json.dumps(doc, indent=1) + "\n")
-    print(f"wrote {OUT.relative_to(ROOT)}: {len(cases)} cases in {time.time() - t_all:.0f} s"
+    out.write_text(json.dumps(text, indent=1) + "\n")
+    print(f"wrote {out.relative_to(ROOT)}: {len(cases)} cases in {time.time() - t_all:.0f} s"
           + (f"; left out: {', '.join(left_out)}" if left_out else ""))
 
 

@@ -38,7 +38,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-import scipy
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import contact_references as C  # noqa: E402  (the feeding path and both methods)
@@ -179,18 +178,7 @@ def main(argv):
             else:
                 done[case["name"]] = out
     cases = [done[c["name"]] for c in case_list() if c["name"] in done]
-    doc = dict(
-        generator=GENERATOR,
-        versions={"python": sys.version.split()[0], "numpy": np.__version__, "scipy": scipy.__version__},
-        robot={k: robot[k] for k in ("l", "m", "k", "r", "b", "c", "ms", "g", "Md", "rear_offset", "front_offset",
-                                      "cup_diameter", "tube_length_min", "min_bend_radius", "k_stop")},
-        description=__doc__.strip().splitlines()[0],
-        seconds=sum(c["seconds"] for c in cases),
-        cases=cases,
-    )
-    OUT.write_text(json.dumps(doc, indent=1) + "\n")
-    print(f"wrote {OUT.relative_to(H.ROOT)}: {len(cases)} cases in {time.time() - t_all:.0f} s"
-          + (f"; left out: {', '.join(left_out)}" if left_out else ""))
+    C.write_fixture(OUT, GENERATOR, __doc__, robot, ("min_bend_radius", "k_stop"), cases, (t_all, left_out))
 
 
 if __name__ == "__main__":

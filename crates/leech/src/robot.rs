@@ -656,10 +656,9 @@ impl Robot {
             robot.tube.element_length_m *= s;
             robot.tube.element_mass_kg *= s;
             robot.tube.joint_stiffness_nm_per_rad *= s * s;
-            for stiffness in [&mut robot.tube.torsion_stiffness_nm_per_rad, &mut robot.tube.stop_stiffness_nm_per_rad] {
-                if let Some(k) = stiffness {
-                    *k *= s * s;
-                }
+            let stiffnesses = [&mut robot.tube.torsion_stiffness_nm_per_rad, &mut robot.tube.stop_stiffness_nm_per_rad];
+            for k in stiffnesses.into_iter().flatten() {
+                *k *= s * s;
             }
             robot.tube.joint_damping_nms_per_rad *= s * s * s.sqrt();
             robot.tube.min_bend_radius_m *= s;

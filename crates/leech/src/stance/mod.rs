@@ -542,12 +542,19 @@ impl Held {
     }
 
     /// Whether no joint of `robot`'s tubes is turned past the hose's stop
-    /// (`[tube] min_bend_radius_m`) by more than a locked joint gives
-    /// ([`hose::GIVE_FRACTION`] of the stop): a shape among solids whose
-    /// joints lock there is, one solved in free space that bends past the
-    /// stop is not, and neither is one whose locked hose is crushed.
+    /// (`[tube] min_bend_radius_m`) but a locked one, by what its moment
+    /// gives ([`hose::overturn`]) and at most [`hose::GIVE_FRACTION`] of the
+    /// stop: a shape among solids whose joints lock there is; one solved in
+    /// free space that bends past the stop is not, and neither is one whose
+    /// locked hose is crushed.
     pub fn within_stop(&self, robot: &Robot) -> bool {
-        self.min_bend_radius() >= robot.tube.min_bend_radius_m / (1.0 + hose::GIVE_FRACTION)
+        let floating = FloatingBody::new(&self.body, robot.body.base_spacing_m, 0.0, self.hold, Approach::Load)
+            .with_hose_stop(robot.tube.min_bend_radius_m, hose_stiffness(robot))
+            .with_stops(self.stop_rows.clone());
+        let first = Touching::stop_row(&floating);
+        let locked = hose::overturn(&floating, &self.equilibrium.q, &self.equilibrium.multipliers[first..]);
+        locked <= hose::AT_STOP_RAD
+            && self.min_bend_radius() >= robot.tube.min_bend_radius_m / (1.0 + hose::GIVE_FRACTION)
     }
 
     fn new(floating: &FloatingBody<'_>, equilibrium: Equilibrium) -> Held {

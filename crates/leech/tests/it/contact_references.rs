@@ -18,10 +18,26 @@ use serde_json::Value;
 
 use crate::holds_references::{balance, differences, discretization, hold, num, pair, same_builtin_body, Comparison};
 
-fn fixture() -> Value {
-    let path = format!("{}/tests/data/contact.json", env!("CARGO_MANIFEST_DIR"));
+/// The fixture `tests/data/{name}`.
+pub(crate) fn fixture(name: &str) -> Value {
+    let path = format!("{}/tests/data/{name}", env!("CARGO_MANIFEST_DIR"));
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
     serde_json::from_str(&text).expect("fixture is JSON")
+}
+
+/// The fixture's robot is the built-in one, cups and limits included, and
+/// `extra` besides.
+pub(crate) fn made_for_the_builtin(doc: &Value, extra: &[(&str, f64)]) {
+    let builtin = Robot::builtin();
+    let cup = &builtin.cup;
+    let mut keys = vec![
+        ("rear_offset", cup.rear_offset_m),
+        ("front_offset", cup.front_offset_m),
+        ("cup_diameter", cup.diameter_m),
+        ("tube_length_min", builtin.limits.tube_length_min_m),
+    ];
+    keys.extend_from_slice(extra);
+    same_builtin_body(&doc["robot"], &keys);
 }
 
 fn free_cups(case: &Value) -> FreeCups {
@@ -81,19 +97,8 @@ pub(crate) fn outcome(case: &Value) -> Result<Held, String> {
 
 #[test]
 fn bodies_fed_against_walls_and_steps_match_the_scipy_references() {
-    let doc = fixture();
-    // The fixture was made for the built-in robot, cups and limits included.
-    let builtin = Robot::builtin();
-    let cup = &builtin.cup;
-    same_builtin_body(
-        &doc["robot"],
-        &[
-            ("rear_offset", cup.rear_offset_m),
-            ("front_offset", cup.front_offset_m),
-            ("cup_diameter", cup.diameter_m),
-            ("tube_length_min", builtin.limits.tube_length_min_m),
-        ],
-    );
+    let doc = fixture("contact.json");
+    made_for_the_builtin(&doc, &[]);
     let cases = doc["cases"].as_array().unwrap();
     assert!(cases.len() >= 12, "at least twelve cases");
     let rest = cases.iter().filter(|c| c["free_cups"] == "rest").count();

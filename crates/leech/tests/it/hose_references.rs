@@ -8,32 +8,17 @@
 //! the external forces must balance the weight to 1e-9 (the hose's moments are internal).
 
 use leech::prelude::*;
-use serde_json::Value;
 
-use crate::contact_references::{check_reference, outcome, solve};
-use crate::holds_references::{num, same_builtin_body};
-
-fn fixture() -> Value {
-    let path = format!("{}/tests/data/hose.json", env!("CARGO_MANIFEST_DIR"));
-    let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{path}: {e}"));
-    serde_json::from_str(&text).expect("fixture is JSON")
-}
+use crate::contact_references::{check_reference, fixture, made_for_the_builtin, outcome, solve};
+use crate::holds_references::num;
 
 #[test]
 fn bodies_locked_at_the_hose_stop_match_the_scipy_references() {
-    let doc = fixture();
+    let doc = fixture("hose.json");
     let builtin = Robot::builtin();
-    let cup = &builtin.cup;
-    same_builtin_body(
-        &doc["robot"],
-        &[
-            ("rear_offset", cup.rear_offset_m),
-            ("front_offset", cup.front_offset_m),
-            ("cup_diameter", cup.diameter_m),
-            ("tube_length_min", builtin.limits.tube_length_min_m),
-            ("min_bend_radius", builtin.tube.min_bend_radius_m),
-            ("k_stop", builtin.tube.stop_stiffness()),
-        ],
+    made_for_the_builtin(
+        &doc,
+        &[("min_bend_radius", builtin.tube.min_bend_radius_m), ("k_stop", builtin.tube.stop_stiffness())],
     );
     let cases = doc["cases"].as_array().unwrap();
     assert!(cases.len() >= 4, "at least four cases");
@@ -76,7 +61,7 @@ fn bodies_locked_at_the_hose_stop_match_the_scipy_references() {
 /// tubes tighter than the hose allows, and leech locks nothing.
 #[test]
 fn without_the_stop_the_reference_bodies_bend_past_it() {
-    let doc = fixture();
+    let doc = fixture("hose.json");
     let case = &doc["cases"][0];
     let free =
         Robot { tube: leech::robot::Tube { min_bend_radius_m: 0.0, ..Robot::builtin().tube }, ..Robot::builtin() };
