@@ -61,7 +61,7 @@ pub const CANDIDATE_FRACTION: f64 = 0.8;
 
 /// How far past its stop (a fraction of `beta_max`) a locked joint may give
 /// in a shape the planner takes ([`crate::stance::Held::within_stop`]):
-/// under the robot's weight a joint locks within about 1 % of its stop;
+/// under the robot's weight a joint locks within about 3 % of its stop;
 /// one that gives more is a hose crushed by lengths that ask the body for
 /// more turn than its locked joints allow, or a shape solved in free space
 /// that bends past the stop.

@@ -93,7 +93,7 @@ pub const TUBES_PER_CHAIN: [f64; 2] = [1.0, 2.0];
 /// The locked hose's stiffness per joint over the free tube's `k`, assumed
 /// while it is not measured (an ESTIMATE: a stripwound hose at its stop is
 /// a chain of interlocked steel strip, far stiffer than the free tubes; two
-/// orders of magnitude keep a locked joint within about 1 % of its stop
+/// orders of magnitude keep a locked joint within about 3 % of its stop
 /// under the robot's own weight).
 pub const STOP_PER_JOINT_STIFFNESS: f64 = 100.0;
 
