@@ -670,40 +670,54 @@ def problems(out):
     return [why for ok, why in checks if not ok]
 
 
+def judge(case, body, scene, prob, sol, info, robot):
+    """One solved case: its record, why it may not be written, and its line of the table."""
+    out = record(case, robot, body, scene, prob, sol, info)
+    r, a = out["residuals"], out["agreement"]["slsqp_vs_newton"]
+    fed = out["feeding"]["trust_constr_newton"]
+    touching = " ".join(f"{c['chain']}{c['node']}{'+%.2f' % c['fraction'] if c['fraction'] else ''}:"
+                        f"{c['force_n']:.3f}" for c in out["contacts"])
+    line = (f"{case['name']:24s} {case['lengths'][0]:.3f}/{case['lengths'][1]:.3f} "
+            f"{'rest' if out['free_cups'] == 'rest' else 'pass':>4s} {info['seconds']:5.0f} "
+            f"{max(r['newton']['stationarity'], r['newton']['equality']):8.1e} "
+            f"{r['slsqp']['stationarity']:8.1e} {a['q']:8.1e} {max(a['hold_multipliers'], a['contact_forces']):8.1e} "
+            f"{out['reduced_hessian_min']:8.1e} {max(out['balance'].values()):8.1e} {out['penetration_m']:8.1e} "
+            f"{len(fed['snaps']):5d}  {touching}")
+    return out, problems(out), line
+
+
 def main(argv):
-    only = set(argv[1:])
-    rng = np.random.default_rng(11)
-    robot = robot_values()
-    t_all = time.time()
-    previous = {c["name"]: c for c in json.loads(OUT.read_text())["cases"]} if OUT.exists() and only else {}
-    done, left_out = {}, []
     print(f"{'case':24s} {'lengths':>11s} {'cups':>4s} {'s':>5s} {'newton':>8s} {'slsqp':>8s} {'q diff':>8s} "
           f"{'f diff':>8s} {'min eig':>8s} {'balance':>8s} {'pen':>8s} snaps  contacts (N)")
-    for ray in rays(case_list(), robot):
+    robot = robot_values()
+    run_cases(OUT, GENERATOR, __doc__, (robot, ()), case_list(), set(argv[1:]), np.random.default_rng(11), judge)
+
+
+def run_cases(out_path, generator, doc, robot_and_keys, cases, only, rng, judge_case):
+    """Solves the rays of `cases` whose cases are named in `only` (all when it is empty; the
+    others are kept as they are in `out_path`), judges each (`judge_case(case, body, scene,
+    prob, sol, info, robot)`: its record, why it may not be written, its line), prints its line
+    and writes the fixture of those that may be written (`write_fixture`, the robot's
+    ROBOT_KEYS and the keys given with it)."""
+    robot, more_keys = robot_and_keys
+    t_all = time.time()
+    previous = {c["name"]: c for c in json.loads(out_path.read_text())["cases"]} if out_path.exists() and only else {}
+    done, left_out = {}, []
+    for ray in rays(cases, robot):
         if only and not any(c["name"] in only for c in ray):
             done.update({c["name"]: previous[c["name"]] for c in ray if c["name"] in previous})
             continue
         for case, body, scene, prob, sol, info in solve_ray(ray, robot, rng):
-            out = record(case, robot, body, scene, prob, sol, info)
+            out, why, line = judge_case(case, body, scene, prob, sol, info, robot)
             out["seconds"] = info["seconds"]
-            r, a = out["residuals"], out["agreement"]["slsqp_vs_newton"]
-            fed = out["feeding"]["trust_constr_newton"]
-            touching = " ".join(f"{c['chain']}{c['node']}{'+%.2f' % c['fraction'] if c['fraction'] else ''}:"
-                                f"{c['force_n']:.3f}" for c in out["contacts"])
-            print(f"{case['name']:24s} {case['lengths'][0]:.3f}/{case['lengths'][1]:.3f} "
-                  f"{'rest' if out['free_cups'] == 'rest' else 'pass':>4s} {out['seconds']:5.0f} "
-                  f"{max(r['newton']['stationarity'], r['newton']['equality']):8.1e} "
-                  f"{r['slsqp']['stationarity']:8.1e} {a['q']:8.1e} {max(a['hold_multipliers'], a['contact_forces']):8.1e} "
-                  f"{out['reduced_hessian_min']:8.1e} {max(out['balance'].values()):8.1e} {out['penetration_m']:8.1e} "
-                  f"{len(fed['snaps']):5d}  {touching}", flush=True)
-            why = problems(out)
+            print(line, flush=True)
             if why:
                 print(f"  NOT WRITTEN: {'; '.join(why)}")
                 left_out.append(case["name"])
             else:
                 done[case["name"]] = out
-    cases = [done[c["name"]] for c in case_list() if c["name"] in done]
-    write_fixture(OUT, GENERATOR, __doc__, robot, (), cases, (t_all, left_out))
+    written = [done[c["name"]] for c in cases if c["name"] in done]
+    write_fixture(out_path, generator, doc, robot, more_keys, written, (t_all, left_out))
 
 
 ROBOT_KEYS = ("l", "m", "k", "r", "b", "c", "ms", "g", "Md", "rear_offset", "front_offset", "cup_diameter",

@@ -32,9 +32,7 @@ Run:  validation/.venv/bin/python validation/hose_references.py     (see validat
 
 from __future__ import annotations
 
-import json
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -138,47 +136,34 @@ def case_list():
     ]
 
 
+def judge(case, body, scene, prob, sol, info, robot):
+    """contact_references' judgement of one case, with its locked joints: at least one, none
+    within CLEAR_OF_KINK_RAD of its stop on the free side."""
+    out, why, _ = C.judge(case, body, scene, prob, sol, info, robot)
+    q = sol[0]
+    out["hose_stops"] = body.locked(q)
+    # the stop's moments are internal: the balance of external forces stands as recorded
+    nearest = min(float(np.min(np.abs(body.overturn(q, c)))) for c in range(body.nc))
+    if not out["hose_stops"]:
+        why.append("no joint locked")
+    if nearest < CLEAR_OF_KINK_RAD:
+        why.append(f"a joint within {nearest:.1e} rad of its stop")
+    a = out["agreement"]["slsqp_vs_newton"]
+    r = out["residuals"]["newton"]
+    locked = " ".join(f"{s['chain']}{s['joint']}:{s['moment_nm']:.4f}" for s in out["hose_stops"])
+    line = (f"{case['name']:16s} {case['lengths'][0]:.3f}/{case['lengths'][1]:.3f} {info['seconds']:5.0f} "
+            f"{max(r['stationarity'], r['equality']):8.1e} {a['q']:8.1e} "
+            f"{max(a['hold_multipliers'], a['contact_forces']):8.1e} {max(out['balance'].values()):8.1e} {locked}")
+    return out, why, line
+
+
 def main(argv):
-    only = set(argv[1:])
-    # Cases not asked for again are kept as they were.
-    previous = {c["name"]: c for c in json.loads(OUT.read_text())["cases"]} if OUT.exists() and only else {}
     C.Body = HoseBody  # the feeding path builds its bodies by this name
-    rng = np.random.default_rng(29)
-    robot = robot_values()
-    t_all = time.time()
-    done, left_out = {}, []
     print(f"{'case':16s} {'lengths':>11s} {'s':>5s} {'newton':>8s} {'q diff':>8s} {'f diff':>8s} {'balance':>8s} "
           f"locked joints (N m)")
-    for ray in C.rays(case_list(), robot):
-        if only and not any(c["name"] in only for c in ray):
-            done.update({c["name"]: previous[c["name"]] for c in ray if c["name"] in previous})
-            continue
-        for case, body, scene, prob, sol, info in C.solve_ray(ray, robot, rng):
-            out = C.record(case, robot, body, scene, prob, sol, info)
-            out["seconds"] = info["seconds"]
-            q = sol[0]
-            out["hose_stops"] = body.locked(q)
-            # the stop's moments are internal: the balance of external forces stands as recorded
-            nearest = min(float(np.min(np.abs(body.overturn(q, c)))) for c in range(body.nc))
-            why = C.problems(out)
-            if not out["hose_stops"]:
-                why.append("no joint locked")
-            if nearest < CLEAR_OF_KINK_RAD:
-                why.append(f"a joint within {nearest:.1e} rad of its stop")
-            a = out["agreement"]["slsqp_vs_newton"]
-            r = out["residuals"]["newton"]
-            locked = " ".join(f"{s['chain']}{s['joint']}:{s['moment_nm']:.4f}" for s in out["hose_stops"])
-            print(f"{case['name']:16s} {case['lengths'][0]:.3f}/{case['lengths'][1]:.3f} {out['seconds']:5.0f} "
-                  f"{max(r['stationarity'], r['equality']):8.1e} {a['q']:8.1e} "
-                  f"{max(a['hold_multipliers'], a['contact_forces']):8.1e} {max(out['balance'].values()):8.1e} "
-                  f"{locked}", flush=True)
-            if why:
-                print(f"  NOT WRITTEN: {'; '.join(why)}")
-                left_out.append(case["name"])
-            else:
-                done[case["name"]] = out
-    cases = [done[c["name"]] for c in case_list() if c["name"] in done]
-    C.write_fixture(OUT, GENERATOR, __doc__, robot, ("min_bend_radius", "k_stop"), cases, (t_all, left_out))
+    robot = robot_values()
+    C.run_cases(OUT, GENERATOR, __doc__, (robot, ("min_bend_radius", "k_stop")), case_list(), set(argv[1:]),
+                np.random.default_rng(29), judge)
 
 
 if __name__ == "__main__":
