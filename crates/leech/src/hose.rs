@@ -140,25 +140,29 @@ pub fn detect<S: Touching>(system: &S, q: &[f64], out: &mut Vec<StopRow>) {
 
 /// The largest amount (rad) by which a joint of `system` at `q` is turned
 /// past its stop with no moment to hold it there: beyond what the locked
-/// joints' `moments` (N m, one per stop row of `system`) take up in the
-/// hose's compliance. 0 where none is.
-pub fn overturn<S: Touching>(system: &S, q: &[f64], moments: &[f64]) -> f64 {
+/// joints' moments (N m; among `multipliers`, all of the system's) take
+/// up in the hose's compliance. 0 where none is.
+pub fn overturn<S: Touching>(system: &S, q: &[f64], multipliers: &[f64]) -> f64 {
     let mut deepest: f64 = 0.0;
     let mut turned = Vec::new();
     for chain in 0..system.chain_count() {
         let Some(stop) = system.stop(chain) else { continue };
         system.joint_turns(q, chain, &mut turned);
         for (joint, beta) in turned.iter().enumerate() {
-            let held = system
-                .stops()
-                .iter()
-                .zip(moments)
-                .find(|(s, _)| s.chain == chain && s.joint == joint && s.sign == beta.signum());
-            let give = held.map_or(0.0, |(s, moment)| s.stop.compliance * moment.max(0.0));
+            let mut held = locked(system, multipliers);
+            let held = held.find(|(s, _)| s.chain == chain && s.joint == joint && s.sign == beta.signum());
+            let give = held.map_or(0.0, |(s, moment)| s.stop.compliance * moment);
             deepest = deepest.max(beta.abs() - stop.limit_rad - give);
         }
     }
     deepest
+}
+
+/// The stop rows of `system` that hold at `multipliers` (all of the
+/// system's, in row order), with their moments (N m): the joints locked.
+pub fn locked<'s, S: Touching>(system: &'s S, multipliers: &'s [f64]) -> impl Iterator<Item = (&'s StopRow, f64)> {
+    let moments = &multipliers[system.stop_row()..system.contact_row()];
+    system.stops().iter().zip(moments).filter(|(_, moment)| **moment > 0.0).map(|(stop, moment)| (stop, *moment))
 }
 
 /// A locked joint as reported: where the hose carries a moment.

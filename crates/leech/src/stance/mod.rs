@@ -551,9 +551,7 @@ impl Held {
         let floating = FloatingBody::new(&self.body, robot.body.base_spacing_m, 0.0, self.hold, Approach::Load)
             .with_hose_stop(robot.tube.min_bend_radius_m, hose_stiffness(robot))
             .with_stops(self.stop_rows.clone());
-        let first = Touching::stop_row(&floating);
-        let locked = hose::overturn(&floating, &self.equilibrium.q, &self.equilibrium.multipliers[first..]);
-        locked <= hose::AT_STOP_RAD
+        hose::overturn(&floating, &self.equilibrium.q, &self.equilibrium.multipliers) <= hose::AT_STOP_RAD
             && self.min_bend_radius() >= robot.tube.min_bend_radius_m / (1.0 + hose::GIVE_FRACTION)
     }
 
@@ -572,13 +570,8 @@ impl Held {
             REAR_CUP => "rear_cup",
             _ => "front_cup",
         });
-        let first_stop = Touching::stop_row(floating);
-        let stops = floating
-            .stops()
-            .iter()
-            .zip(&equilibrium.multipliers[first_stop..])
-            .filter(|(_, moment)| **moment > 0.0)
-            .map(|(stop, moment)| {
+        let stops = hose::locked(floating, &equilibrium.multipliers)
+            .map(|(stop, moment_nm)| {
                 let points = floating.chain_points(&equilibrium.q, stop.chain);
                 let joint = points.len() - floating.chain_len(stop.chain) - 1 + stop.joint;
                 StopMoment {
@@ -586,7 +579,7 @@ impl Held {
                     joint: stop.joint,
                     point_m: points[joint],
                     sign: stop.sign,
-                    moment_nm: *moment,
+                    moment_nm,
                 }
             })
             .collect();

@@ -514,10 +514,8 @@ fn still_settled<S: Touching>(settled: &Settled<S>, rows: &[ContactRow], options
 /// them, and no joint is turned past its stop.
 fn stops_settled<S: Touching>(settled: &Settled<S>, stops: &[StopRow]) -> bool {
     let (system, eq) = (&settled.system, &settled.equilibrium);
-    let first = system.stop_row();
-    let locked = system.stops().iter().zip(&eq.multipliers[first..]).filter(|(_, moment)| **moment > 0.0);
-    locked.into_iter().all(|(s, _)| stops.iter().any(|f| f.same_joint(s)))
-        && hose::overturn(system, &eq.q, &eq.multipliers[first..]) <= hose::AT_STOP_RAD
+    hose::locked(system, &eq.multipliers).all(|(s, _)| stops.iter().any(|f| f.same_joint(s)))
+        && hose::overturn(system, &eq.q, &eq.multipliers) <= hose::AT_STOP_RAD
 }
 
 /// Adds to `stops` the rows of `more` for joints it has no row for.
