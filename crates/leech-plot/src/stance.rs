@@ -64,12 +64,17 @@ pub fn held_figure(robot: &Robot, held: &Held, scene: Option<&Scene>, cups: &Cup
     fig
 }
 
-/// The body of `held` as series: the driving unit, the arms to the cups,
+/// The body of `held` as series: the driving unit (its outline, or the
+/// line between the clamps for a unit without one), the arms to the cups,
 /// the chains and the endpoint plate (the cups themselves are not drawn).
 pub(crate) fn body(fig: &mut Figure, robot: &Robot, held: &Held) {
     let [a, b] = held.chain_points(robot);
     let (a_tip, b_tip) = (*a.last().expect("a chain"), *b.last().expect("a chain"));
-    fig.push("driving unit", vec![a[0], b[0]], SeriesStyle::Thick, GREY);
+    let unit = match held.unit_outline_m(robot) {
+        Some(corners) => corners.iter().chain(&corners[..1]).copied().collect(),
+        None => vec![a[0], b[0]],
+    };
+    fig.push("driving unit", unit, SeriesStyle::Thick, GREY);
     fig.push("", vec![b[0], held.rear_cup_m(robot)], SeriesStyle::Line, GREY);
     fig.push("", vec![b_tip, held.front_cup_m(robot)], SeriesStyle::Line, GREY);
     fig.push("chain A (centre tube)", a, SeriesStyle::LineAndDots, PALETTE[0]);

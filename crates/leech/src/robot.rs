@@ -180,20 +180,124 @@ fn discretization<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Discretizati
     }
 }
 
-/// The driving unit: its motors, frame and the rear cup.
+/// The driving unit: its motors, frame and the rear cup, a rigid body
+/// ([`crate::stance::Unit`]). Lengths are in the unit's frame: from chain
+/// A's clamp, "along" the clamp direction `e(phi0)` and "across" along
+/// `nu(phi0)`, towards chain B and the rear cup.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct DrivingUnit {
-    /// Mass (kg), a point mass at the midpoint of the two chains' clamps. The
-    /// statics hold the unit as a fixed clamp and leave it out; it loads the
-    /// body and the front cup when the front cup holds and the unit hangs.
+    /// Mass (kg). The statics hold the unit as a fixed clamp and leave it
+    /// out; it loads the body and the front cup when the front cup holds and
+    /// the unit hangs.
     pub mass_kg: f64,
+    /// Where the mass sits, `[along, across]` from chain A's clamp (m).
+    /// Absent: the clamps' midpoint, `[0, b/2]`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub centre_of_mass_m: Option<[f64; 2]>,
+    /// The outline's length along the clamp direction (m). 0 together with
+    /// `height_m`: no outline, nothing of the unit touches a solid.
+    pub length_m: f64,
+    /// The outline's height across (m).
+    pub height_m: f64,
+    /// How far the outline's back lies behind chain A's clamp (m, at most `length_m`).
+    pub back_m: f64,
+    /// How far the outline's top (the side away from the cups) lies from chain A's axis (m).
+    pub top_m: f64,
+    /// How far the rear cup's face centre lies behind chain A's clamp (m;
+    /// negative: ahead of it). Across, it sits `cup.rear_offset_m` beyond chain B.
+    pub rear_cup_behind_m: f64,
 }
 
 impl Default for DrivingUnit {
-    /// The built-in robot's estimate: 0.25 kg.
+    /// The built-in robot's estimate (see [`BUILTIN_TOML`]).
     fn default() -> Self {
-        DrivingUnit { mass_kg: 0.25 }
+        DrivingUnit {
+            mass_kg: 0.25,
+            centre_of_mass_m: None,
+            length_m: 0.05,
+            height_m: 0.036,
+            back_m: 0.035,
+            top_m: 0.012,
+            rear_cup_behind_m: 0.0,
+        }
+    }
+}
+
+impl DrivingUnit {
+    /// Whether the unit has an outline.
+    pub fn has_outline(&self) -> bool {
+        self.length_m > 0.0 || self.height_m > 0.0
+    }
+
+    /// The outline's corners in the unit's frame, `[along, across]` (m):
+    /// back top, front top, front bottom, back bottom ([`crate::stance::Unit`]).
+    pub fn outline_m(&self) -> Option<[[f64; 2]; 4]> {
+        let (front, bottom) = (self.length_m - self.back_m, self.height_m - self.top_m);
+        self.has_outline().then_some([
+            [-self.back_m, -self.top_m],
+            [front, -self.top_m],
+            [front, bottom],
+            [-self.back_m, bottom],
+        ])
+    }
+
+    /// Checks the unit against the body it carries: spacing `b` (m), tube
+    /// radius `r` (m) and the rear cup's face `face` across from chain A (m).
+    fn validate(&self, b: f64, r: f64, face: f64) -> Result<(), InputError> {
+        non_negative("driving_unit.mass_kg", self.mass_kg)?;
+        for (field, value) in [
+            ("driving_unit.length_m", self.length_m),
+            ("driving_unit.height_m", self.height_m),
+            ("driving_unit.back_m", self.back_m),
+            ("driving_unit.top_m", self.top_m),
+        ] {
+            within(field, value, 0.0, MAX_CUP_LENGTH_M)?;
+        }
+        within("driving_unit.rear_cup_behind_m", self.rear_cup_behind_m, -MAX_CUP_LENGTH_M, MAX_CUP_LENGTH_M)?;
+        if let Some(centre) = self.centre_of_mass_m {
+            for (axis, value) in ["along", "across"].iter().zip(centre) {
+                within(&format!("driving_unit.centre_of_mass_m ({axis})"), value, -MAX_CUP_LENGTH_M, MAX_CUP_LENGTH_M)?;
+            }
+        }
+        if !self.has_outline() {
+            return Ok(());
+        }
+        let invalid = |field: &str, value: f64, allowed: String| Err(InputError::invalid(field, value, allowed));
+        if !(self.length_m > 0.0) {
+            return invalid(
+                "driving_unit.length_m",
+                self.length_m,
+                "a number > 0 where height_m is (both 0: no outline)".into(),
+            );
+        }
+        if !(self.back_m <= self.length_m) {
+            return invalid(
+                "driving_unit.back_m",
+                self.back_m,
+                format!("at most length_m ({} m): the clamps lie inside the outline", Num(self.length_m)),
+            );
+        }
+        if !(self.top_m >= r) {
+            return invalid(
+                "driving_unit.top_m",
+                self.top_m,
+                format!("at least the tube's radius ({} m): chain A's clamp lies inside the outline", Num(r)),
+            );
+        }
+        let (inside, beyond) = (self.top_m + b + r, self.top_m + face);
+        if !(self.height_m >= inside && self.height_m <= beyond) {
+            return invalid(
+                "driving_unit.height_m",
+                self.height_m,
+                format!(
+                    "from top_m + b + r = {} m (chain B's clamp inside the outline) to top_m + b + cup.rear_offset_m = {} m (the rear cup's face on or beyond its bottom)",
+                    Num(inside),
+                    Num(beyond)
+                ),
+            );
+        }
+        Ok(())
     }
 }
 
@@ -356,7 +460,7 @@ pub struct Robot {
     pub world: World,
     /// Discretization.
     pub model: Model,
-    /// The driving unit's mass.
+    /// The driving unit: its mass, outline and rear cup.
     pub driving_unit: DrivingUnit,
     /// Both suction cups.
     pub cup: Cup,
@@ -502,9 +606,10 @@ impl Robot {
         if let Some(ks) = self.tube.stop_stiffness_nm_per_rad {
             positive("tube.stop_stiffness_nm_per_rad", ks)?;
         }
-        non_negative("driving_unit.mass_kg", self.driving_unit.mass_kg)?;
         self.cup.validate()?;
         self.validate_cup_offsets()?;
+        let (b, r) = (self.body.base_spacing_m, 0.5 * self.tube.outer_diameter_m);
+        self.driving_unit.validate(b, r, b + self.cup.rear_offset_m)?;
         self.drive.validate()?;
         // Planners build the body at the shortest lengths: both tubes there
         // must give it the four elements a body needs (see `body`).
@@ -666,9 +771,18 @@ impl Robot {
             robot.body.tip_spacing_m *= s;
             robot.body.payload_kg *= s;
             robot.tube.outer_diameter_m *= s;
-            robot.driving_unit.mass_kg *= s;
+            let unit = &mut robot.driving_unit;
+            unit.mass_kg *= s;
+            if let Some(centre) = &mut unit.centre_of_mass_m {
+                centre.iter_mut().for_each(|x| *x *= s);
+            }
             let cup = &mut robot.cup;
             for length in [
+                &mut unit.length_m,
+                &mut unit.height_m,
+                &mut unit.back_m,
+                &mut unit.top_m,
+                &mut unit.rear_cup_behind_m,
                 &mut cup.diameter_m,
                 &mut cup.attach_distance_tolerance_m,
                 &mut cup.rear_offset_m,

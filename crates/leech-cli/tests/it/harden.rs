@@ -50,17 +50,35 @@ fn huge_and_tiny_numbers_print_in_scientific_notation() {
         rejected(&["chain", "--elements", "1", "--element-length", "1e308", "--element-mass", "1", "--stiffness", "1"]);
     assert!(e.contains("1e308"), "{e}");
     no_long_numbers(&e);
-    let robot = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../leech/robots/leech.toml")).unwrap();
     for (key, value) in [("element_length_m", "1e308"), ("element_length_m", "1e-300"), ("element_mass_kg", "-1e300")] {
-        let text: String = robot
-            .lines()
-            .map(|l| if l.starts_with(&format!("{key} ")) { format!("{key} = {value}") } else { l.to_string() })
-            .collect::<Vec<_>>()
-            .join("\n");
-        let path = scratch(&format!("{key}.toml"), text.as_bytes());
+        let path = scratch(&format!("{key}.toml"), builtin_with(key, value).as_bytes());
         let e = rejected(&["shape", "--lengths", "0.3,0.2", "--robot", path.to_str().unwrap()]);
         std::fs::remove_file(&path).ok();
         no_long_numbers(&e);
+    }
+}
+
+/// The built-in robot file with the line of `key` set to `value`.
+fn builtin_with(key: &str, value: &str) -> String {
+    let robot = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../leech/robots/leech.toml")).unwrap();
+    let lines =
+        robot.lines().map(|l| if l.starts_with(&format!("{key} ")) { format!("{key} = {value}") } else { l.into() });
+    lines.collect::<Vec<String>>().join("\n")
+}
+
+/// A driving unit whose outline does not hold its clamps, or leaves the rear cup's face inside
+/// it: exit 2, one line naming the key, its value and what is allowed.
+#[test]
+fn a_driving_unit_outline_that_misses_its_clamps_is_bad_input() {
+    for (key, value, allowed) in [
+        ("back_m", "0.08", "at most length_m"),
+        ("top_m", "0.001", "tube's radius"),
+        ("height_m", "0.06", "on or beyond"),
+    ] {
+        let path = scratch(&format!("unit-{key}.toml"), builtin_with(key, value).as_bytes());
+        let e = rejected(&["shape", "--lengths", "0.3,0.2", "--robot", path.to_str().unwrap()]);
+        std::fs::remove_file(&path).ok();
+        assert!(e.contains(&format!("driving_unit.{key}")) && e.contains(value) && e.contains(allowed), "{e}");
     }
 }
 

@@ -29,8 +29,11 @@
 //! ([`crate::stance`], [`crate::stance3`]; docs/model.md section 7.3.1,
 //! docs/model3d.md section 12).
 //!
-//! A new kind of contact (a cup's lip, friction, a driving unit's outline)
-//! is a new file here beside these two.
+//! The robot's rigid faces that rest on the solids with no clearance (a
+//! free cup's face, the free driving unit's outline) are [`planar::Face`]s:
+//! rows at their corners and where a solid's convex corner touches an edge.
+//! A new kind of contact (a cup's lip, friction) is a new file here beside
+//! these two.
 
 pub mod planar;
 pub mod space;

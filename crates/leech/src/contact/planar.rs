@@ -73,9 +73,109 @@ pub const REAR_CUP: usize = 2;
 /// The pseudo-chain of contact rows on the front cup's face.
 pub const FRONT_CUP: usize = 3;
 
-/// Whether a contact row's `chain` is a cup's face rather than a tube.
-pub fn on_cup(chain: usize) -> bool {
+/// The pseudo-chain of contact rows on the driving unit's outline (its
+/// `link` a corner, [`crate::stance::Unit`]), where the unit is free.
+pub const UNIT: usize = 4;
+
+/// Whether a contact row's `chain` is a face of the robot (a cup's face, the
+/// driving unit's outline) rather than a tube: it touches with no clearance.
+pub fn on_face(chain: usize) -> bool {
     chain >= REAR_CUP
+}
+
+/// A face of the robot that rests on the solids with no clearance: a free
+/// cup's face (its two rims, open) or the free driving unit's outline (its
+/// corners, closed). Its rows are at its corners (`fraction` 1, `link` the
+/// corner) and where a convex corner of a solid touches it between two
+/// (`link` the edge from corner `link` to the next, `fraction` the way along).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Face {
+    /// Its pseudo-chain: [`REAR_CUP`], [`FRONT_CUP`] or [`UNIT`].
+    pub chain: usize,
+    /// Its corners (m).
+    pub corners: Vec<Vec2>,
+    /// Whether the last corner joins the first (an outline).
+    pub closed: bool,
+}
+
+impl Face {
+    /// Its edges: `(k, [corner k, corner k + 1])`, the last back to the
+    /// first where it is closed.
+    pub fn edges(&self) -> impl Iterator<Item = (usize, [Vec2; 2])> + '_ {
+        let n = self.corners.len();
+        let edges = if self.closed { n } else { n.saturating_sub(1) };
+        (0..edges).map(move |k| (k, [self.corners[k], self.corners[(k + 1) % n]]))
+    }
+
+    /// The point of a row on it: corner `link` (`fraction >= 1`), or
+    /// `fraction` of the way along edge `link`.
+    pub fn point(&self, link: usize, fraction: f64) -> Vec2 {
+        let a = self.corners[link];
+        if fraction >= 1.0 {
+            return a;
+        }
+        let b = self.corners[(link + 1) % self.corners.len()];
+        [a[0] + fraction * (b[0] - a[0]), a[1] + fraction * (b[1] - a[1])]
+    }
+
+    /// How deep a point `p` lies inside a closed, convex face (m; <= 0 outside).
+    fn depth_of(&self, p: Vec2) -> f64 {
+        if !self.closed {
+            return 0.0;
+        }
+        let area: f64 = self.edges().map(|(_, [a, b])| crate::geom::cross(a, b)).sum();
+        let inward = area.signum();
+        self.edges()
+            .map(|(_, [a, b])| {
+                let length = norm(sub(b, a));
+                if length > 0.0 {
+                    inward * crate::geom::cross(sub(b, a), sub(p, a)) / length
+                } else {
+                    f64::INFINITY
+                }
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+}
+
+/// The rigid body a face is part of: the driving unit carries the rear
+/// cup's face and the outline, the plate the front cup's face.
+pub fn rigid_body_of(chain: usize) -> usize {
+    usize::from(chain == FRONT_CUP)
+}
+
+/// Rows on one rigid body, kept only where independent of those kept before.
+/// A row `n . x >= h` on a rigid body (in the plane) has the direction
+/// `[n, (x - o) x n]` in the body's three coordinates about any point `o`;
+/// at most three are independent, and rows whose directions are dependent
+/// (three rims and corners on one floor, or two on one line of action) make
+/// the working set's Jacobian singular where they act together.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct RigidRows {
+    origin: Option<Vec2>,
+    /// Orthonormal directions of the rows kept.
+    basis: Vec<[f64; 3]>,
+}
+
+impl RigidRows {
+    /// Whether a row at `x` (m) with normal `n` is independent of the rows
+    /// kept; if so it is kept.
+    pub(crate) fn admits(&mut self, x: Vec2, n: Vec2) -> bool {
+        let o = *self.origin.get_or_insert(x);
+        let mut v = [n[0], n[1], crate::geom::cross(sub(x, o), n)];
+        for b in &self.basis {
+            let d = v[0] * b[0] + v[1] * b[1] + v[2] * b[2];
+            v = [v[0] - d * b[0], v[1] - d * b[1], v[2] - d * b[2]];
+        }
+        let length = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+        // A unit normal is 1 long: what is left of it is rounding where the
+        // row is a combination of the others.
+        if length < 1e-9 {
+            return false;
+        }
+        self.basis.push(v.map(|x| x / length));
+        true
+    }
 }
 
 /// A static system whose chains may touch a scene's solids: what contact
@@ -105,10 +205,17 @@ pub trait Touching: StaticSystem + Sized + Clone {
         false
     }
 
-    /// The rims of the faces of the cups that do not hold, each with its
-    /// pseudo-chain ([`REAR_CUP`], [`FRONT_CUP`]) (m). None by default.
-    fn free_cup_rims(&self, _q: &[f64]) -> Vec<(usize, [Vec2; 2])> {
+    /// The robot's faces that rest on the solids: the faces of the cups
+    /// that do not hold and the free driving unit's outline. None by default.
+    fn free_faces(&self, _q: &[f64]) -> Vec<Face> {
         Vec::new()
+    }
+
+    /// The robot's face `chain` where it is at `q`, whether free or not: a
+    /// row carried onto a face whose cup has since attached (a hand-over)
+    /// still has its point. By default the free face of that chain.
+    fn face(&self, q: &[f64], chain: usize) -> Option<Face> {
+        self.free_faces(q).into_iter().find(|f| f.chain == chain)
     }
 
     /// The first contact row's index.
@@ -148,15 +255,9 @@ pub trait Touching: StaticSystem + Sized + Clone {
 
     /// Where contact row `contact` touches (m).
     fn contact_point(&self, q: &[f64], contact: &ContactRow) -> Vec2 {
-        if on_cup(contact.chain) {
-            let rims = self.free_cup_rims(q);
-            let (_, rims) = rims.iter().find(|(c, _)| *c == contact.chain).expect("a row on a free cup's rim");
-            if contact.fraction >= 1.0 {
-                return rims[contact.link];
-            }
-            // A corner's point on the face, a fraction from the rim behind.
-            let f = contact.fraction;
-            return [rims[0][0] + f * (rims[1][0] - rims[0][0]), rims[0][1] + f * (rims[1][1] - rims[0][1])];
+        if on_face(contact.chain) {
+            let face = self.face(q, contact.chain).expect("a row on one of the robot's faces");
+            return face.point(contact.link, contact.fraction);
         }
         let points = self.chain_points(q, contact.chain);
         // The link's start is the point before its tip.
@@ -169,13 +270,14 @@ pub trait Touching: StaticSystem + Sized + Clone {
 /// One contact row: a point of a chain held off a surface.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct ContactRow {
-    /// The chain: 0 for A, 1 for B; [`REAR_CUP`] or [`FRONT_CUP`] for a cup's face.
+    /// The chain: 0 for A, 1 for B; [`REAR_CUP`], [`FRONT_CUP`] or [`UNIT`] for a face.
     pub chain: usize,
-    /// The link (0-based) the point is on (a cup's rim: 0 behind, 1 ahead).
+    /// The link (0-based) the point is on; on a face, a corner or edge
+    /// ([`Face`]; a cup's rims: 0 behind, 1 ahead).
     pub link: usize,
-    /// How far along the link (1 at its tip: node `link + 1`). On a cup's
-    /// face: 1 at the rim `link`; below 1, a convex corner touching the face
-    /// between its rims, this fraction of the way from the rim behind.
+    /// How far along the link (1 at its tip: node `link + 1`). On a face: 1
+    /// at corner `link`; below 1, a convex corner of a solid touching edge
+    /// `link`, this fraction of the way along it.
     pub fraction: f64,
     /// Outward unit normal of the surface, frozen (into free space).
     pub normal: Vec2,
@@ -280,14 +382,14 @@ pub fn detect<S: Touching>(
             }
         }
     }
-    // A rim gets a row per nearby feature, as a node does: in an inside
-    // corner it touches both faces, and one row for the closest alone
-    // switches between them from one refresh to the next. A free cup's face
-    // may also start inside a solid (a released unit that hung through a
-    // floor in free space): then its rims take the closest surface at any
-    // depth as well.
-    for (cup, rims) in body.free_cup_rims(q) {
-        for (rim, p) in rims.iter().enumerate() {
+    // A face's corner (a cup's rim) gets a row per nearby feature, as a
+    // node does: in an inside corner it touches both faces, and one row for
+    // the closest alone switches between them from one refresh to the next.
+    // A face may also start inside a solid (a released unit that hung
+    // through a floor in free space): then its corners take the closest
+    // surface at any depth as well.
+    for face in body.free_faces(q) {
+        for (link, p) in face.corners.iter().enumerate() {
             near.clear();
             if options.whole_faces {
                 scene.features_near(*p, options.margin, &mut near);
@@ -295,8 +397,8 @@ pub fn detect<S: Touching>(
             for candidate in &near {
                 let n = candidate.normal;
                 out.push(ContactRow {
-                    chain: cup,
-                    link: rim,
+                    chain: face.chain,
+                    link,
                     fraction: 1.0,
                     normal: n,
                     offset: dot(n, candidate.closest),
@@ -307,21 +409,29 @@ pub fn detect<S: Touching>(
                 .iter()
                 .any(|c| dot(c.normal, n) > 1.0 - 1e-12 && (dot(n, closest) - dot(n, c.closest)).abs() < 1e-12);
             if distance <= options.margin && !listed {
-                out.push(ContactRow { chain: cup, link: rim, fraction: 1.0, normal: n, offset: dot(n, closest) });
+                out.push(ContactRow { chain: face.chain, link, fraction: 1.0, normal: n, offset: dot(n, closest) });
             }
         }
-        // A face resting on a nosing touches it between its rims.
-        for corner in corners.iter().filter(|_| options.whole_faces) {
-            let (distance, s, n) = Scene::segment_corner_distance(rims[0], rims[1], corner);
-            let n = face_corner_normal(rims, corner).unwrap_or(n);
-            if distance <= options.margin && s > 1e-9 && s < 1.0 - 1e-9 {
-                out.push(ContactRow { chain: cup, link: 0, fraction: s, normal: n, offset: dot(n, corner.point) });
+        // A face resting on a nosing touches it between its corners.
+        for (link, edge) in face.edges() {
+            for corner in corners.iter().filter(|_| options.whole_faces) {
+                let (distance, s, n) = Scene::segment_corner_distance(edge[0], edge[1], corner);
+                let n = face_corner_normal(edge, corner).unwrap_or(n);
+                if distance <= options.margin && s > 1e-9 && s < 1.0 - 1e-9 {
+                    out.push(ContactRow {
+                        chain: face.chain,
+                        link,
+                        fraction: s,
+                        normal: n,
+                        offset: dot(n, corner.point),
+                    });
+                }
             }
         }
     }
 }
 
-/// The normal of a row where `corner` touches the face between `rims`: the
+/// The normal of a row where `corner` touches a face's `edge`: the
 /// face's own normal, pointing out of the solid, where the solid's wedge at
 /// the corner lies on one side of the face's line (the face rests on the
 /// corner, or is a hair past it). The face touches with no clearance, so the
@@ -331,8 +441,8 @@ pub fn detect<S: Touching>(
 /// pointed into the solid (a row holding the face on the wrong side).
 /// `None` where the face's line cuts the wedge: the face is through the
 /// corner, and only the geometry says which way is out.
-fn face_corner_normal(rims: [Vec2; 2], corner: &crate::scene::Corner) -> Option<Vec2> {
-    let along = sub(rims[1], rims[0]);
+fn face_corner_normal(edge: [Vec2; 2], corner: &crate::scene::Corner) -> Option<Vec2> {
+    let along = sub(edge[1], edge[0]);
     let length = norm(along);
     if length == 0.0 {
         return None;
@@ -370,21 +480,25 @@ pub fn penetration<S: Touching>(body: &S, q: &[f64], scene: &Scene, radius: f64)
             }
         }
     }
-    for (_, rims) in body.free_cup_rims(q) {
-        for p in rims {
-            deepest = deepest.max(-scene.signed_distance(p).0);
+    for face in body.free_faces(q) {
+        for p in &face.corners {
+            deepest = deepest.max(-scene.signed_distance(*p).0);
+        }
+        // A solid's corner poking into an outline between its corners.
+        for corner in &corners {
+            deepest = deepest.max(face.depth_of(corner.point));
         }
     }
     deepest
 }
 
-/// The farthest any node or free cup's rim of `body` moved between `a` and
-/// `b` (m).
+/// The farthest any node or free face's corner of `body` moved between `a`
+/// and `b` (m).
 pub(crate) fn displacement<S: Touching>(body: &S, a: &[f64], b: &[f64]) -> f64 {
     let far = |x: &[Vec2], y: &[Vec2]| x.iter().zip(y).fold(0.0f64, |m, (p, r)| m.max(norm(sub(*p, *r))));
     let chains = (0..body.chain_count()).map(|c| far(&body.chain_points(a, c), &body.chain_points(b, c)));
-    let rims = body.free_cup_rims(a).into_iter().zip(body.free_cup_rims(b)).map(|((_, x), (_, y))| far(&x, &y));
-    chains.chain(rims).fold(0.0, f64::max)
+    let faces = body.free_faces(a).into_iter().zip(body.free_faces(b)).map(|(x, y)| far(&x.corners, &y.corners));
+    chains.chain(faces).fold(0.0, f64::max)
 }
 
 /// The length of a polyline (m).
@@ -458,19 +572,20 @@ pub fn swept_clear<A: Touching, B: Touching>(before: (&A, &[f64]), after: (&B, &
     }) && rims_clear(before, after, scene, &corners)
 }
 
-/// Whether the free cups' faces could have moved from `before` to `after`
-/// without passing through a polygon ([`Scene::face_sweep_clear`]): the test
-/// of [`swept_clear`] for the faces, which rest on the solids with no
-/// clearance, so that a feeding step cannot tunnel a cup through a nosing.
+/// Whether the free faces (cups' faces, the unit's outline) could have
+/// moved from `before` to `after` without passing through a polygon
+/// ([`Scene::face_sweep_clear`], edge by edge): the test of [`swept_clear`]
+/// for the faces, which rest on the solids with no clearance, so that a
+/// feeding step cannot tunnel a cup or the unit through a nosing.
 fn rims_clear<A: Touching, B: Touching>(
     before: (&A, &[f64]),
     after: (&B, &[f64]),
     scene: &Scene,
     corners: &[crate::scene::Corner],
 ) -> bool {
-    let old = before.0.free_cup_rims(before.1);
-    after.0.free_cup_rims(after.1).iter().all(|(cup, now)| match old.iter().find(|(c, _)| c == cup) {
-        Some((_, was)) => scene.face_sweep_clear(*was, *now, corners),
+    let old = before.0.free_faces(before.1);
+    after.0.free_faces(after.1).iter().all(|now| match old.iter().find(|was| was.chain == now.chain) {
+        Some(was) => was.edges().zip(now.edges()).all(|((_, a), (_, b))| scene.face_sweep_clear(a, b, corners)),
         None => true,
     })
 }

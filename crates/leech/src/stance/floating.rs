@@ -1,13 +1,15 @@
 //! The body with a floating driving unit: the chains' angles plus the
 //! unit's pose `(p0, phi0)`, under the weld and the holds.
 
+use super::unit::{placed, Unit};
 use crate::body::{Body, WELD_ROWS};
 use crate::cantilever::start_compliance;
 use crate::chain::Chain;
-use crate::contact::planar::{chain_terms, ContactRow, Touching, FRONT_CUP, REAR_CUP};
+use crate::contact::planar::{chain_terms, ContactRow, Face, Touching, FRONT_CUP, REAR_CUP, UNIT};
 use crate::geom::{dot, right_normal, unit, Vec2};
 use crate::hold::{Hold, Pose};
 use crate::hose::{Stop, StopRow};
+use crate::robot::Robot;
 use crate::statics::{Constraints, Evaluation, Path, PathTerms, Potential, Row, RowKind, Stage, StaticSystem};
 
 /// Free coordinates: `p0` (x, y; m) and `phi0` (rad), after the chains' angles.
@@ -53,7 +55,7 @@ impl Approach {
 pub struct FloatingBody<'a> {
     body: &'a Body,
     base_spacing: f64,
-    unit_mass: f64,
+    unit: Unit,
     hold: Hold,
     approach: Approach,
     contacts: Vec<ContactRow>,
@@ -65,13 +67,16 @@ pub struct FloatingBody<'a> {
 }
 
 /// Where the cups' faces sit, for a body whose free cups rest on surfaces:
-/// the rear face's centre `rear_m` from `p0` along `nu(phi0)`, the front
-/// face's `front_m` from the endpoint along `nu` of the plate, each face
-/// `half_width_m` each way along its direction (its rims).
+/// the rear face's centre `rear_m` from `p0` along `nu(phi0)` and
+/// `rear_behind_m` behind it along `-e(phi0)`, the front face's `front_m`
+/// from the endpoint along `nu` of the plate, each face `half_width_m` each
+/// way along its direction (its rims).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CupFaces {
     /// The rear face's centre from `p0` along `nu(phi0)` (m): `b + rear_offset`.
     pub rear_m: f64,
+    /// The rear face's centre behind `p0` along `-e(phi0)` (m).
+    pub rear_behind_m: f64,
     /// The front face's centre from the endpoint along `nu` of the plate (m): `c + front_offset`.
     pub front_m: f64,
     /// Half the cup's diameter (m).
@@ -79,17 +84,11 @@ pub struct CupFaces {
 }
 
 impl CupFaces {
-    /// A rim `x = o + d nu(a) + s w e(a)` of a face along `a` (rad) at `d`
-    /// from the frame's origin `o` (`s = -1` behind, `+1` ahead), with its
-    /// first two derivatives in `a`.
-    fn rim(origin: Vec2, d: f64, w: f64, a: f64) -> [Vec2; 3] {
-        let [c, s] = unit(a);
-        // nu = (s, -c), e = (c, s); nu' = e, e' = (-s, c), nu'' = e', e'' = -e.
-        [
-            [origin[0] + d * s + w * c, origin[1] - d * c + w * s],
-            [d * c - w * s, d * s + w * c],
-            [-d * s - w * c, d * c - w * s],
-        ]
+    /// The rims of `cup`'s face in its frame, `(along, across)` (m): the
+    /// driving unit's for the rear cup, the plate's for the front.
+    fn rims(&self, cup: usize) -> [Vec2; 2] {
+        let (centre, across) = if cup == REAR_CUP { (-self.rear_behind_m, self.rear_m) } else { (0.0, self.front_m) };
+        [-1.0, 1.0].map(|side| [centre + side * self.half_width_m, across])
     }
 }
 
@@ -125,7 +124,7 @@ impl<'a> FloatingBody<'a> {
         FloatingBody {
             body,
             base_spacing,
-            unit_mass,
+            unit: Unit::point_mass(unit_mass, base_spacing),
             hold,
             approach,
             contacts: Vec::new(),
@@ -133,6 +132,12 @@ impl<'a> FloatingBody<'a> {
             hose: None,
             stops: Vec::new(),
         }
+    }
+
+    /// The floating form of `body` for `robot`: its base spacing and its
+    /// driving unit ([`Unit::of`]).
+    pub fn of(robot: &Robot, body: &'a Body, hold: Hold, approach: Approach) -> FloatingBody<'a> {
+        FloatingBody::new(body, robot.body.base_spacing_m, 0.0, hold, approach).with_unit(Unit::of(robot))
     }
 
     /// The same body with the hose's stop at `min_bend_radius` (m), each
@@ -145,39 +150,50 @@ impl<'a> FloatingBody<'a> {
         self
     }
 
+    /// The same body with this driving unit: its mass where it sits, and
+    /// its outline, which rests on the solids where the unit is free and the
+    /// faces are in the world ([`FloatingBody::with_cup_faces`]).
+    pub fn with_unit(mut self, unit: Unit) -> Self {
+        self.unit = unit;
+        self
+    }
+
     /// The same body with the cups' faces in the world: a cup that does not
-    /// hold rests on what its face meets (its rims get contact rows).
+    /// hold rests on what its face meets (its rims get contact rows), and so
+    /// does the driving unit's outline where the rear cup does not hold.
     pub fn with_cup_faces(mut self, faces: CupFaces) -> Self {
         self.faces = Some(faces);
         self
     }
 
-    /// The rims of the face of the free `cup` ([`REAR_CUP`] or
-    /// [`FRONT_CUP`]), behind then ahead, each with its derivatives in its
-    /// frame's angle (`phi0`, or chain A's last angle).
-    fn rims(&self, q: &[f64], cup: usize) -> [[Vec2; 3]; 2] {
-        [-1.0, 1.0].map(|side| self.face_point(q, cup, side))
+    /// The corners of face `chain` ([`REAR_CUP`], [`FRONT_CUP`], [`UNIT`])
+    /// in its frame, `(along, across)` (m).
+    fn face_corners(&self, chain: usize) -> Vec<Vec2> {
+        match chain {
+            UNIT => self.unit.outline_m.map_or_else(Vec::new, |o| o.to_vec()),
+            cup => self.faces.expect("cup faces").rims(cup).to_vec(),
+        }
     }
 
-    /// The point of the free `cup`'s face `side` half widths from its centre
-    /// (-1 the rim behind, 1 the rim ahead), with its derivatives as
-    /// [`FloatingBody::rims`].
-    fn face_point(&self, q: &[f64], cup: usize, side: f64) -> [Vec2; 3] {
-        let faces = self.faces.expect("cup faces");
+    /// The frame a face moves with: the driving unit's pose, or for the
+    /// front cup the endpoint and chain A's last angle.
+    fn face_frame(&self, q: &[f64], chain: usize) -> (Vec2, f64) {
         let n = self.chains();
-        let (origin, d, a) = if cup == REAR_CUP {
-            ([q[n], q[n + 1]], faces.rear_m, q[n + 2])
+        if chain == FRONT_CUP {
+            (self.endpoint(q), q[self.body.chain_a().len() - 1])
         } else {
-            (self.endpoint(q), faces.front_m, q[self.body.chain_a().len() - 1])
-        };
-        CupFaces::rim(origin, d, side * faces.half_width_m, a)
+            ([q[n], q[n + 1]], q[n + 2])
+        }
     }
 
-    /// Where on its cup's face a row on a face touches, with derivatives: a
-    /// rim, or a corner's point between them ([`ContactRow::fraction`]).
-    fn face_terms(&self, q: &[f64], cup: usize, contact: &ContactRow) -> [Vec2; 3] {
-        let side = if contact.fraction >= 1.0 { [-1.0, 1.0][contact.link] } else { 2.0 * contact.fraction - 1.0 };
-        self.face_point(q, cup, side)
+    /// Where on its face a row on a face touches, with its derivatives in
+    /// the face's frame's angle: a corner, or a point along an edge
+    /// ([`ContactRow::fraction`]).
+    fn face_terms(&self, q: &[f64], contact: &ContactRow) -> [Vec2; 3] {
+        let corners = self.face_corners(contact.chain);
+        let face = Face { chain: contact.chain, corners, closed: contact.chain == UNIT };
+        let (origin, angle) = self.face_frame(q, contact.chain);
+        placed(origin, face.point(contact.link, contact.fraction), angle)
     }
 
     /// The same body with these contact rows (after the holds' rows).
@@ -279,7 +295,7 @@ impl<'a> FloatingBody<'a> {
     pub fn weight(&self) -> f64 {
         let g = self.body.gravity();
         let chains: f64 = self.attachments().iter().map(|c| c.chain.total_mass() + c.chain.root_mass()).sum();
-        g * (chains + self.unit_mass)
+        g * (chains + self.unit.mass_kg)
     }
 
     /// The centre of mass of everything the holds carry (m).
@@ -298,11 +314,11 @@ impl<'a> FloatingBody<'a> {
             }
             mass += m + c.chain.root_mass();
         }
-        let unit = c_unit(p0, phi0, 0.5 * self.base_spacing);
+        let unit = placed(p0, self.unit.centre_m, phi0)[0];
         for i in 0..2 {
-            moment[i] += self.unit_mass * unit[i];
+            moment[i] += self.unit.mass_kg * unit[i];
         }
-        mass += self.unit_mass;
+        mass += self.unit.mass_kg;
         [moment[0] / mass, moment[1] / mass]
     }
 
@@ -405,10 +421,10 @@ impl<'a> FloatingBody<'a> {
             out[2] += mass * d1[1] + root_mass * mid1[1];
             out[3] += mass * d2[1] + root_mass * mid2[1];
         }
-        // The driving unit at the clamps' midpoint, p0 + (b/2) nu(phi0).
-        let (half, (s, c)) = (0.5 * self.base_spacing, phi0.sin_cos());
-        let md = self.unit_mass;
-        [out[0] + md * (p0[1] - half * c), out[1] + md, out[2] + md * half * s, out[3] + md * half * c]
+        // The driving unit's mass where it sits in the unit's frame.
+        let [at, d1, d2] = placed(p0, self.unit.centre_m, phi0);
+        let md = self.unit.mass_kg;
+        [out[0] + md * at[1], out[1] + md, out[2] + md * d1[1], out[3] + md * d2[1]]
     }
 }
 
@@ -502,7 +518,7 @@ impl Constraints for FloatingBody<'_> {
         let first = self.contact_row();
         for (i, contact) in self.contacts.iter().enumerate() {
             match contact.chain {
-                REAR_CUP => self.rear_rim_terms(q, first + i, contact, ev),
+                REAR_CUP | UNIT => self.unit_face_terms(q, first + i, contact, ev),
                 FRONT_CUP => self.front_rim_terms(q, first + i, contact, ev),
                 _ => self.contact_terms(q, first + i, contact, ev),
             }
@@ -575,10 +591,11 @@ impl FloatingBody<'_> {
         ev.curvature[(n + 2) * m + row] = dot(normal, d2);
     }
 
-    /// A row on the free rear cup's rim: `x = p0 + d nu(phi0) + s w e(phi0)`.
-    fn rear_rim_terms(&self, q: &[f64], row: usize, contact: &ContactRow, ev: &mut Evaluation) {
+    /// A row on a face the driving unit carries (the free rear cup's, its
+    /// outline): `x = p0 + a e(phi0) + c nu(phi0)` ([`super::unit`]).
+    fn unit_face_terms(&self, q: &[f64], row: usize, contact: &ContactRow, ev: &mut Evaluation) {
         let (n, m, normal) = (self.chains(), ev.rows(), contact.normal);
-        let [x, dx, ddx] = self.face_terms(q, REAR_CUP, contact);
+        let [x, dx, ddx] = self.face_terms(q, contact);
         ev.constraints[row] = dot(normal, x) - contact.offset;
         ev.jacobian[n * m + row] = normal[0];
         ev.jacobian[(n + 1) * m + row] = normal[1];
@@ -593,7 +610,7 @@ impl FloatingBody<'_> {
         let last = self.body.chain_a().len() - 1;
         let tip = ContactRow { chain: 0, link: last, fraction: 1.0, ..*contact };
         self.contact_terms(q, row, &tip, ev);
-        let [x, dx, ddx] = self.face_terms(q, FRONT_CUP, contact);
+        let [x, dx, ddx] = self.face_terms(q, contact);
         ev.constraints[row] = dot(contact.normal, x) - contact.offset;
         ev.jacobian[last * m + row] += dot(contact.normal, dx);
         ev.curvature[last * m + row] += dot(contact.normal, ddx);
@@ -651,17 +668,29 @@ impl Touching for FloatingBody<'_> {
         self
     }
 
+    /// The free cups' faces and, where the rear cup does not hold, the
+    /// driving unit's outline, when the faces are in the world.
+    fn free_faces(&self, q: &[f64]) -> Vec<Face> {
+        let rear_free = self.hold.rear().is_none();
+        let free = [(REAR_CUP, rear_free), (FRONT_CUP, self.hold.front().is_none()), (UNIT, rear_free)];
+        free.iter().filter(|(_, free)| *free).filter_map(|&(chain, _)| self.face(q, chain)).collect()
+    }
+
+    /// A face of the robot, held or not, when the faces are in the world
+    /// (the outline where the unit has one).
+    fn face(&self, q: &[f64], chain: usize) -> Option<Face> {
+        if self.faces.is_none() || (chain == UNIT && self.unit.outline_m.is_none()) {
+            return None;
+        }
+        let (origin, angle) = self.face_frame(q, chain);
+        let corners = self.face_corners(chain).iter().map(|c| placed(origin, *c, angle)[0]).collect();
+        Some(Face { chain, corners, closed: chain == UNIT })
+    }
+
     /// With the front cup holding, the plate's pose fixes each chain's last
     /// link, chain A's by the hold and chain B's by the weld: a contact row
     /// there would be a combination of their rows (a singular Jacobian), and
     /// a surface's push there is part of the front reaction.
-    /// The free cups' rims, when the faces are known.
-    fn free_cup_rims(&self, q: &[f64]) -> Vec<(usize, [Vec2; 2])> {
-        let Some(_) = self.faces else { return Vec::new() };
-        let free = [(REAR_CUP, self.hold.rear().is_none()), (FRONT_CUP, self.hold.front().is_none())];
-        free.iter().filter(|(_, free)| *free).map(|&(cup, _)| (cup, self.rims(q, cup).map(|r| r[0]))).collect()
-    }
-
     fn held_by_front(&self, c: usize, link: usize, fraction: f64) -> bool {
         let n = self.chain_len(c);
         self.hold.front().is_some() && (link + 1 == n || (link + 2 == n && fraction >= 1.0))
@@ -719,10 +748,4 @@ impl Path for FloatingBody<'_> {
             Approach::ReleaseRear(_) | Approach::ReleaseFront(_) => {}
         }
     }
-}
-
-/// The driving unit's mass point, `p0 + (b/2) nu(phi0)`.
-fn c_unit(p0: Vec2, phi0: f64, half_spacing: f64) -> Vec2 {
-    let nu = right_normal(phi0);
-    [p0[0] + half_spacing * nu[0], p0[1] + half_spacing * nu[1]]
 }

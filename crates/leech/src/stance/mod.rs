@@ -6,9 +6,11 @@
 //!
 //! The driving unit is a rigid body with pose `(p0, phi0)`: `p0` (m) is
 //! chain A's clamp and `phi0` (rad) the clamp direction; chain B's clamp is
-//! at `p0 + b nu(phi0)`. Its mass `Md` (kg) sits at the clamps' midpoint
-//! `p0 + (b/2) nu(phi0)`, and the rigid root pieces of the `midpoint`
-//! discretization ride on it too. With the chains' angles the unknowns are
+//! at `p0 + b nu(phi0)`. Its mass `Md` (kg) sits at `y_unit = p0 + a e(phi0)
+//! + c nu(phi0)` ([`Unit`]: `[driving_unit] centre_of_mass_m = [a, c]`, the
+//! clamps' midpoint `(0, b/2)` by default), the rigid root pieces of the
+//! `midpoint` discretization ride on it too, and where the rear cup does not
+//! hold its outline rests on a scene's solids (docs/model.md section 7.3.3). With the chains' angles the unknowns are
 //! `q = (phi^A, phi^B, p0_x, p0_y, phi0)` and the potential is
 //!
 //! ```text
@@ -69,10 +71,11 @@ mod phases;
 mod points;
 mod scene_solve;
 pub mod tube;
+mod unit;
 
 pub use crate::cantilever::{start_compliance, START_SOFTNESS};
 pub use crate::contact::planar::{
-    detect, penetration, swept_clear, ContactOptions, ContactRow, Touching, FRONT_CUP, REAR_CUP,
+    detect, penetration, swept_clear, ContactOptions, ContactRow, Face, Touching, FRONT_CUP, REAR_CUP, UNIT,
 };
 pub use crate::error::StanceError;
 pub use crate::hold::{Hold, Pose};
@@ -81,6 +84,7 @@ pub use feeding::{FALLBACK_STEP_M, FEED_STEP_M, MIN_FEED_STEP_M};
 pub use floating::{Approach, CupFaces, FloatingBody, FREE, HOLD_ROWS};
 pub use phases::{solve_after, RELEASE_SPAN_M};
 pub use tube::{tube_in, Tube, TubeHeld, TUBE_FEED_START_M};
+pub use unit::Unit;
 
 use crate::body::{Body, WELD_ROWS};
 use crate::error::InputError;
@@ -171,8 +175,6 @@ pub struct ContactForce {
 /// assert!((rear.force_n[1] - held.weight_n).abs() < 1e-9 * held.weight_n);
 /// ```
 pub fn solve(robot: &Robot, lengths: [f64; 2], hold: Hold, solver: &Solver) -> Result<Held, StanceError> {
-    let b = robot.body.base_spacing_m;
-    let unit_mass = robot.driving_unit.mass_kg;
     match hold {
         Hold::Rear(pose) => {
             let body = rear_body(robot, lengths, pose)?;
@@ -182,7 +184,7 @@ pub fn solve(robot: &Robot, lengths: [f64; 2], hold: Hold, solver: &Solver) -> R
         Hold::Front(pose) | Hold::FrontPivot(pose) => {
             let body = robot.body(lengths[0], lengths[1])?;
             let q = placed(&body, &unloaded(robot, lengths, solver)?, pose);
-            let floating = FloatingBody::new(&body, b, unit_mass, hold, Approach::Load);
+            let floating = FloatingBody::of(robot, &body, hold, Approach::Load);
             continued(&floating, q, solver)
         }
         Hold::Both { rear, front } => {
@@ -203,8 +205,7 @@ pub fn solve_near(robot: &Robot, lengths: [f64; 2], near: &Held, solver: &Solver
     let chains = near.body.dim();
     let mut q = body.carry_over(&near.body, &near.equilibrium.q[..chains]);
     q.extend_from_slice(&near.equilibrium.q[chains..]);
-    let floating =
-        FloatingBody::new(&body, robot.body.base_spacing_m, robot.driving_unit.mass_kg, near.hold, Approach::Load);
+    let floating = FloatingBody::of(robot, &body, near.hold, Approach::Load);
     let warm = Scratch::with_spare(&floating, |ws| {
         let mut it = Iterate::new(q);
         let residual = solver.minimize(&floating, &mut it, 1.0, Stage::Load, ws)?;
@@ -241,10 +242,9 @@ pub fn attach_front(robot: &Robot, held: &Held, front: Pose, solver: &Solver) ->
         }
         .into());
     };
-    let (b, unit_mass) = (robot.body.base_spacing_m, robot.driving_unit.mass_kg);
     let from = Pose { point_m: held.endpoint_m, angle_rad: held.plate_angle() };
     let hold = Hold::Both { rear, front };
-    let floating = FloatingBody::new(&held.body, b, unit_mass, hold, Approach::Front(from));
+    let floating = FloatingBody::of(robot, &held.body, hold, Approach::Front(from));
     continued(&floating, held.equilibrium.q.clone(), solver).map_err(|e| beyond_reach(e, &held.body, rear, front))
 }
 
@@ -269,8 +269,7 @@ pub fn rear_held(
     pose: Pose,
     solver: &Solver,
 ) -> Result<Held, StanceError> {
-    let (b, unit_mass) = (robot.body.base_spacing_m, robot.driving_unit.mass_kg);
-    let floating = FloatingBody::new(body, b, unit_mass, Hold::Rear(pose), Approach::Load);
+    let floating = FloatingBody::of(robot, body, Hold::Rear(pose), Approach::Load);
     let mut ws = Scratch::for_system(&floating);
     // The weld's rows come first and are the clamped body's, so its
     // multipliers carry over (the Lagrangian's curvature is right from the
@@ -286,18 +285,23 @@ pub fn rear_held(
 
 /// The centre of the rear cup's face for the driving unit at `unit`:
 /// `b + rear_offset` from `p0` along `nu(phi0)` (the surfaces lie on chain
-/// B's side, docs/model.md section 3).
+/// B's side, docs/model.md section 3) and `rear_cup_behind` behind it
+/// along `-e(phi0)`.
 pub fn rear_cup_centre(robot: &Robot, unit: Pose) -> Vec2 {
-    let d = robot.body.base_spacing_m + robot.cup.rear_offset_m;
-    crate::geom::add_scaled(unit.point_m, d, crate::geom::right_normal(unit.angle_rad))
+    crate::geom::add_scaled(unit.point_m, 1.0, rear_cup_offset(robot, unit.angle_rad))
+}
+
+/// The rear cup's face centre from `p0` for the clamp direction `angle` (m).
+fn rear_cup_offset(robot: &Robot, angle: f64) -> Vec2 {
+    let faces = cup_faces(robot);
+    unit::placed([0.0, 0.0], [-faces.rear_behind_m, faces.rear_m], angle)[0]
 }
 
 /// The driving unit's pose that puts the rear cup's face centre at `cup`
 /// (m) with the clamp direction `direction` (rad): the inverse of
 /// [`rear_cup_centre`].
 pub fn rear_pose_for_cup(robot: &Robot, cup: Vec2, direction: f64) -> Pose {
-    let d = robot.body.base_spacing_m + robot.cup.rear_offset_m;
-    Pose { point_m: crate::geom::add_scaled(cup, -d, crate::geom::right_normal(direction)), angle_rad: direction }
+    Pose { point_m: sub(cup, rear_cup_offset(robot, direction)), angle_rad: direction }
 }
 
 /// The endpoint pose (chain A's tip and the plate's angle) that puts the
@@ -393,9 +397,8 @@ pub fn solve_among(
 
 /// The held body where a feed (or a release) ended, `hold` holding it.
 fn fed_end(robot: &Robot, end: feeding::FedEnd<Body>, hold: Hold, cups: FreeCups) -> Held {
-    let (b, unit_mass) = (robot.body.base_spacing_m, robot.driving_unit.mass_kg);
     let floating = cups
-        .on(robot, FloatingBody::new(&end.shape, b, unit_mass, hold, Approach::Load))
+        .on(robot, FloatingBody::of(robot, &end.shape, hold, Approach::Load))
         .with_stops(end.stops)
         .with_contacts(end.contacts);
     Held::settled(scene_solve::Settled { system: floating, equilibrium: end.equilibrium })
@@ -413,7 +416,6 @@ fn front_attached(
     solver: &Solver,
     cups: FreeCups,
 ) -> Result<Held, StanceError> {
-    let (b, unit_mass) = (robot.body.base_spacing_m, robot.driving_unit.mass_kg);
     let radius = 0.5 * robot.tube.outer_diameter_m;
     let (Some(rear), Some(front)) = (hold.rear(), hold.front()) else {
         return Err(InputError::Invalid {
@@ -423,9 +425,9 @@ fn front_attached(
         }
         .into());
     };
-    let at = FloatingBody::new(body, b, unit_mass, Hold::Rear(rear), Approach::Load).endpoint(q);
+    let at = FloatingBody::of(robot, body, Hold::Rear(rear), Approach::Load).endpoint(q);
     let from = Pose { point_m: at, angle_rad: body.endpoint_angle(q) };
-    let both = cups.on(robot, FloatingBody::new(body, b, unit_mass, hold, Approach::Front(from)));
+    let both = cups.on(robot, FloatingBody::of(robot, body, hold, Approach::Front(from)));
     match scene_solve::approached(both, q.to_vec(), scene, radius, solver) {
         Ok(approached) => Ok(Held::settled(approached)),
         Err(e) => Err(beyond_reach(e, body, rear, front)),
@@ -436,6 +438,7 @@ fn front_attached(
 pub fn cup_faces(robot: &Robot) -> CupFaces {
     CupFaces {
         rear_m: robot.body.base_spacing_m + robot.cup.rear_offset_m,
+        rear_behind_m: robot.driving_unit.rear_cup_behind_m,
         front_m: robot.body.tip_spacing_m + robot.cup.front_offset_m,
         half_width_m: 0.5 * robot.cup.diameter_m,
     }
@@ -468,8 +471,7 @@ impl Fed for BodyFeed<'_> {
     }
 
     fn system<'s>(&self, body: &'s Body) -> FloatingBody<'s> {
-        let (b, unit_mass) = (self.robot.body.base_spacing_m, self.robot.driving_unit.mass_kg);
-        self.cups.on(self.robot, FloatingBody::new(body, b, unit_mass, self.hold, Approach::Load))
+        self.cups.on(self.robot, FloatingBody::of(self.robot, body, self.hold, Approach::Load))
     }
 
     /// The chains' angles carried over, the driving unit's pose kept.
@@ -568,7 +570,8 @@ impl Held {
             0 => "a",
             1 => "b",
             REAR_CUP => "rear_cup",
-            _ => "front_cup",
+            FRONT_CUP => "front_cup",
+            _ => "unit",
         });
         let stops = hose::locked(floating, &equilibrium.multipliers)
             .map(|(stop, moment_nm)| {
@@ -649,6 +652,14 @@ impl Held {
     /// Where the rear cup's face is ([`rear_cup_centre`]).
     pub fn rear_cup_m(&self, robot: &Robot) -> Vec2 {
         rear_cup_centre(robot, self.unit)
+    }
+
+    /// The driving unit's outline in the world, its corners as
+    /// [`crate::robot::DrivingUnit::outline_m`] orders them (m); `None` for
+    /// a unit without one.
+    pub fn unit_outline_m(&self, robot: &Robot) -> Option<[Vec2; 4]> {
+        let Pose { point_m, angle_rad } = self.unit;
+        robot.driving_unit.outline_m().map(|corners| corners.map(|c| unit::placed(point_m, c, angle_rad)[0]))
     }
 
     /// Where the front cup's face is ([`front_cup_centre`]).

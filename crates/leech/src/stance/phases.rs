@@ -113,8 +113,7 @@ fn resting(robot: &Robot, held: &Held, cups: FreeCups) -> Vec<Pushing> {
 
 /// The floating form of `body` held by `hold` along `approach`, its free cups as `cups` says.
 fn system<'b>(robot: &Robot, body: &'b Body, hold: Hold, approach: Approach, cups: FreeCups) -> FloatingBody<'b> {
-    let (b, unit_mass) = (robot.body.base_spacing_m, robot.driving_unit.mass_kg);
-    cups.on(robot, FloatingBody::new(body, b, unit_mass, hold, approach))
+    cups.on(robot, FloatingBody::of(robot, body, hold, approach))
 }
 
 /// The tubes of `from` fed to `lengths`, its hold kept.

@@ -5,7 +5,8 @@
 use super::floating::FloatingBody;
 use super::{ContactForce, Held, StanceError};
 use crate::contact::planar::{
-    self as contact, detect, displacement, on_cup, penetration, ContactOptions, ContactRow, Touching,
+    self as contact, detect, displacement, on_face, penetration, rigid_body_of, ContactOptions, ContactRow, RigidRows,
+    Touching,
 };
 use crate::geom::dot;
 use crate::hose::{self, StopRow};
@@ -49,13 +50,13 @@ impl Pushing {
     /// A contact that pushed on `row` of `system` with `force` (N).
     fn new<S: Touching>(system: &S, row: &ContactRow, force: f64) -> Pushing {
         // A cup's rim is no node of a chain.
-        let at_tip = !on_cup(row.chain) && row.fraction >= 1.0 && row.link + 1 == system.chain_len(row.chain);
+        let at_tip = !on_face(row.chain) && row.fraction >= 1.0 && row.link + 1 == system.chain_len(row.chain);
         Pushing { row: *row, at_tip, force }
     }
 
     /// Its link in `system` (a cup's rim as it is), where the chain still reaches that far.
     fn link_in<S: Touching>(&self, system: &S) -> Option<usize> {
-        if on_cup(self.row.chain) {
+        if on_face(self.row.chain) {
             return Some(self.row.link);
         }
         let links = system.chain_len(self.row.chain);
@@ -117,11 +118,11 @@ pub(super) fn contact_forces<S: Touching>(
     pushing_rows(system, equilibrium)
         .map(|(c, force)| {
             // A row at a link's tip is the next node's; a cup's row is its rim.
-            let at_node = c.fraction >= 1.0 && !on_cup(c.chain);
+            let at_node = c.fraction >= 1.0 && !on_face(c.chain);
             ContactForce {
                 chain: chain(c.chain),
                 node: if at_node { c.link + 1 } else { c.link },
-                fraction: if at_node || (on_cup(c.chain) && c.fraction >= 1.0) { 0.0 } else { c.fraction },
+                fraction: if at_node || (on_face(c.chain) && c.fraction >= 1.0) { 0.0 } else { c.fraction },
                 point_m: system.contact_point(&equilibrium.q, c),
                 normal: c.normal,
                 force_n: force,
@@ -483,17 +484,28 @@ fn warm_iterate<S: Touching>(system: &S, previous: &Equilibrium, pushing: &[Push
         }
     }
     let first = system.contact_row();
+    // The faces' rows that start active, on each rigid body only where
+    // independent of those before (else the Jacobian is singular).
+    let mut rigid = [RigidRows::default(), RigidRows::default()];
+    let mut admits = |row: &ContactRow, x| !on_face(row.chain) || rigid[rigid_body_of(row.chain)].admits(x, row.normal);
+    let mut sunk = Vec::new();
     for (i, row) in system.contacts().iter().enumerate() {
+        let x = system.contact_point(&previous.q, row);
         if let Some(known) = pushing.iter().find(|p| p.matches(system, row)) {
-            it.lambda[first + i] = known.force;
-            it.active[first + i] = true;
-        } else if on_cup(row.chain) && dot(row.normal, system.contact_point(&previous.q, row)) < row.offset {
-            // A free cup's rim already in a solid (a unit that hung into a
-            // floor before its rows existed): held as an equality from the
-            // first step, which lifts it out; it leaves the set if it then
-            // pulls.
-            it.active[first + i] = true;
+            if admits(row, x) {
+                it.lambda[first + i] = known.force;
+                it.active[first + i] = true;
+            }
+        } else if on_face(row.chain) && dot(row.normal, x) < row.offset {
+            sunk.push((row.offset - dot(row.normal, x), i, x));
         }
+    }
+    // A free face already in a solid (a unit that hung into a floor before
+    // its rows existed): held as an equality from the first step, which
+    // lifts it out, deepest first; a row leaves the set if it then pulls.
+    sunk.sort_by(|a, b| b.0.total_cmp(&a.0));
+    for (_, i, x) in sunk {
+        it.active[first + i] = admits(&system.contacts()[i], x);
     }
     it
 }
@@ -576,11 +588,10 @@ mod tests {
     #[test]
     fn a_carried_contact_keeps_its_node_from_the_clamp_and_the_tip_its_tip() {
         let robot = Robot::builtin();
-        let (b, unit_mass) = (robot.body.base_spacing_m, robot.driving_unit.mass_kg);
         let hold = Hold::Rear(Pose::from_deg([0.0, 0.03], 0.0));
         let (short, long) = (robot.body(0.155, 0.15).unwrap(), robot.body(0.165, 0.15).unwrap());
-        let before = FloatingBody::new(&short, b, unit_mass, hold, Approach::Load);
-        let after = FloatingBody::new(&long, b, unit_mass, hold, Approach::Load);
+        let before = FloatingBody::of(&robot, &short, hold, Approach::Load);
+        let after = FloatingBody::of(&robot, &long, hold, Approach::Load);
         let (n, m) = (before.chain_len(0), after.chain_len(0));
         assert_eq!(m, n + 1);
         let row = |chain, link| ContactRow { chain, link, fraction: 1.0, normal: [0.0, 1.0], offset: 0.004 };
@@ -594,7 +605,7 @@ mod tests {
         // Drawn back by three elements, the tip is the shorter chain's tip
         // again, and a node beyond the shorter chain has no row.
         let longer = robot.body(0.185, 0.15).unwrap();
-        let drawn = FloatingBody::new(&longer, b, unit_mass, hold, Approach::Load);
+        let drawn = FloatingBody::of(&robot, &longer, hold, Approach::Load);
         let l = drawn.chain_len(0);
         assert_eq!(l, n + 3);
         assert_eq!(on(&drawn, 0, l - 1).link_in(&before), Some(n - 1));

@@ -304,11 +304,14 @@ impl Body3 {
     }
 
     /// The centre of the rear cup's face (m) for `robot` (the robot the body
-    /// was built from: its spacing `b` and the cup's offset): `b +
-    /// rear_offset` from tube 1's root along the unit's right normal.
+    /// was built from: its spacing `b`, the cup's offset and where the cup
+    /// sits on the unit): `b + rear_offset` from tube 1's root along the
+    /// unit's right normal and `rear_cup_behind` behind it, along `-R0 e_x`,
+    /// as in the plane.
     pub fn rear_cup_centre(&self, robot: &Robot) -> Vec3 {
         let d = robot.body.base_spacing_m + robot.cup.rear_offset_m;
-        axpy(d, self.right_normal(), self.tube(0).root())
+        let behind = apply(&self.base_frame(), [-robot.driving_unit.rear_cup_behind_m, 0.0, 0.0]);
+        axpy(d, self.right_normal(), axpy(1.0, behind, self.tube(0).root()))
     }
 
     /// Where the driving unit's mass sits (m): the midpoint of tube 1's root

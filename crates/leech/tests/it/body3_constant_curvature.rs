@@ -9,11 +9,13 @@ use leech::geom3::{apply, log, mul, mul_tn, rot_z, transpose, Mat3, Vec3};
 use leech::prelude::*;
 use proptest::prelude::*;
 
-/// The built-in robot with spacings `b`, `c` (m), gravity `g` and clamp angle (deg).
+/// The built-in robot with spacings `b`, `c` (m), gravity `g` and clamp angle (deg), its driving
+/// unit without an outline (the 3D body has none; the built-in outline holds spacings up to 19 mm).
 fn robot(b: f64, c: f64, g: f64, angle: f64) -> Robot {
     let mut robot = Robot::builtin().with_base_angle(angle).unwrap().with_gravity(g).unwrap();
     robot.body.base_spacing_m = b;
     robot.body.tip_spacing_m = c;
+    (robot.driving_unit.length_m, robot.driving_unit.height_m) = (0.0, 0.0);
     robot.validate().unwrap();
     robot
 }

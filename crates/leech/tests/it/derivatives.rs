@@ -346,10 +346,13 @@ proptest! {
         check_system(&floating, &q, t)?;
     }
 
-    /// The rows on the rims of the free cups' faces (the rear cup's with the
-    /// rear released, the front cup's with the front released), both rims.
+    /// The rows on the free cups' faces (the rear cup's with the rear
+    /// released, the front cup's with the front released), both rims and a
+    /// point between them, and with the rear released the driving unit's
+    /// outline (a corner, a point along an edge), its mass off the clamps'
+    /// midpoint and its cup behind the clamp.
     #[test]
-    fn cup_rim_derivatives(
+    fn cup_face_and_unit_outline_derivatives(
         la in 0.03f64..0.075,
         lb in 0.03f64..0.075,
         clamp_deg in -180.0f64..180.0,
@@ -358,17 +361,27 @@ proptest! {
         pose in prop::collection::vec(-1.0f64..1.0, 3),
         front_free in any::<bool>(),
         t in 0.1f64..1.0,
+        fraction in 0.05f64..0.95,
     ) {
-        use leech::stance::{cup_faces, Approach, ContactRow, FloatingBody, Hold, Pose, FRONT_CUP, REAR_CUP};
-        let robot = Robot::builtin().with_base_angle(clamp_deg).unwrap().with_discretization(d);
+        use leech::stance::{cup_faces, Approach, ContactRow, FloatingBody, Hold, Pose, FRONT_CUP, REAR_CUP, UNIT};
+        let mut robot = Robot::builtin().with_base_angle(clamp_deg).unwrap().with_discretization(d);
+        robot.driving_unit.centre_of_mass_m = Some([0.01, 0.005]);
+        robot.driving_unit.rear_cup_behind_m = 0.012;
         let body = robot.body(la, lb).unwrap();
         let held = Pose { point_m: [pose[0], pose[1]], angle_rad: pose[2] };
         let (hold, cup) = if front_free { (Hold::Rear(held), FRONT_CUP) } else { (Hold::Front(held), REAR_CUP) };
-        let contacts = vec![
+        let mut contacts = vec![
             ContactRow { chain: cup, link: 0, fraction: 1.0, normal: [0.6, 0.8], offset: 0.01 },
             ContactRow { chain: cup, link: 1, fraction: 1.0, normal: [-0.8, 0.6], offset: -0.02 },
+            ContactRow { chain: cup, link: 0, fraction, normal: [0.0, 1.0], offset: 0.005 },
         ];
-        let floating = FloatingBody::new(&body, robot.body.base_spacing_m, 0.25, hold, Approach::Load)
+        if !front_free {
+            contacts.extend([
+                ContactRow { chain: UNIT, link: 2, fraction: 1.0, normal: [0.8, -0.6], offset: 0.03 },
+                ContactRow { chain: UNIT, link: 3, fraction, normal: [-0.6, -0.8], offset: -0.01 },
+            ]);
+        }
+        let floating = FloatingBody::of(&robot, &body, hold, Approach::Load)
             .with_cup_faces(cup_faces(&robot))
             .with_contacts(contacts);
         let n = body.dim();

@@ -29,6 +29,7 @@ mod stance;
 mod stride;
 mod sweep;
 mod tube;
+mod unit_references;
 
 use leech::prelude::*;
 

@@ -93,6 +93,14 @@ fn builtin_states_the_documented_values() {
     let robot = Robot::builtin();
     assert_eq!(robot.tube.outer_diameter_m, 0.010);
     assert_eq!(robot.driving_unit.mass_kg, 0.25);
+    // The unit's outline: 50 mm by 36 mm, chain A's clamp 35 mm from its back and 12 mm from its
+    // top, the rear cup's face (b + rear_offset = 32 mm across) 8 mm beyond its bottom.
+    let outline = robot.driving_unit.outline_m().unwrap();
+    let expected = [[-0.035, -0.012], [0.015, -0.012], [0.015, 0.024], [-0.035, 0.024]];
+    for (got, want) in outline.iter().flatten().zip(expected.iter().flatten()) {
+        assert!((got - want).abs() < 1e-15, "{outline:?}");
+    }
+    assert_eq!(robot.driving_unit.centre_of_mass_m, None);
     let cup = &robot.cup;
     assert_eq!((cup.diameter_m, cup.min_safety_factor, cup.preload_m), (0.05, 1.5, 0.0));
     assert_eq!((cup.attach_distance_tolerance_m, cup.attach_angle_tolerance_deg), (0.002, 5.0));
@@ -122,6 +130,13 @@ fn bad_new_values_name_field_value_and_range() {
         ("element_mass_kg = 0.001 ", "element_mass_kg = 1e-320 ", "tube.element_mass_kg", "[1e-9, 1000]"),
         ("base_spacing_m = 0.017", "base_spacing_m = 1e308", "body.base_spacing_m", "at most 10"),
         ("mass_kg = 0.25 ", "mass_kg = -0.25 ", "driving_unit.mass_kg", ">= 0"),
+        ("\nlength_m = 0.05 ", "\nlength_m = 0 ", "driving_unit.length_m", "> 0 where height_m is"),
+        ("\nlength_m = 0.05 ", "\nlength_m = 2 ", "driving_unit.length_m", "[0, 1]"),
+        ("\nback_m = 0.035 ", "\nback_m = 0.06 ", "driving_unit.back_m", "at most length_m (0.05 m)"),
+        ("\ntop_m = 0.012 ", "\ntop_m = 0.002 ", "driving_unit.top_m", "at least the tube's radius (0.005 m)"),
+        ("\nheight_m = 0.036 ", "\nheight_m = 0.02 ", "driving_unit.height_m", "top_m + b + r = 0.034 m"),
+        ("\nheight_m = 0.036 ", "\nheight_m = 0.05 ", "driving_unit.height_m", "rear_offset_m = 0.044 m"),
+        ("rear_cup_behind_m = 0.0 ", "rear_cup_behind_m = -3 ", "driving_unit.rear_cup_behind_m", "[-1, 1]"),
         ("\ndiameter_m = 0.05 ", "\ndiameter_m = 0 ", "cup.diameter_m", "> 0"),
         ("pull_off_force_n = 33.4 ", "pull_off_force_n = nan ", "cup.pull_off_force_n", "> 0"),
         ("friction_coefficient = 0.5 ", "friction_coefficient = -0.5 ", "cup.friction_coefficient", "> 0"),
@@ -176,6 +191,10 @@ fn scaling_scales_the_new_lengths_and_masses() {
     let r = base.scaled(2.0).unwrap();
     assert_eq!(r.tube.outer_diameter_m, 2.0 * base.tube.outer_diameter_m);
     assert_eq!(r.driving_unit.mass_kg, 2.0 * base.driving_unit.mass_kg);
+    let outline = |r: &Robot| r.driving_unit.outline_m().unwrap();
+    for (scaled, unscaled) in outline(&r).iter().flatten().zip(outline(&base).iter().flatten()) {
+        assert_eq!(*scaled, 2.0 * unscaled);
+    }
     assert_eq!(r.cup.rear_offset_m, 2.0 * base.cup.rear_offset_m);
     assert_eq!(r.cup.pull_off_force_n, 2.0 * base.cup.pull_off_force_n);
     assert_eq!(r.cup.friction_coefficient, base.cup.friction_coefficient);
