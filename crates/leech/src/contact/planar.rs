@@ -110,12 +110,7 @@ impl Face {
     /// The point of a row on it: corner `link` (`fraction >= 1`), or
     /// `fraction` of the way along edge `link`.
     pub fn point(&self, link: usize, fraction: f64) -> Vec2 {
-        let a = self.corners[link];
-        if fraction >= 1.0 {
-            return a;
-        }
-        let b = self.corners[(link + 1) % self.corners.len()];
-        [a[0] + fraction * (b[0] - a[0]), a[1] + fraction * (b[1] - a[1])]
+        point_on(&self.corners, link, fraction)
     }
 
     /// How deep a point `p` lies inside a closed, convex face (m; <= 0 outside).
@@ -136,6 +131,18 @@ impl Face {
             })
             .fold(f64::INFINITY, f64::min)
     }
+}
+
+/// The point of a row on a face with these `corners` (in any frame):
+/// corner `link` (`fraction >= 1`), or `fraction` of the way along the edge
+/// from corner `link` to the next ([`Face::point`]).
+pub fn point_on(corners: &[Vec2], link: usize, fraction: f64) -> Vec2 {
+    let a = corners[link];
+    if fraction >= 1.0 {
+        return a;
+    }
+    let b = corners[(link + 1) % corners.len()];
+    [a[0] + fraction * (b[0] - a[0]), a[1] + fraction * (b[1] - a[1])]
 }
 
 /// The rigid body a face is part of: the driving unit carries the rear

@@ -5,7 +5,7 @@ use super::unit::{placed, Unit};
 use crate::body::{Body, WELD_ROWS};
 use crate::cantilever::start_compliance;
 use crate::chain::Chain;
-use crate::contact::planar::{chain_terms, ContactRow, Face, Touching, FRONT_CUP, REAR_CUP, UNIT};
+use crate::contact::planar::{chain_terms, point_on, ContactRow, Face, Touching, FRONT_CUP, REAR_CUP, UNIT};
 use crate::geom::{dot, right_normal, unit, Vec2};
 use crate::hold::{Hold, Pose};
 use crate::hose::{Stop, StopRow};
@@ -190,10 +190,15 @@ impl<'a> FloatingBody<'a> {
     /// the face's frame's angle: a corner, or a point along an edge
     /// ([`ContactRow::fraction`]).
     fn face_terms(&self, q: &[f64], contact: &ContactRow) -> [Vec2; 3] {
-        let corners = self.face_corners(contact.chain);
-        let face = Face { chain: contact.chain, corners, closed: contact.chain == UNIT };
+        // The point in the face's frame, without building the face: this
+        // runs for every face row at every evaluation.
+        let (link, fraction) = (contact.link, contact.fraction);
+        let local = match contact.chain {
+            UNIT => point_on(&self.unit.outline_m.expect("a row on the unit's outline"), link, fraction),
+            cup => point_on(&self.faces.expect("cup faces").rims(cup), link, fraction),
+        };
         let (origin, angle) = self.face_frame(q, contact.chain);
-        placed(origin, face.point(contact.link, contact.fraction), angle)
+        placed(origin, local, angle)
     }
 
     /// The same body with these contact rows (after the holds' rows).

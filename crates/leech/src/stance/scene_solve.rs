@@ -487,16 +487,23 @@ fn warm_iterate<S: Touching>(system: &S, previous: &Equilibrium, pushing: &[Push
     // The faces' rows that start active, on each rigid body only where
     // independent of those before (else the Jacobian is singular).
     let mut rigid = [RigidRows::default(), RigidRows::default()];
-    let mut admits = |row: &ContactRow, x| !on_face(row.chain) || rigid[rigid_body_of(row.chain)].admits(x, row.normal);
     let mut sunk = Vec::new();
     for (i, row) in system.contacts().iter().enumerate() {
-        let x = system.contact_point(&previous.q, row);
-        if let Some(known) = pushing.iter().find(|p| p.matches(system, row)) {
-            if admits(row, x) {
+        let known = pushing.iter().find(|p| p.matches(system, row));
+        if !on_face(row.chain) {
+            if let Some(known) = known {
                 it.lambda[first + i] = known.force;
                 it.active[first + i] = true;
             }
-        } else if on_face(row.chain) && dot(row.normal, x) < row.offset {
+            continue;
+        }
+        let x = system.contact_point(&previous.q, row);
+        if let Some(known) = known {
+            if rigid[rigid_body_of(row.chain)].admits(x, row.normal) {
+                it.lambda[first + i] = known.force;
+                it.active[first + i] = true;
+            }
+        } else if dot(row.normal, x) < row.offset {
             sunk.push((row.offset - dot(row.normal, x), i, x));
         }
     }
@@ -505,7 +512,8 @@ fn warm_iterate<S: Touching>(system: &S, previous: &Equilibrium, pushing: &[Push
     // lifts it out, deepest first; a row leaves the set if it then pulls.
     sunk.sort_by(|a, b| b.0.total_cmp(&a.0));
     for (_, i, x) in sunk {
-        it.active[first + i] = admits(&system.contacts()[i], x);
+        let row = &system.contacts()[i];
+        it.active[first + i] = rigid[rigid_body_of(row.chain)].admits(x, row.normal);
     }
     it
 }
