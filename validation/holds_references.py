@@ -16,7 +16,7 @@ The model is written again here from its equations, not ported from the Rust cod
   in the middle of its element, a rigid root piece e_1/2 leaves the clamp along phi0 (its mass
   m_c e_1 / (2 l) at its middle rides on the driving unit), link j runs from joint j to joint j+1
   ((e_j + e_{j+1})/2, the last e_n/2) with its mass m_c l_j / l at its centre.
-  The payload ms sits at chain B's tip, the driving unit's mass Md at p0 + (b/2) nu(phi0).
+  The payload ms sits at chain B's tip, the driving unit's mass Md (with the tubes' tails behind the clamps, rho (L_full - L) each) at p0 + (b/2) nu(phi0).
 * V(q) = springs + g (sum of masses times heights).
 * Endpoint weld: p_B - p_A - c nu(phi^A_nA) = 0 (2 rows), phi^A_nA - phi^B_nB = 0.
 * Rear hold: p0 = P, phi0 = Th.  Front hold: p_A = P_f, phi^A_nA = Th_f.
@@ -113,6 +113,8 @@ def builtin_robot():
         ms=t["body"]["payload_kg"],
         g=t["world"]["gravity_m_per_s2"],
         Md=t["driving_unit"]["mass_kg"],
+        # each tube's whole length: the tail behind its clamp rides on the unit
+        full=t["tube"].get("full_length_m"),
         # The cases' scenes place the cup faces for these offsets (earlier
         # estimates of the built-in robot's); they are written into the
         # fixture, and the Rust test builds its robot with them.
@@ -193,6 +195,10 @@ class Body:
         self.root_mass = [factor[c] * robot["m"] * self.root[c] / l for c in range(self.nc)]
         self.tip_mass = [0.0, robot["ms"]] if self.nc == 2 else [robot["P"]]
         self.spacing = [0.0, robot["b"]][:self.nc]
+        # the driving unit carries its own mass and the tubes' tails behind the clamps,
+        # rho (L_full - L) for each of the three tubes (chain B stands for two)
+        tails = sum(factor[c] * (robot["full"] - lengths[c]) for c in range(self.nc)) if robot.get("full") else 0.0
+        self.Md = robot["Md"] + robot["m"] / l * tails
 
     # -- indices and points -------------------------------------------------------------------
 
@@ -248,7 +254,7 @@ class Body:
         return q[ip:ip + 2] + 0.5 * self.R["b"] * nu(q[ip + 2])
 
     def total_mass(self):
-        return sum(self.mass[c].sum() + self.root_mass[c] + self.tip_mass[c] for c in range(self.nc)) + self.R["Md"]
+        return sum(self.mass[c].sum() + self.root_mass[c] + self.tip_mass[c] for c in range(self.nc)) + self.Md
 
     def weight(self, g=None):
         return (self.R["g"] if g is None else g) * self.total_mass()
@@ -262,7 +268,7 @@ class Body:
             moment += self.mass[c] @ centres + self.tip_mass[c] * pts[-1]
             clamp = q[ip:ip + 2] + self.spacing[c] * nu(q[ip + 2])
             moment += self.root_mass[c] * (clamp + 0.5 * self.root[c] * e(q[ip + 2]))
-        moment += self.R["Md"] * self.unit_point(q)
+        moment += self.Md * self.unit_point(q)
         return moment / self.total_mass()
 
     # -- energy -------------------------------------------------------------------------------
@@ -295,7 +301,7 @@ class Body:
             grad += g * Jy[1]
             H[np.diag_indices(N)] += g * Hy[1]
         # the driving unit: y = p0_y - (b/2) cos(phi0)
-        Md, hb, phi0 = self.R["Md"], 0.5 * self.R["b"], q[ip + 2]
+        Md, hb, phi0 = self.Md, 0.5 * self.R["b"], q[ip + 2]
         V += g * Md * (q[ip + 1] - hb * math.cos(phi0))
         grad[ip + 1] += g * Md
         grad[ip + 2] += g * Md * hb * math.sin(phi0)

@@ -249,9 +249,9 @@ points_m = [[{x_edge!r}, {y_top - depth!r}], [0.01, {y_top - depth!r}], [0.01, {
 
     front = H.pose(-d_front, 0.5, 90)
     return [
-        dict(name="unit_on_ledge_corner", lengths=[0.22, 0.2], front=front, scene=ledge(-0.028, 0.262),
+        dict(name="unit_on_ledge_corner", lengths=[0.22, 0.2], front=front, scene=ledge(-0.028, 0.266),
              checks="the hanging unit's back rests on the ledge's corner between two outline corners, "
-                    "the rear cup's rim on the wall"),
+                    "nothing else touching"),
         dict(name="unit_on_ledge_top", lengths=[0.22, 0.2], front=front, scene=ledge(-0.06, 0.262),
              checks="the hanging unit's back corner rests on the ledge's top, the rear cup's rim on the wall"),
     ]

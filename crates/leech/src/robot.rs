@@ -14,7 +14,11 @@
 //! ([`DEFAULT_TUBE_OUTER_DIAMETER_M`]), its torsional stiffness for the 3D
 //! body (`torsion_stiffness_nm_per_rad`, `k / 1.3` until measured), the driving unit's mass
 //! ([`DrivingUnit`]), both suction cups ([`Cup`], judged by [`crate::cup`]) and
-//! the tube lengths planners may use ([`Limits`]).
+//! the tube lengths planners may use ([`Limits`]). One key differs:
+//! `tube.full_length_m`, each tube's whole length, is the built-in's 0.40 m
+//! only in the built-in file; a file without it leaves the tubes' tails out
+//! (the driving unit carries its own `mass_kg` alone, [`Robot::unit_mass_kg`])
+//! and its answers are those it had before the key existed.
 //!
 //! ```
 //! use leech::robot::Robot;
@@ -80,6 +84,14 @@ pub struct Tube {
     /// [`STOP_PER_JOINT_STIFFNESS`] times `k` ([`Tube::stop_stiffness`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stop_stiffness_nm_per_rad: Option<f64>,
+    /// Each tube's whole length (m). What of it is not ahead of its clamp,
+    /// `full - L`, trails behind the driving unit and loads it
+    /// ([`Robot::unit_mass_kg`]), so the robot weighs the same at every
+    /// extension; no tube length may exceed it. `None`: the tails are not
+    /// modelled (`driving_unit.mass_kg` is all the unit carries) and tube
+    /// lengths are bounded only by [`MAX_LINKS`].
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub full_length_m: Option<f64>,
 }
 
 /// `k / kt` assumed while a tube's torsional stiffness is not measured
@@ -213,7 +225,7 @@ impl Default for DrivingUnit {
     /// The built-in robot's estimate (see [`BUILTIN_TOML`]).
     fn default() -> Self {
         DrivingUnit {
-            mass_kg: 0.25,
+            mass_kg: 0.099,
             centre_of_mass_m: None,
             length_m: 0.05,
             height_m: 0.036,
@@ -483,6 +495,7 @@ struct RawTube {
     outer_diameter_m: Option<f64>,
     torsion_stiffness_nm_per_rad: Option<f64>,
     stop_stiffness_nm_per_rad: Option<f64>,
+    full_length_m: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -559,6 +572,7 @@ impl Robot {
                 outer_diameter_m: raw.tube.outer_diameter_m.unwrap_or(DEFAULT_TUBE_OUTER_DIAMETER_M),
                 torsion_stiffness_nm_per_rad: raw.tube.torsion_stiffness_nm_per_rad,
                 stop_stiffness_nm_per_rad: raw.tube.stop_stiffness_nm_per_rad,
+                full_length_m: raw.tube.full_length_m,
             },
             body: raw.body,
             world: raw.world,
@@ -636,6 +650,19 @@ impl Robot {
                     Num(l * MAX_LINKS as f64)
                 ),
             ));
+        }
+        if let Some(full) = self.tube.full_length_m {
+            if !(full >= max && full <= l * MAX_LINKS as f64 * (1.0 + 1e-12)) {
+                return Err(InputError::invalid(
+                    "tube.full_length_m",
+                    full,
+                    format!(
+                        "a length at least limits.tube_length_max_m ({} m, a planner cannot feed more tube than there is) and at most {MAX_LINKS} elements ({} m)",
+                        Num(max),
+                        Num(l * MAX_LINKS as f64)
+                    ),
+                ));
+            }
         }
         Ok(())
     }
@@ -793,6 +820,9 @@ impl Robot {
             ] {
                 *length *= s;
             }
+            if let Some(full) = &mut robot.tube.full_length_m {
+                *full *= s;
+            }
             cup.pull_off_force_n *= s;
         })
     }
@@ -807,17 +837,35 @@ impl Robot {
         self.tube.element_mass_kg / self.tube.element_length_m
     }
 
-    /// Checks a tube length: at least one element, at most [`MAX_LINKS`].
+    /// Checks a tube length: at least one element, at most the tube's whole
+    /// length (`tube.full_length_m`) or, where that is not given, [`MAX_LINKS`].
     pub fn check_tube_length(&self, field: &str, length: f64) -> Result<f64, InputError> {
         let l = self.tube.element_length_m;
+        let (most, allowed) = match self.tube.full_length_m {
+            Some(full) => (full, format!("the tube's whole length (tube.full_length_m = {} m)", Num(full))),
+            None => (l * MAX_LINKS as f64, format!("{MAX_LINKS} elements")),
+        };
         // A relative slack keeps exactly MAX_LINKS elements inside despite rounding.
-        within(field, length, l * (1.0 - 1e-12), l * MAX_LINKS as f64 * (1.0 + 1e-12)).map_err(|_| {
-            InputError::invalid(
-                field,
-                length,
-                format!("a tube length in m from one element ({}) to {MAX_LINKS} elements", Num(l)),
-            )
+        within(field, length, l * (1.0 - 1e-12), most * (1.0 + 1e-12)).map_err(|_| {
+            InputError::invalid(field, length, format!("a tube length in m from one element ({}) to {allowed}", Num(l)))
         })
+    }
+
+    /// What the driving unit carries (kg) with the three tubes fed to
+    /// `tube_lengths_m` (m, each checked by [`Robot::check_tube_length`]):
+    /// its own `mass_kg` and the tubes' tails behind the clamps,
+    /// `rho sum_i (full - L_i)`, lumped at its centre of mass (docs/model.md
+    /// section 13). With no `tube.full_length_m`, `mass_kg` alone.
+    pub fn unit_mass_kg(&self, tube_lengths_m: [f64; 3]) -> f64 {
+        let tails = self.tube.full_length_m.map_or(0.0, |full| tube_lengths_m.iter().map(|length| full - length).sum());
+        self.driving_unit.mass_kg + self.mass_per_length() * tails
+    }
+
+    /// What the driving unit carries (kg) under the planar body of tube
+    /// lengths `la` (chain A, the centre tube) and `lb` (chain B, the side
+    /// pair): [`Robot::unit_mass_kg`] of `[la, lb, lb]`.
+    pub fn planar_unit_mass_kg(&self, la: f64, lb: f64) -> f64 {
+        self.unit_mass_kg([la, lb, lb])
     }
 
     pub(crate) fn spec(&self, tube_length: f64, tubes: f64, tip_mass: f64, clamp_point: [f64; 2]) -> ChainSpec {

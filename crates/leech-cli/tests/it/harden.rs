@@ -31,6 +31,14 @@ fn scratch(name: &str, bytes: &[u8]) -> std::path::PathBuf {
     path
 }
 
+/// The built-in robot without its tubes' whole length, so that 100 m tubes
+/// are valid input (the built-in's are 0.40 m long: a longer range is bad
+/// input), as a robot file's path.
+fn unbounded_tubes() -> String {
+    let text: Vec<&str> = leech::robot::BUILTIN_TOML.lines().filter(|l| !l.starts_with("full_length_m")).collect();
+    scratch("no-full-length.toml", text.join("\n").as_bytes()).to_str().unwrap().to_owned()
+}
+
 /// No run of more than 17 digits (a shortest round-trip text at most):
 /// `1e300`, not 300 digits.
 fn no_long_numbers(e: &str) {
@@ -305,7 +313,7 @@ fn stopped(args: &[&str]) -> String {
 fn a_workspace_far_too_fine_stops_at_its_time_limit_and_writes_no_csv() {
     let csv = std::env::temp_dir().join(format!("leech-harden-{}-fine.csv", std::process::id()));
     let out = csv.to_str().unwrap();
-    let e = stopped(&["workspace", "--lengths-range", "0.05:100:0.05", "--out", out]);
+    let e = stopped(&["workspace", "--robot", &unbounded_tubes(), "--lengths-range", "0.05:100:0.05", "--out", out]);
     assert!(e.contains("solves") && e.contains("no CSV written"), "{e}");
     assert!(!csv.exists(), "a partial CSV was written");
 }
@@ -320,8 +328,11 @@ fn a_workspace_of_absurd_shape_parameters_stops_at_its_time_limit() {
 
 #[test]
 fn reach_over_a_huge_range_stops_at_its_time_limit() {
-    let e = stopped(&["reach", "--target", "1,1", "--lengths-range", "0.05:100:5"]);
+    let robot = unbounded_tubes();
+    let e = stopped(&["reach", "--robot", &robot, "--target", "1,1", "--lengths-range", "0.05:100:5"]);
     assert!(e.contains("reach stopped") && e.contains("map points"), "{e}");
+    let e = rejected(&["reach", "--target", "1,1", "--lengths-range", "0.05:100:5"]);
+    assert!(e.contains("lengths range max: got 100") && e.contains("tube.full_length_m = 0.4 m"), "{e}");
 }
 
 #[test]
@@ -343,7 +354,18 @@ fn time_limits_are_checked() {
 #[test]
 fn too_many_workspace_shape_parameters_are_refused_naming_the_cap() {
     let many = vec!["100"; 17].join(",");
-    let e = rejected(&["workspace", "--lengths-range", "0.05:100:0.05", "--shape-parameter", &many, "--out", "x.csv"]);
+    let robot = unbounded_tubes();
+    let e = rejected(&[
+        "workspace",
+        "--robot",
+        &robot,
+        "--lengths-range",
+        "0.05:100:0.05",
+        "--shape-parameter",
+        &many,
+        "--out",
+        "x.csv",
+    ]);
     assert!(e.contains("shape parameters") && e.contains("8008002 points"), "{e}");
 }
 

@@ -106,6 +106,11 @@ fn bad_input_exits_2_with_one_line() {
     assert!(e.contains("LA") && e.contains("one element"), "{e}");
     let e = rejected(&["shape", "--lengths", "0.25"]);
     assert!(e.contains("--lengths"), "{e}");
+    // No tube reaches farther than it is long (the built-in's are 0.40 m), nor in 3D.
+    let e = rejected(&["shape", "--lengths", "0.45,0.2"]);
+    assert!(e.contains("LA") && e.contains("0.45") && e.contains("tube.full_length_m = 0.4 m"), "{e}");
+    let e = rejected(&["shape3d", "--lengths", "0.2,0.2,0.41"]);
+    assert!(e.contains("0.41") && e.contains("tube.full_length_m"), "{e}");
     rejected(&["shape", "--lengths", "abc,0.2"]);
     rejected(&["shape", "--lengths", "0.3,nan"]);
     rejected(&["shape", "--lengths", "0.3,inf"]);

@@ -260,9 +260,13 @@ fn scenes_give_contacts_and_bad_holds_exit_2_naming_the_flag() {
     let up = v["rear_cup"]["force_n"][1].as_f64().unwrap()
         + contacts.iter().map(|c| c["force_n"].as_f64().unwrap() * c["normal"][1].as_f64().unwrap()).sum::<f64>();
     let robot = Robot::builtin();
+    // All of it: the unit, the payload and the three tubes whole (their
+    // tails behind the clamps ride on the unit), the paper's 240 g.
+    let full = robot.tube.full_length_m.unwrap();
     let mass = robot.driving_unit.mass_kg
         + robot.body.payload_kg
-        + 0.75 * robot.tube.element_mass_kg / robot.tube.element_length_m;
+        + 3.0 * full * robot.tube.element_mass_kg / robot.tube.element_length_m;
+    assert!((mass - 0.240).abs() < 1e-12, "the built-in robot weighs {mass} kg on board");
     assert!((up / robot.world.gravity_m_per_s2 - mass).abs() < 1e-6 * mass, "{up} N for {mass} kg");
     // A 3D scene file: a 3D scene has no planar counterpart.
     let v = json_of(&["shape3d", "--lengths", "0.25,0.25,0.25", "--scene", &data("scene3-step.toml")]);

@@ -146,6 +146,11 @@ impl Body3 {
         &self.tubes[i]
     }
 
+    /// The three tubes' lengths ahead of their clamps `(L1, L2, L3)` (m).
+    pub fn tube_lengths(&self) -> [f64; 3] {
+        self.tubes.each_ref().map(Tube3::tube_length)
+    }
+
     /// The driving unit's frame `R0` (columns its axes).
     pub fn base_frame(&self) -> Mat3 {
         self.base

@@ -135,9 +135,9 @@ impl<'a> FloatingBody<'a> {
     }
 
     /// The floating form of `body` for `robot`: its base spacing and its
-    /// driving unit ([`Unit::of`]).
+    /// driving unit with the tubes' tails ([`Unit::of`]).
     pub fn of(robot: &Robot, body: &'a Body, hold: Hold, approach: Approach) -> FloatingBody<'a> {
-        FloatingBody::new(body, robot.body.base_spacing_m, 0.0, hold, approach).with_unit(Unit::of(robot))
+        FloatingBody::new(body, robot.body.base_spacing_m, 0.0, hold, approach).with_unit(Unit::of(robot, body))
     }
 
     /// The same body with the hose's stop at `min_bend_radius` (m), each

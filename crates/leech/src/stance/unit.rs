@@ -29,6 +29,7 @@
 //! rest on the scene's solids with no clearance, as a free cup's face does
 //! ([`crate::contact::planar`]); where the rear cup holds, the hold fixes it.
 
+use crate::body::Body;
 use crate::geom::Vec2;
 use crate::robot::Robot;
 
@@ -50,11 +51,12 @@ impl Unit {
         Unit { mass_kg, centre_m: [0.0, 0.5 * base_spacing], outline_m: None }
     }
 
-    /// The unit of `robot`'s `[driving_unit]`.
-    pub fn of(robot: &Robot) -> Unit {
+    /// The unit of `robot`'s `[driving_unit]` under `body`, carrying the
+    /// tubes' tails behind its clamps ([`Robot::planar_unit_mass_kg`]).
+    pub fn of(robot: &Robot, body: &Body) -> Unit {
         let unit = &robot.driving_unit;
         Unit {
-            mass_kg: unit.mass_kg,
+            mass_kg: robot.planar_unit_mass_kg(body.chain_a().tube_length(), body.chain_b().tube_length()),
             centre_m: unit.centre_of_mass_m.unwrap_or([0.0, 0.5 * robot.body.base_spacing_m]),
             outline_m: unit.outline_m(),
         }

@@ -354,11 +354,12 @@ impl Body3 {
 
     /// The rear cup holding the body at `eq`: its face, the surface's
     /// normal, the reaction about the face's centre and the verdict against
-    /// `robot`'s cup (with `robot`'s driving-unit mass).
+    /// `robot`'s cup (with the mass the driving unit carries,
+    /// [`Robot::unit_mass_kg`]: its own and the tubes' tails).
     pub fn rear_cup(&self, robot: &Robot, eq: &Equilibrium3) -> Result<CupState3, InputError> {
         let centre = self.rear_cup_centre(robot);
         let normal = scale(-1.0, self.right_normal());
-        let reaction = self.rear_reaction(eq, robot.driving_unit.mass_kg, centre);
+        let reaction = self.rear_reaction(eq, robot.unit_mass_kg(self.tube_lengths()), centre);
         cup_state(robot, centre, normal, reaction)
     }
 }
@@ -399,7 +400,7 @@ fn held(
     solver: &Solver,
     scene: Option<(&Scene3, f64)>,
 ) -> Result<Held3, StanceError> {
-    let md = robot.driving_unit.mass_kg;
+    let md = robot.unit_mass_kg(body.tube_lengths());
     hold.checked()?;
     if let Some((solids, _)) = scene {
         // A cup or the plate inside a solid has no equilibrium to find.
@@ -554,7 +555,7 @@ impl Body3 {
         solver: &Solver,
         scene: Option<(&Scene3, f64)>,
     ) -> Result<Held3, StanceError> {
-        let md = robot.driving_unit.mass_kg;
+        let md = robot.unit_mass_kg(self.tube_lengths());
         let normal = column(plate, 1);
         let front = |turn: f64| FrontHold { tip, plate: mul(&exp(scale(turn, normal)), plate), unit_mass_kg: md };
         // The surface's moment about n on the plate turned by `turn`, from a

@@ -729,7 +729,8 @@ mod tests {
     }
 
     fn com(held: &Held3) -> Vec3 {
-        let (mass, first) = held.body.first_moment(&held.equilibrium.frames, Robot::builtin().driving_unit.mass_kg);
+        let (mass, first) =
+            held.body.first_moment(&held.equilibrium.frames, Robot::builtin().unit_mass_kg(held.body.tube_lengths()));
         scale(1.0 / mass, first)
     }
 
@@ -794,7 +795,7 @@ mod tests {
             }
             let eq = &s.held.equilibrium;
             assert!(eq.stable, "{:?}", s.phase);
-            let (mass, first) = s.held.body.first_moment(&eq.frames, robot.driving_unit.mass_kg);
+            let (mass, first) = s.held.body.first_moment(&eq.frames, robot.unit_mass_kg(s.held.body.tube_lengths()));
             let up = [0.0, s.held.body.gravity(), 0.0];
             let weight = scale(mass, up);
             let about = rear.centre_m;

@@ -59,7 +59,7 @@ fn check(robot: &Robot, held: &Held3, scene: &Scene3) {
     // both hold, the front cup's force and moment carried there).
     let rear = held.rear.as_ref().or(held.front.as_ref()).unwrap();
     let g = body.gravity();
-    let (mass, first) = body.first_moment(&eq.frames, robot.driving_unit.mass_kg);
+    let (mass, first) = body.first_moment(&eq.frames, robot.unit_mass_kg(body.tube_lengths()));
     let mut force = rear.reaction.force_n;
     let mut moment = rear.reaction.moment_nm;
     if let (Some(_), Some(front)) = (&held.rear, &held.front) {
@@ -81,7 +81,7 @@ fn check(robot: &Robot, held: &Held3, scene: &Scene3) {
         assert!((moment[a] - expected_moment[a]).abs() < 1e-8 * w, "moment {moment:?} against {expected_moment:?}");
     }
     if held.front.is_some() && held.rear.is_none() {
-        let (force, moment) = crate::body3_hold::unit_imbalance(held, robot.driving_unit.mass_kg);
+        let (force, moment) = crate::body3_hold::unit_imbalance(held, robot.unit_mass_kg(held.body.tube_lengths()));
         assert!(force.iter().chain(&moment).all(|x| x.abs() < 1e-8 * w), "the unit: {force:?} {moment:?}");
     }
 }
@@ -316,7 +316,7 @@ fn the_swing_on_a_free_front_joint_ends_on_the_floor() {
     );
     assert!(about.abs() < 1e-9 * w * 0.25, "{about}");
     // It swung down, but the floor stopped it short of hanging straight.
-    let (mass, first) = held.body.first_moment(&eq.frames, robot.driving_unit.mass_kg);
+    let (mass, first) = held.body.first_moment(&eq.frames, robot.unit_mass_kg(held.body.tube_lengths()));
     let com = scale(1.0 / mass, first);
     assert!(turn > 0.0 && (com[0] - centre[0]).abs() > 1e-3, "{turn} {com:?}");
 }

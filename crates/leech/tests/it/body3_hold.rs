@@ -33,7 +33,7 @@ proptest::proptest! {
         let body = Body3::from_robot(&robot, [l1, l2, l3]).unwrap();
         let eq = body.solve(&Solver::default()).unwrap();
         let cup = body.rear_cup(&robot, &eq).unwrap();
-        let (force, moment) = balance(&body, &eq, robot.driving_unit.mass_kg, cup.centre_m);
+        let (force, moment) = balance(&body, &eq, robot.unit_mass_kg(body.tube_lengths()), cup.centre_m);
         let w = force[1];
         for a in 0..3 {
             proptest::prop_assert!((cup.reaction.force_n[a] - force[a]).abs() < 1e-9 * w, "{:?} vs {:?}", cup.reaction.force_n, force);
@@ -156,7 +156,7 @@ proptest::proptest! {
                 proptest::prop_assert!((frame[a][b] - plate[a][b]).abs() < 1e-12);
             }
         }
-        let md = robot.driving_unit.mass_kg;
+        let md = robot.unit_mass_kg(held.body.tube_lengths());
         let front = held.front.clone().unwrap();
         let w = front.reaction.force_n[1];
         let (force, moment) = unit_imbalance(&held, md);
@@ -239,7 +239,7 @@ fn the_body_swings_below_a_free_front_joint() {
         assert!((cup.normal[2] - 1.0).abs() < 1e-12);
         let w = cup.reaction.force_n[1];
         assert!(cup.reaction.moment_nm[2].abs() < 1e-9 * w * lengths[0], "{:?}", cup.reaction);
-        let (mass, first) = held.body.first_moment(&eq.frames, robot.driving_unit.mass_kg);
+        let (mass, first) = held.body.first_moment(&eq.frames, robot.unit_mass_kg(held.body.tube_lengths()));
         let com = scale(1.0 / mass, first);
         assert!((com[0] - centre[0]).abs() < 1e-9, "{lengths:?}: centre of mass {com:?}");
         assert!(com[1] < centre[1] - 0.05, "{lengths:?}: centre of mass {com:?} not below the pivot");
@@ -255,7 +255,7 @@ fn the_body_swings_below_a_free_front_joint() {
             eq.energy,
             start.equilibrium.energy
         );
-        let (force, moment) = unit_imbalance(&held, robot.driving_unit.mass_kg);
+        let (force, moment) = unit_imbalance(&held, robot.unit_mass_kg(held.body.tube_lengths()));
         assert!(force.iter().chain(&moment).all(|x| x.abs() < 1e-8 * w), "{force:?} {moment:?}");
     }
     let skew = [[1.0, 0.1, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
@@ -318,7 +318,7 @@ proptest::proptest! {
         proptest::prop_assert!(leech::body3::body3::angle_between(&frame, &plate) < 1e-11);
         let (rear, front) = (held.rear.clone().unwrap(), held.front.clone().unwrap());
         let about = rear.centre_m;
-        let (force, moment) = balance(&held.body, eq, robot.driving_unit.mass_kg, about);
+        let (force, moment) = balance(&held.body, eq, robot.unit_mass_kg(held.body.tube_lengths()), about);
         let w = force[1];
         // The front cup's moment moved to the rear cup's centre.
         let front_moment = axpy(1.0, cross(axpy(-1.0, about, front.centre_m), front.reaction.force_n), front.reaction.moment_nm);
@@ -466,7 +466,7 @@ fn held_both(robot: &Robot, lengths: [f64; 3], tip_m: [f64; 3], degrees: f64) ->
     let frame = held.body.plate_frame(&eq.frames);
     assert!(leech::body3::body3::angle_between(&frame, &plate) < 1e-11, "{case}");
     let (rear, front) = (held.rear.clone().unwrap(), held.front.clone().unwrap());
-    let (force, moment) = balance(&held.body, eq, robot.driving_unit.mass_kg, rear.centre_m);
+    let (force, moment) = balance(&held.body, eq, robot.unit_mass_kg(held.body.tube_lengths()), rear.centre_m);
     let arm = cross(axpy(-1.0, rear.centre_m, front.centre_m), front.reaction.force_n);
     let reach = lengths[0].max(lengths[1]).max(lengths[2]);
     for a in 0..3 {

@@ -366,6 +366,7 @@ pub(crate) fn same_builtin_body(r: &Value, extra: &[(&str, f64)]) {
         ("ms", builtin.body.payload_kg),
         ("g", builtin.world.gravity_m_per_s2),
         ("Md", builtin.driving_unit.mass_kg),
+        ("full", builtin.tube.full_length_m.expect("the built-in robot gives its tubes' whole length")),
     ];
     for (key, ours) in body.iter().chain(extra) {
         assert_eq!(num(&r[key]), *ours, "built-in robot's {key} changed: regenerate the fixture");

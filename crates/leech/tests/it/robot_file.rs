@@ -1,7 +1,9 @@
 //! Robot files: the built-in robot, continuum keys, and one-line errors.
 
+use leech::hold::{Hold, Pose};
 use leech::prelude::*;
 use leech::robot::{Cup, DrivingUnit, Limits, BUILTIN_TOML};
+use leech::stance;
 
 #[test]
 fn builtin_round_trips_through_toml() {
@@ -66,6 +68,38 @@ fn tube_lengths_are_checked() {
         assert!(e.contains("LA") && e.contains("tube length"), "{e}");
     }
     assert!(robot.body(0.01, 0.3).is_ok());
+    // No tube reaches farther than it is long: the built-in's are 0.40 m.
+    assert!(robot.body(0.40, 0.40).is_ok());
+    let e = robot.body(0.2, 0.41).expect_err("longer than the tube").to_string();
+    assert!(e.contains("lengths[1] (LB)") && e.contains("0.41") && e.contains("tube.full_length_m = 0.4 m"), "{e}");
+    // Without the key a tube is bounded by the links a chain may have.
+    let mut unbounded = robot.clone();
+    unbounded.tube.full_length_m = None;
+    assert!(unbounded.body(0.2, 0.41).is_ok() && unbounded.body(0.2, 2.0).is_ok());
+}
+
+#[test]
+fn builtin_weighs_the_papers_240_g_on_board_at_every_extension() {
+    let robot = Robot::builtin();
+    let rho = robot.mass_per_length();
+    for lengths in [[0.05, 0.05, 0.05], [0.3, 0.2, 0.25], [0.4, 0.1, 0.4]] {
+        let ahead = rho * lengths.iter().sum::<f64>();
+        let total = robot.unit_mass_kg(lengths) + ahead + robot.body.payload_kg;
+        assert!((total - 0.240).abs() < 1e-15, "{lengths:?}: {total} kg");
+    }
+    // What a held stance carries: the chains ahead of the clamps (chain B
+    // two tubes), the payload and the unit with the tails.
+    for [la, lb] in [[0.25, 0.20], [0.05, 0.30], [0.30, 0.12]] {
+        let pose = Pose { point_m: [0.0, 0.0], angle_rad: std::f64::consts::FRAC_PI_2 };
+        let held = stance::solve(&robot, [la, lb], Hold::Rear(pose), &Solver::default()).unwrap();
+        let w = 0.240 * robot.world.gravity_m_per_s2;
+        assert!((held.weight_n - w).abs() < 1e-12 * w, "{la}, {lb}: {} N", held.weight_n);
+        assert!((robot.planar_unit_mass_kg(la, lb) - robot.unit_mass_kg([la, lb, lb])).abs() == 0.0);
+    }
+    // Without the tails the unit carries its own mass alone.
+    let mut no_tails = robot.clone();
+    no_tails.tube.full_length_m = None;
+    assert_eq!(no_tails.unit_mass_kg([0.1, 0.2, 0.3]), robot.driving_unit.mass_kg);
 }
 
 /// The built-in file's text from its first line up to (not including) `marker`.
@@ -92,7 +126,8 @@ fn files_without_the_optional_keys_take_the_builtin_values() {
 fn builtin_states_the_documented_values() {
     let robot = Robot::builtin();
     assert_eq!(robot.tube.outer_diameter_m, 0.010);
-    assert_eq!(robot.driving_unit.mass_kg, 0.25);
+    assert_eq!(robot.driving_unit.mass_kg, 0.099);
+    assert_eq!(robot.tube.full_length_m, Some(0.40));
     // The unit's outline: 50 mm by 36 mm, chain A's clamp 35 mm from its back and 12 mm from its
     // top, the rear cup's face (b + rear_offset = 32 mm across) 8 mm beyond its bottom.
     let outline = robot.driving_unit.outline_m().unwrap();
@@ -115,8 +150,8 @@ fn optional_sections_take_single_keys() {
     let base = builtin_before("[driving_unit]");
     let robot = Robot::from_toml_str(&format!("{base}[cup]\nfriction_coefficient = 0.8\n")).unwrap();
     assert_eq!(robot.cup, Cup { friction_coefficient: 0.8, ..Cup::default() });
-    let robot = Robot::from_toml_str(&format!("{base}[limits]\ntube_length_max_m = 0.5\n")).unwrap();
-    assert_eq!(robot.limits, Limits { tube_length_max_m: 0.5, ..Limits::default() });
+    let robot = Robot::from_toml_str(&format!("{base}[limits]\ntube_length_max_m = 0.35\n")).unwrap();
+    assert_eq!(robot.limits, Limits { tube_length_max_m: 0.35, ..Limits::default() });
     let e = message(Robot::from_toml_str(&format!("{base}[cup]\nsuction_n = 3\n")));
     assert!(e.contains("suction_n"), "{e}");
 }
@@ -129,7 +164,9 @@ fn bad_new_values_name_field_value_and_range() {
         ("element_length_m = 0.01 ", "element_length_m = 1e308 ", "tube.element_length_m", "[0.0001, 1]"),
         ("element_mass_kg = 0.001 ", "element_mass_kg = 1e-320 ", "tube.element_mass_kg", "[1e-9, 1000]"),
         ("base_spacing_m = 0.017", "base_spacing_m = 1e308", "body.base_spacing_m", "at most 10"),
-        ("mass_kg = 0.25 ", "mass_kg = -0.25 ", "driving_unit.mass_kg", ">= 0"),
+        ("mass_kg = 0.099 ", "mass_kg = -0.25 ", "driving_unit.mass_kg", ">= 0"),
+        ("full_length_m = 0.40 ", "full_length_m = 0.2 ", "tube.full_length_m", "tube_length_max_m (0.3 m"),
+        ("full_length_m = 0.40 ", "full_length_m = nan ", "tube.full_length_m", "at most 10000 elements"),
         ("\nlength_m = 0.05 ", "\nlength_m = 0 ", "driving_unit.length_m", "> 0 where height_m is"),
         ("\nlength_m = 0.05 ", "\nlength_m = 2 ", "driving_unit.length_m", "[0, 1]"),
         ("\nback_m = 0.035 ", "\nback_m = 0.06 ", "driving_unit.back_m", "at most length_m (0.05 m)"),
@@ -200,4 +237,9 @@ fn scaling_scales_the_new_lengths_and_masses() {
     assert_eq!(r.cup.friction_coefficient, base.cup.friction_coefficient);
     assert_eq!(r.cup.attach_angle_tolerance_deg, base.cup.attach_angle_tolerance_deg);
     assert_eq!(r.limits.tube_length_max_m, 2.0 * base.limits.tube_length_max_m);
+    // The tubes' whole length too: the scaled robot weighs s times as much
+    // (mass per length kept, every length and the unit's mass times s).
+    assert_eq!(r.tube.full_length_m, base.tube.full_length_m.map(|full| 2.0 * full));
+    let on_board = |r: &Robot, l: f64| r.unit_mass_kg([l; 3]) + 3.0 * l * r.mass_per_length() + r.body.payload_kg;
+    assert!((on_board(&r, 0.4) - 2.0 * on_board(&base, 0.2)).abs() < 1e-15);
 }
