@@ -149,9 +149,15 @@ fn clear_of(scene: &Scene, robot: &Robot, hold: Hold, given: [Option<[f64; 3]>; 
             ("--front", given[1], "the front cup's centre", cup, pressed),
         ]);
     }
-    // A point on a surface is clear, to rounding.
-    match points.into_iter().find(|(_, _, _, p, depth)| !scene.is_free(*p, -depth)) {
-        Some((flag, typed, what, [x, y], _)) => {
+    // A point on a surface is clear, to rounding; so is the held unit's
+    // outline (on the surface it rests on, pressed in by the preload).
+    let outline = hold.rear().and_then(|p| stance::held_unit_overlap(robot, p, scene)).map(|overlap| {
+        let what = format!("the driving unit's outline {:.1} mm deep", overlap.depth_m * 1e3);
+        ("--rear", given[0], what, overlap.point_m)
+    });
+    let inside = points.into_iter().find(|(_, _, _, p, depth)| !scene.is_free(*p, -depth));
+    match inside.map(|(flag, typed, what, p, _)| (flag, typed, what.to_owned(), p)).or(outline) {
+        Some((flag, typed, what, [x, y])) => {
             // Without --rear, the scene's [start] placed the robot.
             let value = match typed {
                 Some(v) => v.map(|c| Num(c).to_string()).join(","),

@@ -106,6 +106,9 @@ fn bad_input_exits_2_with_one_line() {
     assert!(e.contains("LA") && e.contains("one element"), "{e}");
     let e = rejected(&["shape", "--lengths", "0.25"]);
     assert!(e.contains("--lengths"), "{e}");
+    // A rear hold whose driving unit lies in a solid: 2 mm into the thin wall's far face.
+    let e = rejected(&["shape", "--lengths", "0.2,0.2", "--scene", "thin-wall", "--rear", "0.253,0.032,0"]);
+    assert!(e.contains("--rear: got 0.253,0.032,0") && e.contains("outline 2.0 mm deep at (218.0, 44.0) mm"), "{e}");
     // No tube reaches farther than it is long (the built-in's are 0.40 m), nor in 3D.
     let e = rejected(&["shape", "--lengths", "0.45,0.2"]);
     assert!(e.contains("LA") && e.contains("0.45") && e.contains("tube.full_length_m = 0.4 m"), "{e}");

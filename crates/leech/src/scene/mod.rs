@@ -63,7 +63,7 @@ mod solid3;
 
 pub use builtin::{BuiltinScene, BUILTIN_SCENES};
 pub use file3::{is_scene3, SceneFile3, Start3};
-pub use query::{Candidate, Corner};
+pub use query::{Candidate, Corner, Overlap};
 pub use solid::Solid;
 pub use solid3::{Plane3, Scene3, Solid3};
 

@@ -6,6 +6,7 @@
 
 use std::f64::consts::PI;
 
+use super::solid::{orient, signed_area};
 use super::{Feature, Scene, Solid, FACE_SWEEP_SLACK_M, ON_SURFACE_M};
 use crate::geom::{add_scaled, angle_difference, cross, dot, norm, sub, unit, Vec2};
 
@@ -26,6 +27,16 @@ pub struct Candidate {
     pub closest: Vec2,
     /// The solid's outward unit normal at `closest`.
     pub normal: Vec2,
+}
+
+/// Where a rigid outline overlaps the solids ([`Scene::overlap`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Overlap {
+    /// The point: a corner inside a solid, a solid's vertex inside the
+    /// outline, or where two edges cross (m).
+    pub point_m: Vec2,
+    /// How deep it lies (m; 0 for a crossing).
+    pub depth_m: f64,
 }
 
 /// A polygon vertex with an interior angle below 180 deg, not buried in or
@@ -401,6 +412,59 @@ impl Scene {
         self.solids.iter().enumerate().all(|(i, s)| solid_hit(i, s, p).distance >= clearance)
     }
 
+    /// Where a closed convex polygon `outline` (m, either orientation)
+    /// overlaps the solids, deeper than `slack` (m): its deepest corner
+    /// inside a solid, else a solid's deepest vertex inside it, else the
+    /// first crossing of one of its edges with a polygon's edge (a thin wall
+    /// through it, no vertex of either inside the other; depth 0). `None`
+    /// where it is clear or only touches. Linear in the solids' vertices
+    /// times the outline's.
+    pub fn overlap(&self, outline: &[Vec2], slack: f64) -> Option<Overlap> {
+        if self.solids.is_empty() {
+            return None;
+        }
+        let deeper = |best: Option<Overlap>, point: Vec2, depth: f64| match best {
+            Some(b) if b.depth_m >= depth => Some(b),
+            _ if depth > slack => Some(Overlap { point_m: point, depth_m: depth }),
+            _ => best,
+        };
+        let corners = outline.iter().fold(None, |best, &c| deeper(best, c, -self.signed_distance(c).0));
+        if corners.is_some() {
+            return corners;
+        }
+        let n = outline.len();
+        let edge = |k: usize| [outline[k], outline[(k + 1) % n]];
+        let inward = signed_area(outline).signum();
+        let depth_in_outline = |p: Vec2| {
+            (0..n)
+                .map(|k| inward * orient(edge(k)[0], edge(k)[1], p) / norm(sub(edge(k)[1], edge(k)[0])))
+                .fold(f64::INFINITY, f64::min)
+        };
+        let polygons = self.solids.iter().filter_map(|s| match s {
+            Solid::Polygon { points_m } => Some(points_m),
+            Solid::HalfPlane { .. } => None,
+        });
+        let mut best = None;
+        for points in polygons.clone() {
+            best = points.iter().fold(best, |best, &v| deeper(best, v, depth_in_outline(v)));
+        }
+        if best.is_some() {
+            return best;
+        }
+        polygons
+            .flat_map(|points| (0..points.len()).map(move |j| [points[j], points[(j + 1) % points.len()]]))
+            .find_map(|[c, d]| {
+                (0..n).find_map(|k| {
+                    let [a, b] = edge(k);
+                    let (d1, d2, d3, d4) = (orient(c, d, a), orient(c, d, b), orient(a, b, c), orient(a, b, d));
+                    (d1 * d2 < 0.0 && d3 * d4 < 0.0).then(|| {
+                        let t = d1 / (d1 - d2);
+                        Overlap { point_m: [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])], depth_m: 0.0 }
+                    })
+                })
+            })
+    }
+
     /// Whether `p` is strictly inside a solid (surface points are not).
     pub fn inside(&self, p: Vec2) -> bool {
         self.solids.iter().enumerate().any(|(i, s)| solid_hit(i, s, p).distance < 0.0)
@@ -479,6 +543,38 @@ mod tests {
 
     fn thin_wall() -> Scene {
         Scene::builtin("thin-wall").unwrap()
+    }
+
+    /// A box `[x0, x1] x [y0, y1]`, counter-clockwise.
+    fn square(x0: f64, x1: f64, y0: f64, y1: f64) -> [Vec2; 4] {
+        [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]
+    }
+
+    #[test]
+    fn an_outline_overlaps_by_a_corner_a_vertex_or_a_crossing() {
+        let scene = thin_wall();
+        // Above the floor and clear of the wall (0.20..0.22 m), or resting on the floor.
+        assert_eq!(scene.overlap(&square(0.05, 0.10, 0.01, 0.04), 1e-9), None);
+        assert_eq!(scene.overlap(&square(0.05, 0.10, 0.0, 0.04), 1e-9), None);
+        // A corner 3 mm into the floor: the deepest corner, either orientation.
+        for outline in [square(0.05, 0.10, -0.003, 0.04), {
+            let mut cw = square(0.05, 0.10, -0.003, 0.04);
+            cw.reverse();
+            cw
+        }] {
+            let o = scene.overlap(&outline, 1e-9).unwrap();
+            assert!((o.depth_m - 0.003).abs() < 1e-15 && o.point_m[1] == -0.003, "{o:?}");
+        }
+        // The wall's top corners poking 5 mm up into an outline wider than the wall.
+        let o = scene.overlap(&square(0.19, 0.23, 0.245, 0.28), 1e-9).unwrap();
+        assert!((o.depth_m - 0.005).abs() < 1e-12 && o.point_m[1] == 0.25, "{o:?}");
+        // The wall passing right through a tall outline: no vertex of either
+        // inside the other, its edges cross.
+        let o = scene.overlap(&square(0.19, 0.23, 0.10, 0.12), 1e-9).unwrap();
+        assert_eq!(o.depth_m, 0.0);
+        assert!(close(o.point_m, [0.20, 0.10]) || close(o.point_m, [0.22, 0.10]), "{o:?}");
+        // Within the slack: clear.
+        assert_eq!(scene.overlap(&square(0.05, 0.10, -0.002, 0.04), 0.0025), None);
     }
 
     #[test]

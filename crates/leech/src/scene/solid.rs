@@ -114,7 +114,7 @@ fn validate_polygon(field: &str, points: &[Vec2]) -> Result<(), InputError> {
 }
 
 /// Twice the signed area of triangle `a, b, c`: positive when it turns left.
-fn orient(a: Vec2, b: Vec2, c: Vec2) -> f64 {
+pub(super) fn orient(a: Vec2, b: Vec2, c: Vec2) -> f64 {
     cross(sub(b, a), sub(c, a))
 }
 

@@ -291,6 +291,39 @@ pub fn rear_cup_centre(robot: &Robot, unit: Pose) -> Vec2 {
     crate::geom::add_scaled(unit.point_m, 1.0, rear_cup_offset(robot, unit.angle_rad))
 }
 
+/// The driving unit's outline in the world with the unit at `unit` (m):
+/// [`crate::robot::DrivingUnit::outline_m`]'s corners placed by its clamp
+/// point and direction; `None` for a unit without an outline.
+pub fn unit_outline(robot: &Robot, unit: Pose) -> Option<[Vec2; 4]> {
+    let outline = robot.driving_unit.outline_m()?;
+    Some(outline.map(|corner| unit::placed(unit.point_m, corner, unit.angle_rad)[0]))
+}
+
+/// Where the driving unit held at `unit` (a rear hold's pose) overlaps
+/// `scene`'s solids ([`Scene::overlap`]), deeper than the robot file's
+/// preload (to rounding): no solve can move a held unit out of a solid.
+pub fn held_unit_overlap(robot: &Robot, unit: Pose, scene: &Scene) -> Option<crate::scene::Overlap> {
+    scene.overlap(&unit_outline(robot, unit)?, crate::scene::ON_SURFACE_M + robot.cup.preload_m)
+}
+
+/// Refuses a hold whose rear pose (a rear hold, or both) puts the driving
+/// unit's outline into `scene`'s solids ([`held_unit_overlap`]), naming
+/// where: the solves among solids check it before they start.
+pub fn check_held_unit(robot: &Robot, hold: Hold, scene: &Scene) -> Result<(), InputError> {
+    let Some(rear) = hold.rear() else { return Ok(()) };
+    let Some(overlap) = held_unit_overlap(robot, rear, scene) else { return Ok(()) };
+    let [x, y] = rear.point_m.map(|c| crate::error::Num(c).to_string());
+    let [px, py] = overlap.point_m.map(|c| c * 1e3);
+    Err(InputError::Invalid {
+        field: "hold (rear)".into(),
+        value: format!("the driving unit at ({x}, {y}) m, {:.3} deg", rear.angle_rad.to_degrees()),
+        allowed: format!(
+            "a pose whose driving unit lies clear of the solids (its outline reaches {:.1} mm into one at ({px:.1}, {py:.1}) mm)",
+            overlap.depth_m * 1e3
+        ),
+    })
+}
+
 /// The rear cup's face centre from `p0` for the clamp direction `angle` (m).
 fn rear_cup_offset(robot: &Robot, angle: f64) -> Vec2 {
     let faces = cup_faces(robot);
@@ -373,7 +406,8 @@ pub fn solve_in(
 ///
 /// This is the cold start: where the robot is in an equilibrium already, a
 /// phase (a move of the tubes, a release, an attach) continues from it with
-/// [`solve_after`] instead.
+/// [`solve_after`] instead. A rear hold that puts the driving unit's outline
+/// into a solid is refused ([`check_held_unit`]), as [`solve_after`] refuses it.
 pub fn solve_among(
     robot: &Robot,
     lengths: [f64; 2],
@@ -382,6 +416,7 @@ pub fn solve_among(
     solver: &Solver,
     cups: FreeCups,
 ) -> Result<Held, StanceError> {
+    check_held_unit(robot, hold, scene)?;
     let radius = 0.5 * robot.tube.outer_diameter_m;
     let first = match hold {
         Hold::Both { rear, .. } => Hold::Rear(rear),

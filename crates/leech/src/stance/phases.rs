@@ -68,6 +68,7 @@ pub fn solve_after(
     solver: &Solver,
     cups: FreeCups,
 ) -> Result<Held, StanceError> {
+    super::check_held_unit(robot, hold, scene)?;
     let now = from.lengths();
     let same_lengths = (0..2).all(|i| (now[i] - lengths[i]).abs() <= SAME_LENGTH_M);
     match (from.hold, hold) {

@@ -10,7 +10,7 @@
 
 use leech::prelude::*;
 use leech::scene::Scene;
-use leech::stance::{self, FreeCups, Held, StanceError};
+use leech::stance::{self, FreeCups, Held, Hold, StanceError};
 use serde_json::Value;
 
 use crate::contact_references::fixture;
@@ -101,14 +101,44 @@ fn without_its_outline_the_unit_hangs_through_the_ledge() {
     assert!(free.contacts.iter().all(|c| c.chain != "unit"));
     assert!(caught.contacts.iter().any(|c| c.chain == "unit"));
     // The outline's corners where the free unit hangs: one of them is inside the ledge.
-    let outline = Robot::builtin().driving_unit.outline_m().unwrap();
-    let deepest = outline
-        .iter()
-        .map(|&[a, c]| {
-            let (s, k) = free.unit.angle_rad.sin_cos();
-            let x = [free.unit.point_m[0] + a * k + c * s, free.unit.point_m[1] + a * s - c * k];
-            -scene.signed_distance(x).0
-        })
-        .fold(f64::NEG_INFINITY, f64::max);
+    let outline = stance::unit_outline(&Robot::builtin(), free.unit).unwrap();
+    let deepest = outline.iter().map(|&x| -scene.signed_distance(x).0).fold(f64::NEG_INFINITY, f64::max);
+    println!("without its outline the unit hangs {deepest:.2e} m into the ledge");
     assert!(deepest > 1e-4, "the free unit's outline clears the ledge by {} m", -deepest);
+}
+
+/// A rear hold that puts the held unit's outline into a solid is refused by
+/// every solve among solids (no solve can move a held unit), naming where;
+/// the same hold a little farther out solves.
+#[test]
+fn a_held_unit_inside_a_solid_is_refused() {
+    let robot = Robot::builtin();
+    let scene = Scene::builtin("thin-wall").unwrap();
+    // The rear cup on the floor 33 mm beyond the thin wall (0.20..0.22 m),
+    // the unit's back (35 mm behind the clamp) 2 mm into the wall's far face.
+    let into = stance::rear_pose_for_cup(&robot, [0.22 + 0.033, 0.0], 0.0);
+    let e = stance::solve_among(&robot, [0.2, 0.2], Hold::Rear(into), &scene, &Solver::default(), FreeCups::Rest)
+        .expect_err("the unit is inside the wall");
+    let StanceError::Input(e) = e else { panic!("{e}") };
+    let e = e.to_string();
+    assert!(e.contains("hold (rear)") && e.contains("2.0 mm into one at (218.0,"), "{e}");
+    let overlap = stance::held_unit_overlap(&robot, into, &scene).unwrap();
+    assert!((overlap.depth_m - 0.002).abs() < 1e-12, "{overlap:?}");
+    // A phase continued from a state refuses it too: the same hold on the
+    // floor alone solves, fed on among the thin wall it is refused.
+    let floor = Scene::builtin("floor").unwrap();
+    let held =
+        stance::solve_among(&robot, [0.2, 0.2], Hold::Rear(into), &floor, &Solver::default(), FreeCups::Rest).unwrap();
+    let fed = stance::solve_after(&robot, &held, [0.21, 0.2], held.hold, &scene, &Solver::default(), FreeCups::Rest);
+    assert!(matches!(fed, Err(StanceError::Input(ref e)) if e.to_string().contains("hold (rear)")), "{fed:?}");
+    let clear = stance::rear_pose_for_cup(&robot, [0.22 + 0.04, 0.0], 0.0);
+    assert!(stance::held_unit_overlap(&robot, clear, &scene).is_none());
+    assert!(
+        stance::solve_among(&robot, [0.2, 0.2], Hold::Rear(clear), &scene, &Solver::default(), FreeCups::Rest).is_ok()
+    );
+    // Without an outline nothing of the unit touches.
+    let mut point = robot.clone();
+    point.driving_unit.length_m = 0.0;
+    point.driving_unit.height_m = 0.0;
+    assert!(stance::held_unit_overlap(&point, into, &scene).is_none());
 }
