@@ -272,7 +272,10 @@ pub(crate) fn one_line(text: &str, error: &toml::de::Error) -> String {
     let Some(span) = error.span() else { return message };
     let start = span.start.min(text.len());
     let line = text[..start].matches('\n').count() + 1;
-    match key_at(text, start).filter(|_| !folded.contains('`')) {
+    // A message that names the key already ("unknown field `colour`") is not
+    // told it twice; one that only quotes the value ("got integer `1`") is.
+    let named = |key: &String| folded.contains(&format!("`{}`", key.rsplit('.').next().unwrap_or(key)));
+    match key_at(text, start).filter(|key| !named(key)) {
         Some(key) => format!("line {line}: {}: {message}", clip(&key, EXCERPT_CHARS)),
         None => format!("line {line}: {message}"),
     }

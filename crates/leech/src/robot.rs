@@ -337,6 +337,13 @@ pub struct Cup {
     pub front_offset_m: f64,
     /// How far a cup is pushed on past touchdown to seal (m).
     pub preload_m: f64,
+    /// Whether the front cup turns freely on the endpoint plate about its
+    /// face's normal (the paper's robot: released by the rear cup, the body
+    /// swings back under gravity, the sideways maneuver, [`crate::hold`]).
+    /// In the plane that axis lies in the plane, nothing turns about it and
+    /// a planar body is held alike either way; without the joint the 3D
+    /// front pivot hold is bad input and the sideways maneuver has no plan.
+    pub front_free_joint: bool,
 }
 
 impl Default for Cup {
@@ -352,6 +359,7 @@ impl Default for Cup {
             rear_offset_m: 0.015,
             front_offset_m: 0.016,
             preload_m: 0.0,
+            front_free_joint: true,
         }
     }
 }

@@ -24,6 +24,9 @@
 //! about the face's normal is zero at every shape, so the joint never turns
 //! and [`Hold::FrontPivot`] holds a planar body exactly as [`Hold::Front`]
 //! does. In 3D the swing it allows is solved ([`crate::stance3::held3`]).
+//! Whether the robot has the joint is its file's `cup.front_free_joint`
+//! (the paper's robot has it): without it a front pivot hold is bad input
+//! ([`check_front_joint`]), in the plane as in 3D.
 //!
 //! The 3D front hold's equations (gravity turning with the plate, the front
 //! target's rows) are in [`front3`].
@@ -41,6 +44,20 @@ pub struct Pose {
     pub point_m: Vec2,
     /// The direction (rad).
     pub angle_rad: f64,
+}
+
+/// Refuses a front pivot hold for a robot whose front cup has no free joint
+/// (`cup.front_free_joint = false`): `pivot` says whether the hold is one.
+pub fn check_front_joint(robot: &crate::robot::Robot, pivot: bool) -> Result<(), InputError> {
+    if pivot && !robot.cup.front_free_joint {
+        return Err(InputError::Invalid {
+            field: "hold".into(),
+            value: "front pivot".into(),
+            allowed: "rear, front or both: the robot's front cup has no free joint (cup.front_free_joint = false)"
+                .into(),
+        });
+    }
+    Ok(())
 }
 
 impl Pose {

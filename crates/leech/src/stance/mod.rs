@@ -175,6 +175,7 @@ pub struct ContactForce {
 /// assert!((rear.force_n[1] - held.weight_n).abs() < 1e-9 * held.weight_n);
 /// ```
 pub fn solve(robot: &Robot, lengths: [f64; 2], hold: Hold, solver: &Solver) -> Result<Held, StanceError> {
+    crate::hold::check_front_joint(robot, matches!(hold, Hold::FrontPivot(_)))?;
     match hold {
         Hold::Rear(pose) => {
             let body = rear_body(robot, lengths, pose)?;
@@ -417,6 +418,7 @@ pub fn solve_among(
     cups: FreeCups,
 ) -> Result<Held, StanceError> {
     check_held_unit(robot, hold, scene)?;
+    crate::hold::check_front_joint(robot, matches!(hold, Hold::FrontPivot(_)))?;
     let radius = 0.5 * robot.tube.outer_diameter_m;
     let first = match hold {
         Hold::Both { rear, .. } => Hold::Rear(rear),

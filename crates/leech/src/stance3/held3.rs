@@ -402,6 +402,7 @@ fn held(
 ) -> Result<Held3, StanceError> {
     let md = robot.unit_mass_kg(body.tube_lengths());
     hold.checked()?;
+    crate::hold::check_front_joint(robot, matches!(hold, Hold3::FrontPivot(_)))?;
     if let Some((solids, _)) = scene {
         // A cup or the plate inside a solid has no equilibrium to find.
         if let Some(p) = first_inside(solids, &hold_points(robot, body, &hold)) {

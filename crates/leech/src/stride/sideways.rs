@@ -649,6 +649,11 @@ fn fill(
         plan.status = Status::Reached;
         return Ok(());
     }
+    if !planner.robot.cup.front_free_joint {
+        return Err("the sideways maneuver swings the body back on the front cup's free joint, which this robot's \
+                    front cup has not (cup.front_free_joint = false)"
+            .into());
+    }
     let (lengths, per) = planner.lengths(scenario.lateral_m, options)?;
     let n = (scenario.lateral_m / per).round() as usize;
     if n > MAX_STRIDES {

@@ -243,3 +243,32 @@ fn scaling_scales_the_new_lengths_and_masses() {
     let on_board = |r: &Robot, l: f64| r.unit_mass_kg([l; 3]) + 3.0 * l * r.mass_per_length() + r.body.payload_kg;
     assert!((on_board(&r, 0.4) - 2.0 * on_board(&base, 0.2)).abs() < 1e-15);
 }
+
+#[test]
+fn the_front_cups_free_joint_is_a_robot_file_option() {
+    let robot = Robot::builtin();
+    assert!(robot.cup.front_free_joint, "the paper's robot has it");
+    let fixed = with("front_free_joint = true ", "front_free_joint = false ").unwrap();
+    assert!(!fixed.cup.front_free_joint);
+    let e = message(with("front_free_joint = true ", "front_free_joint = 1 "));
+    assert!(e.contains("front_free_joint") && e.contains("bool"), "{e}");
+    // Planar: held alike either way, and the pivot hold refused without the joint.
+    let pose = Pose { point_m: [0.0, 0.4], angle_rad: 0.0 };
+    let pivot = stance::solve(&robot, [0.2, 0.2], Hold::FrontPivot(pose), &Solver::default()).unwrap();
+    let front = stance::solve(&fixed, [0.2, 0.2], Hold::Front(pose), &Solver::default()).unwrap();
+    assert_eq!(pivot.equilibrium.q, front.equilibrium.q);
+    let e = stance::solve(&fixed, [0.2, 0.2], Hold::FrontPivot(pose), &Solver::default()).unwrap_err().to_string();
+    assert!(e.contains("hold") && e.contains("front pivot") && e.contains("cup.front_free_joint = false"), "{e}");
+    // 3D: the swing needs the joint; so does the sideways maneuver.
+    let body = leech::body3::Body3::from_robot(&fixed, [0.2; 3]).unwrap();
+    let plate = leech::stance3::place3::plate_frame_from_angles(-std::f64::consts::FRAC_PI_2, 0.0, 0.0);
+    let tip = [0.0, 0.4, 0.0];
+    let hold = leech::hold::Hold3::FrontPivot(leech::hold::Pose3 { point_m: tip, frame: plate });
+    let e = leech::stance3::solve(&fixed, &body, hold, &Solver::default()).unwrap_err().to_string();
+    assert!(e.contains("cup.front_free_joint = false"), "{e}");
+    let scenario = leech::stride::SidewaysScenario::builtin("sideways-wall").unwrap().unwrap();
+    let options = leech::stride::SidewaysOptions::default();
+    let plan = leech::stride::plan_sideways(&fixed, &scenario, &options, &Solver::default()).unwrap();
+    assert_eq!(plan.status, leech::stride::Status::Impossible);
+    assert!(plan.reason.unwrap().contains("front cup's free joint"));
+}
