@@ -752,7 +752,7 @@ impl Sim {
     fn check_tube(&mut self, i: usize) {
         let count = self.counts(i);
         let measured = self.measured_um(i);
-        let window_end = self.now_ms() % STALL_WINDOW_MS == 0;
+        let window_end = self.now_ms().is_multiple_of(STALL_WINDOW_MS);
         let tube = &mut self.tubes[i];
         let detail = i as u8;
         let mut limit_hit = false;

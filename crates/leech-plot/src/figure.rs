@@ -154,7 +154,7 @@ where
     DB::ErrorType: 'static,
 {
     let len = (y1 - y0) * 0.08;
-    let x = if corner % 2 == 0 { x0 + (x1 - x0) * 0.06 } else { x1 - (x1 - x0) * 0.06 };
+    let x = if corner.is_multiple_of(2) { x0 + (x1 - x0) * 0.06 } else { x1 - (x1 - x0) * 0.06 };
     let y = if corner < 2 { y1 - (y1 - y0) * 0.04 } else { y0 + (y1 - y0) * 0.04 + len };
     let black = BLACK.stroke_width(2);
     chart.draw_series(std::iter::once(PathElement::new(vec![(x, y), (x, y - len)], black))).map_err(draw_error)?;
@@ -244,7 +244,7 @@ impl Figure {
     /// the gravity arrow go where they hide no data.
     fn corners_by_emptiness(&self, x: (f64, f64), y: (f64, f64)) -> Vec<usize> {
         let corner = |i: usize| {
-            let cx = if i % 2 == 0 { x.0 + 0.2 * (x.1 - x.0) } else { x.1 - 0.2 * (x.1 - x.0) };
+            let cx = if i.is_multiple_of(2) { x.0 + 0.2 * (x.1 - x.0) } else { x.1 - 0.2 * (x.1 - x.0) };
             let cy = if i < 2 { y.1 - 0.12 * (y.1 - y.0) } else { y.0 + 0.12 * (y.1 - y.0) };
             (cx, cy)
         };

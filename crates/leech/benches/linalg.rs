@@ -32,7 +32,7 @@ impl Problem {
         let blocks = 2 * chain;
         let n = blocks * block;
         let diag = (0..blocks * block * block)
-            .map(|e| if e % (block * block) % (block + 1) == 0 { 3.0 + (e as f64 * 0.7).sin() } else { 0.1 })
+            .map(|e| if (e % (block * block)).is_multiple_of(block + 1) { 3.0 + (e as f64 * 0.7).sin() } else { 0.1 })
             .collect();
         let mut off: Vec<f64> = (0..(blocks - 1) * block * block).map(|e| -0.5 + 0.3 * (e as f64).cos()).collect();
         off[(chain - 1) * block * block..chain * block * block].fill(0.0);

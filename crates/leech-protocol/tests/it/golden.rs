@@ -236,7 +236,7 @@ fn hex(bytes: &[u8]) -> String {
 }
 
 fn unhex(text: &str) -> Vec<u8> {
-    assert!(text.len() % 2 == 0 && text.bytes().all(|c| c.is_ascii_hexdigit()), "not hex: {text}");
+    assert!(text.len().is_multiple_of(2) && text.bytes().all(|c| c.is_ascii_hexdigit()), "not hex: {text}");
     (0..text.len()).step_by(2).map(|i| u8::from_str_radix(&text[i..i + 2], 16).unwrap()).collect()
 }
 

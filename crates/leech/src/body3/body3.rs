@@ -663,7 +663,7 @@ pub(crate) mod tests {
     #[test]
     fn within_agrees_with_distance() {
         let turn = |angle: f64, u: usize| {
-            exp([angle * 0.6, -angle * 0.8 * (u % 2) as f64, angle * 0.8 * (u % 3 == 0) as u8 as f64])
+            exp([angle * 0.6, -angle * 0.8 * (u % 2) as f64, angle * 0.8 * u.is_multiple_of(3) as u8 as f64])
         };
         let base = Frames((0..7).map(|u| exp([0.3 * u as f64, 0.1, -0.2])).collect());
         for angle in [0.01, 0.3, 0.5, 1.2, 3.0] {
